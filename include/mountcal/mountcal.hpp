@@ -1,0 +1,14 @@
+#pragma once
+/// \file mountcal.hpp
+/// Umbrella header: the whole public API of mountcal.
+
+#include "mountcal/error.hpp"
+#include "mountcal/error_curves.hpp"
+#include "mountcal/georeference_model.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/mounting.hpp"
+#include "mountcal/rotation.hpp"
+#include "mountcal/sensor_model.hpp"
+#include "mountcal/svg_plot.hpp"
+#include "mountcal/trajectory.hpp"
+#include "mountcal/version.hpp"

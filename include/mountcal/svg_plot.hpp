@@ -1,0 +1,31 @@
+#pragma once
+/// \file svg_plot.hpp
+/// A minimal, dependency-free SVG line chart for reports and examples.
+
+#include <string>
+#include <vector>
+
+namespace mountcal {
+
+/// Line chart with linear axes, ticks, grid and a legend. render() returns the SVG document.
+class SvgLinePlot {
+ public:
+  SvgLinePlot(std::string title, std::string x_label, std::string y_label)
+      : title_(std::move(title)), x_label_(std::move(x_label)), y_label_(std::move(y_label)) {}
+
+  /// Adds one curve; xs and ys must have the same size (extra values are ignored).
+  void addSeries(std::string name, std::vector<double> xs, std::vector<double> ys);
+
+  /// The SVG document (UTF-8), `width` × `height` pixels.
+  std::string render(int width = 720, int height = 440) const;
+
+ private:
+  struct Series {
+    std::string name;
+    std::vector<double> xs, ys;
+  };
+  std::string title_, x_label_, y_label_;
+  std::vector<Series> series_;
+};
+
+}  // namespace mountcal

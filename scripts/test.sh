@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Builds mountcal and runs its whole test suite with CTest.
+#   scripts/test.sh             Release build in build/
+#   scripts/test.sh --sanitize  AddressSanitizer + UndefinedBehaviorSanitizer build in build-asan/
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# shellcheck source=deps.sh
+source "$root/scripts/deps.sh"
+mountcal_ensure_deps
+
+build="$root/build"; args=(-DCMAKE_BUILD_TYPE=Release)
+if [ "${1:-}" = "--sanitize" ]; then
+  build="$root/build-asan"; args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DMOUNTCAL_SANITIZE=ON)
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+fi
+jobs="$(nproc)"
+cmake -S "$root" -B "$build" "${args[@]}" >/dev/null
+cmake --build "$build" -j "$jobs"
+cd "$build"
+ctest --output-on-failure -j "$jobs" --timeout 1500

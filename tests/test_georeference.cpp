@@ -1,0 +1,146 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "mountcal/error.hpp"
+#include "mountcal/georeference_model.hpp"
+
+using namespace mountcal;
+
+namespace {
+
+std::shared_ptr<const Trajectory> levelTrajectory(const Vec3& p, double heading_rad) {
+  std::vector<TrajectorySample> s(2);
+  s[0].time_s = 0;
+  s[1].time_s = 1;
+  s[0].p_m = s[1].p_m = p;
+  s[0].heading = s[1].heading = heading_rad;
+  return std::make_shared<const Trajectory>(s);
+}
+
+/// A 10 s trajectory at 200 Hz with random slow attitude and a UTM-sized position.
+std::shared_ptr<const Trajectory> randomTrajectory(std::mt19937& rng, PositionInterpolation interp) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  const double h0 = kPi * u(rng), r0 = 0.05 * u(rng), p0 = 0.05 * u(rng);
+  std::vector<TrajectorySample> s(2001);
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const double t = 0.005 * static_cast<double>(i);
+    s[i].time_s = 350000.0 + t;
+    s[i].p_m = Vec3(500000 + 60 * t * std::sin(h0), 4100000 + 60 * t * std::cos(h0),
+                    1200 + 2 * std::sin(0.3 * t));
+    s[i].roll = r0 + 0.004 * std::sin(0.7 * t);
+    s[i].pitch = p0 + 0.003 * std::cos(0.5 * t);
+    s[i].heading = h0 + 0.002 * std::sin(0.2 * t);
+  }
+  return std::make_shared<const Trajectory>(s, interp);
+}
+
+}  // namespace
+
+TEST(Georeference, ZeroMountingIdentityAttitudeNadir) {
+  const Vec3 p(1000, 2000, 800);
+  const GeoreferenceModel model(levelTrajectory(p, 0.0), MountingParameters{});
+  // Level, heading 0: body x = North, y = East, z = Down. Nadir 800 m → ground at z = 0.
+  EXPECT_LT((model.forward(0.3, Vec3(0, 0, 800)) - Vec3(1000, 2000, 0)).norm(), 1e-12);
+  // Body +y (starboard) of a northbound flight is East (+x mapping).
+  EXPECT_LT((model.forward(0.3, Vec3(0, 50, 0)) - Vec3(1050, 2000, 800)).norm(), 1e-12);
+  EXPECT_LT((model.forward(0.3, Vec3(50, 0, 0)) - Vec3(1000, 2050, 800)).norm(), 1e-12);
+}
+
+TEST(Georeference, HeadingNinetyMapsBodyForwardToEast) {
+  const Vec3 p(0, 0, 0);
+  const GeoreferenceModel model(levelTrajectory(p, deg2rad(90)), MountingParameters{});
+  EXPECT_LT((model.forward(0.5, Vec3(100, 0, 0)) - Vec3(100, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((model.forward(0.5, Vec3(0, 100, 0)) - Vec3(0, -100, 0)).norm(), 1e-12);
+}
+
+TEST(Georeference, PureLeverArmShiftsByRmbTimesA) {
+  std::mt19937 rng(1);
+  const auto traj = randomTrajectory(rng, PositionInterpolation::kLinear);
+  MountingParameters with;
+  with.a_b = Vec3(0.4, -0.2, 1.3);
+  const GeoreferenceModel a(traj, with), b(traj, MountingParameters{});
+  for (double t : {350000.0, 350003.21, 350010.0}) {
+    const Vec3 r_s(3, -40, 900);
+    const Mat3 R_mb = traj->pose(t).R_mb;
+    EXPECT_LT((a.forward(t, r_s) - b.forward(t, r_s) - R_mb * with.a_b).norm(), 1e-9);
+  }
+}
+
+TEST(Georeference, BoresightAndNominalRotationCompose) {
+  MountingParameters m = MountingParameters::fromDegrees(Vec3::Zero(), Vec3(0, 0, 0), Vec3(0, 0, 90));
+  const GeoreferenceModel model(levelTrajectory(Vec3::Zero(), 0.0), m);
+  // R_nom = Rz(90°) turns scanner +x into body +y (starboard) = East.
+  EXPECT_LT((model.forward(0.5, Vec3(10, 0, 0)) - Vec3(10, 0, 0)).norm(), 1e-12);
+}
+
+TEST(Georeference, RandomRoundTripsWithinANanometre) {
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const MultiBeamModel vlp = MultiBeamModel::VLP16(), hdl = MultiBeamModel::HDL32E();
+  const LineScannerModel line;
+  double worst = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const auto traj = randomTrajectory(
+        rng, trial % 2 ? PositionInterpolation::kCubic : PositionInterpolation::kLinear);
+    const auto m = MountingParameters::fromDegrees(
+        Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)),
+        Vec3(180 * u(rng), 90 * u(rng), 180 * u(rng)));
+    const GeoreferenceModel model(traj, m);
+    std::uniform_real_distribution<double> t(traj->startTime(), traj->endTime());
+    for (int k = 0; k < 200; ++k) {
+      Vec3 r_s;
+      switch (k % 4) {
+        case 0: r_s = line.vector(1.2 * u(rng), 200 + 3000 * std::abs(u(rng))); break;
+        case 1: r_s = vlp.vector(k % 16, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1); break;
+        case 2: r_s = hdl.vector(k % 32, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1); break;
+        default: r_s = Vec3(500 * u(rng), 500 * u(rng), 500 * u(rng));
+      }
+      const double time = t(rng);
+      const Vec3 back = model.inverse(time, model.forward(time, r_s));
+      worst = std::max(worst, (back - r_s).norm());
+    }
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(Georeference, BatchEqualsSingleAndRoundTrips) {
+  std::mt19937 rng(9);
+  const auto traj = randomTrajectory(rng, PositionInterpolation::kCubic);
+  const auto m = MountingParameters::fromDegrees(Vec3(0.1, 0.2, -0.3), Vec3(0.1, -0.2, 0.3));
+  const GeoreferenceModel model(traj, m);
+  const std::size_t n = 5000;
+  std::vector<double> t(n), theta(n), rho(n), r_s(3 * n), x_m(3 * n), x_line(3 * n), back(3 * n);
+  const LineScannerModel line;
+  for (std::size_t k = 0; k < n; ++k) {
+    t[k] = traj->startTime() + (traj->endTime() - traj->startTime()) * static_cast<double>(k) / (n - 1);
+    theta[k] = 0.6 * std::sin(0.01 * static_cast<double>(k));
+    rho[k] = 900 + static_cast<double>(k % 97);
+    Eigen::Map<Vec3>{&r_s[3 * k]} = line.vector(theta[k], rho[k]);
+  }
+  std::swap(t[10], t[4000]);  // unsorted times are handled too
+  std::swap(theta[10], theta[4000]);
+  std::swap(rho[10], rho[4000]);
+  for (std::size_t k : {std::size_t{10}, std::size_t{4000}})
+    Eigen::Map<Vec3>{&r_s[3 * k]} = line.vector(theta[k], rho[k]);
+  model.forward(t.data(), r_s.data(), x_m.data(), n);
+  model.forwardLineScan(line, t.data(), theta.data(), rho.data(), x_line.data(), n);
+  model.inverse(t.data(), x_m.data(), back.data(), n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec3 single = model.forward(t[k], Eigen::Map<const Vec3>(&r_s[3 * k]));
+    EXPECT_LT((Eigen::Map<const Vec3>(&x_m[3 * k]) - single).norm(), 1e-9);
+    EXPECT_LT((Eigen::Map<const Vec3>(&x_line[3 * k]) - single).norm(), 1e-9);
+    EXPECT_LT((Eigen::Map<const Vec3>(&back[3 * k]) - Eigen::Map<const Vec3>(&r_s[3 * k])).norm(), 1e-9);
+  }
+}
+
+TEST(Georeference, TimesOutsideTheTrajectoryThrow) {
+  const GeoreferenceModel model(levelTrajectory(Vec3::Zero(), 0.0), MountingParameters{});
+  EXPECT_THROW(model.forward(1.5, Vec3(0, 0, 1)), TimeOutOfRange);
+  const double t[2] = {0.5, -1.0};
+  const double r[6] = {0, 0, 1, 0, 0, 1};
+  double x[6];
+  EXPECT_THROW(model.forward(t, r, x, 2), TimeOutOfRange);
+  EXPECT_THROW(GeoreferenceModel(std::shared_ptr<const Trajectory>(), MountingParameters{}),
+               InvalidInput);
+}
