@@ -1,0 +1,146 @@
+#pragma once
+/// \file io/las.hpp
+/// ASPRS LAS 1.2–1.4 reader and writer (LAS 1.4 R15), point data record formats 0–3 and 6–8.
+///
+/// Coordinates are kept as the stored integers with the header's scale and offset, so a point
+/// read and written back unchanged is bit-identical. VLRs, EVLRs and per-point extra bytes are
+/// preserved as opaque bytes. Reading and writing stream in chunks: a strip larger than memory
+/// can be processed. LAZ (compressed) files are refused with a clear error.
+
+#include <array>
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace mountcal::io {
+
+/// A variable-length record (VLR) or extended VLR, kept byte for byte.
+struct LasVlr {
+  std::string user_id;        ///< up to 16 characters
+  std::uint16_t record_id = 0;
+  std::string description;    ///< up to 32 characters
+  std::vector<std::uint8_t> data;
+};
+
+/// The public header block, in the fields mountcal uses or must preserve.
+struct LasHeader {
+  std::uint8_t version_major = 1;
+  std::uint8_t version_minor = 4;
+  std::uint16_t file_source_id = 0;
+  std::uint16_t global_encoding = 0;  ///< bit 0: 1 = adjusted standard GPS time (− 1e9)
+  std::array<std::uint8_t, 16> project_guid{};
+  std::string system_identifier = "mountcal";
+  std::string generating_software = "mountcal";
+  std::uint16_t creation_day = 1;
+  std::uint16_t creation_year = 2026;
+  std::uint8_t point_format = 6;
+  std::uint16_t point_record_length = 30;  ///< standard size of the format + extra bytes
+  std::uint64_t point_count = 0;
+  std::array<std::uint64_t, 15> points_by_return{};
+  std::array<double, 3> scale{0.001, 0.001, 0.001};
+  std::array<double, 3> offset{0.0, 0.0, 0.0};
+  std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
+  std::vector<LasVlr> vlrs;
+  std::vector<LasVlr> evlrs;
+  std::vector<std::uint8_t> header_padding;  ///< user bytes after the header block (kept)
+  std::vector<std::uint8_t> vlr_padding;     ///< bytes between the last VLR and the points (kept)
+
+  /// True for adjusted standard GPS time (GPS seconds − 1e9), false for GPS week seconds.
+  bool adjustedStandardGpsTime() const { return (global_encoding & 1u) != 0; }
+  /// Size of the standard part of a point record for `point_format` [bytes].
+  static std::uint16_t standardRecordLength(std::uint8_t point_format);
+  bool hasGpsTime() const { return point_format == 1 || point_format >= 3; }
+  bool hasRgb() const { return point_format == 2 || point_format == 3 || point_format >= 7; }
+  std::uint16_t extraBytesPerPoint() const {
+    return static_cast<std::uint16_t>(point_record_length - standardRecordLength(point_format));
+  }
+};
+
+/// One point record. Coordinates are the stored integers (x = X · scale + offset).
+struct LasPoint {
+  std::int32_t X = 0, Y = 0, Z = 0;
+  std::uint16_t intensity = 0;
+  std::uint8_t return_number = 1;
+  std::uint8_t number_of_returns = 1;
+  std::uint8_t classification_flags = 0;  ///< formats 6+: synthetic, key-point, withheld, overlap
+  std::uint8_t scanner_channel = 0;       ///< formats 6+
+  bool scan_direction = false;
+  bool edge_of_flight_line = false;
+  std::uint8_t classification = 0;        ///< formats 0–5: low 5 bits class + 3 flag bits
+  std::int16_t scan_angle = 0;  ///< formats 0–5: rank [deg]; 6+: [0.006 deg]; + to the right
+  std::uint8_t user_data = 0;
+  std::uint16_t point_source_id = 0;
+  double gps_time = 0.0;        ///< formats 1, 3, 6+ [s]
+  std::uint16_t red = 0, green = 0, blue = 0, nir = 0;
+  std::vector<std::uint8_t> extra;  ///< extra bytes, kept as they are
+};
+
+/// Scan angle of `p` in degrees for the header's point format.
+double scanAngleDeg(const LasHeader& header, const LasPoint& p);
+/// Sets the scan angle of `p` from degrees (rounded to the format's unit, clamped to range).
+void setScanAngleDeg(const LasHeader& header, double deg, LasPoint* p);
+
+/// Streams the points of a LAS file. Throws FileError naming the file and the byte or record
+/// for anything malformed: a wrong signature, a .laz file, an unsupported version or format,
+/// a record length shorter than the format, counts that disagree with the file size.
+class LasReader {
+ public:
+  explicit LasReader(const std::string& path);
+  const LasHeader& header() const { return header_; }
+  const std::string& path() const { return path_; }
+  std::uint64_t pointsLeft() const { return header_.point_count - next_; }
+  /// Reads up to `max_points` points into `out` (replacing its content); returns the number
+  /// read (0 at the end).
+  std::size_t read(std::vector<LasPoint>* out, std::size_t max_points = 1u << 20);
+  /// Coordinates of a point [m].
+  double x(const LasPoint& p) const { return p.X * header_.scale[0] + header_.offset[0]; }
+  double y(const LasPoint& p) const { return p.Y * header_.scale[1] + header_.offset[1]; }
+  double z(const LasPoint& p) const { return p.Z * header_.scale[2] + header_.offset[2]; }
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  LasHeader header_;
+  std::uint64_t point_offset_ = 0;
+  std::uint64_t next_ = 0;
+  std::vector<char> buffer_;
+};
+
+/// Writes a LAS file through a temporary name, renamed over `path` only by close(): a failed
+/// run never leaves a half file over a good one. Counts, bounds and points-by-return in the
+/// header are computed from the points written.
+class LasWriter {
+ public:
+  /// `header.point_format` and `header.point_record_length` define the records; version 1.2
+  /// and 1.3 files are written with their shorter header blocks.
+  LasWriter(const std::string& path, const LasHeader& header);
+  ~LasWriter();  ///< removes the temporary file when close() was not reached
+  LasWriter(const LasWriter&) = delete;
+  LasWriter& operator=(const LasWriter&) = delete;
+
+  const LasHeader& header() const { return header_; }
+  /// Stored integer of a coordinate [m] (throws FileError when it does not fit in 32 bits).
+  std::int32_t quantize(int axis, double value) const;
+  void write(const LasPoint& p);
+  void write(const std::vector<LasPoint>& points);
+  /// Writes the EVLRs, finalises the header and renames the file into place.
+  void close();
+
+ private:
+  std::string path_, tmp_path_;
+  std::ofstream out_;
+  LasHeader header_;
+  std::vector<char> record_;
+  bool closed_ = false;
+  bool any_ = false;
+};
+
+/// Reads a whole LAS file (header and all points).
+void readLas(const std::string& path, LasHeader* header, std::vector<LasPoint>* points);
+/// Writes a whole LAS file atomically.
+void writeLas(const std::string& path, const LasHeader& header,
+              const std::vector<LasPoint>& points);
+
+}  // namespace mountcal::io

@@ -1,0 +1,157 @@
+#pragma once
+/// \file simulation/survey.hpp
+/// A simulated LiDAR survey with known mounting truth (issue "Survey simulator").
+///
+/// The scanner is flown along straight lines over a Scene with the *true* mounting and the
+/// *true* trajectory; the raw observations get range and scan-angle noise; the trajectory the
+/// user receives (the *measured* one) gets correlated GNSS and attitude errors; the strips are
+/// georeferenced with the *nominal* mounting through the measured trajectory, exactly as a
+/// production pipeline would produce them. Everything is seeded and deterministic.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mountcal/mounting.hpp"
+#include "mountcal/sensor_model.hpp"
+#include "mountcal/simulation/scene.hpp"
+#include "mountcal/trajectory.hpp"
+
+namespace mountcal::simulation {
+
+/// Mirror motion of a line scanner.
+enum class MirrorPattern {
+  kSinusoidal,  ///< θ = θ_max sin(2π f t) (oscillating mirror, e.g. ALS50-II)
+  kTriangle,    ///< constant angular speed back and forth
+  kSawtooth,    ///< constant angular speed in one direction (rotating polygon)
+};
+
+struct LineScannerConfig {
+  double prf_hz = 150e3;                 ///< pulse repetition frequency [Hz]
+  double scan_rate_hz = 60.0;            ///< full mirror periods per second [Hz]
+  double half_fov_rad = deg2rad(20.0);   ///< maximum |θ| [rad]
+  MirrorPattern pattern = MirrorPattern::kSinusoidal;
+};
+
+struct MultiBeamConfig {
+  MultiBeamModel model = MultiBeamModel::VLP16();
+  double rotation_hz = 10.0;   ///< spin rate, 5–20 Hz [Hz]
+  double max_range_m = 100.0;  ///< returns beyond this are lost [m]
+};
+
+/// A straight flight line at constant height and speed.
+struct FlightLine {
+  std::string id;                ///< strip id in the outputs
+  double x0_m = 0, y0_m = 0;     ///< start of the line [m]
+  double heading_rad = 0;        ///< direction of flight, clockwise from North [rad]
+  double length_m = 1000;        ///< [m]
+  double height_m = 760;         ///< flying height above the ground datum z = 0 [m]
+  double speed_mps = 60;         ///< ground speed [m/s]
+  double prf_hz = 0;             ///< line scanner PRF for this line [Hz] (0: the scanner's)
+  double scan_rate_hz = 0;       ///< line scanner mirror rate for this line [Hz] (0: the scanner's)
+};
+
+/// Attitude dynamics of the platform: slow sinusoidal oscillation of a few tenths of a degree.
+struct AttitudeDynamics {
+  double roll_amplitude_rad = deg2rad(0.3);
+  double pitch_amplitude_rad = deg2rad(0.2);
+  double heading_amplitude_rad = deg2rad(0.2);
+  double roll_period_s = 9.0, pitch_period_s = 13.0, heading_period_s = 21.0;
+};
+
+/// Measurement errors. Position and attitude errors are first-order Gauss–Markov processes
+/// (smooth, correlated in time); range, scan-angle and picking noise are white.
+struct NoiseModel {
+  double range_sigma_m = 0.0;            ///< [m]
+  double scan_angle_sigma_rad = 0.0;     ///< [rad]
+  double gnss_sigma_m = 0.0;             ///< per axis [m]
+  double gnss_correlation_s = 100.0;     ///< [s]
+  double attitude_sigma_rad = 0.0;       ///< roll and pitch [rad]; heading gets twice this
+  double attitude_correlation_s = 1.0;   ///< [s]
+  double pick_sigma_m = 0.0;             ///< tie picking, per horizontal axis [m]
+
+  static NoiseModel none() { return {}; }
+  /// A post-processed airborne survey: 2 cm range, 0.001° encoder, 3 cm GNSS (100 s),
+  /// 0.002° roll/pitch and 0.004° heading (1 s), 5 cm picking.
+  static NoiseModel realistic();
+};
+
+/// Everything that defines a simulated survey.
+struct SurveyConfig {
+  std::string name = "survey";
+  SensorType sensor = SensorType::kLine;
+  LineScannerConfig line;
+  MultiBeamConfig multibeam;
+  MountingParameters true_mounting;     ///< the mounting that produced the data
+  MountingParameters nominal_mounting;  ///< the mounting used to georeference the strips
+  std::vector<FlightLine> lines;
+  AttitudeDynamics dynamics;
+  NoiseModel noise;
+  std::uint64_t seed = 1;
+  double trajectory_rate_hz = 200.0;
+  double time_origin_s = 100000.0;  ///< GPS week seconds of the first line's start [s]
+  double line_gap_s = 120.0;        ///< time between the end of a line and the next start [s]
+  /// Simulate only the pulses landing within this distance of a feature point, a check plane
+  /// or a tie [m] (0 = whole strips).
+  double roi_radius_m = 0.0;
+  /// Feature ids that become check points instead of ties (their picks go to check_points).
+  std::vector<std::string> check_point_ids;
+  /// Features to leave out of both ties and check points.
+  std::vector<std::string> ignored_feature_ids;
+};
+
+/// One simulated strip.
+struct SimulatedStrip {
+  std::string id;
+  std::vector<RawPulse> pulses;      ///< raw observations (with noise), one per return
+  std::vector<Vec3> points_m;        ///< georeferenced with the nominal mounting [m]
+  std::vector<Vec3> true_points_m;   ///< where the ray really hit [m]
+  std::vector<SurfaceKind> kinds;    ///< what it hit
+};
+
+/// The plan position of a feature as picked on one strip (SPEC §4 Ties CSV).
+struct TiePick {
+  std::string tie_id;
+  std::string strip_id;
+  double x_m = 0, y_m = 0;             ///< picked plan position in the strip [m]
+  Vec3 apparent_m = Vec3::Zero();      ///< the feature as the strip shows it, no picking noise
+  Vec3 true_m = Vec3::Zero();          ///< the feature's true position [m]
+  double time_s = 0;                   ///< when the scanner saw it [s]
+};
+
+struct SimulatedSurvey {
+  SurveyConfig config;
+  std::shared_ptr<const Trajectory> true_trajectory;
+  std::shared_ptr<const Trajectory> measured_trajectory;  ///< what the user receives
+  std::vector<SimulatedStrip> strips;
+  std::vector<TiePick> ties;
+  std::vector<TiePick> check_points;
+  std::vector<PlanePatch> check_planes;
+  std::vector<FeaturePoint> gcps;  ///< true positions of the tie features (for GCP tests)
+};
+
+/// Runs the survey. Throws InvalidInput for an inconsistent configuration.
+SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
+
+/// The names of the built-in presets (SPEC §4): "paper-calibration-field",
+/// "paper-check-block", "uav-vlp16".
+const std::vector<std::string>& presetNames();
+
+/// A preset's scene and configuration; `seed` varies the noise. Throws InvalidInput for an
+/// unknown name (the message lists the presets).
+void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* config, Scene* scene);
+
+/// Loads a scenario file: a preset with overrides. Fields (all but "preset" optional):
+/// `{"preset": NAME, "seed": N, "true_mounting": {"lever_arm_m": [..], "boresight_deg": [..]},
+///   "nominal_mounting": {...}, "noise": "none" | "realistic" | {"range_sigma_m", ...},
+///   "roi_radius_m": R}`. Throws FileError naming the file and the field for anything unknown
+/// or malformed.
+void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
+
+/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv, strip_<id>.las
+/// (LAS 1.4, point format 6), raw_<id>.csv, ties.csv, check_points.csv, check_planes.csv,
+/// gcps.csv. Creates `dir` if needed. Throws FileError.
+void writeSurvey(const SimulatedSurvey& survey, const std::string& dir);
+
+}  // namespace mountcal::simulation

@@ -1,0 +1,431 @@
+#include "mountcal/io/las.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <random>
+
+#include "mountcal/error.hpp"
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "mountcal's LAS I/O assumes a little-endian host"
+#endif
+
+namespace mountcal::io {
+
+namespace {
+
+template <typename T>
+T get(const char* buf, std::size_t off) {
+  T v;
+  std::memcpy(&v, buf + off, sizeof(T));
+  return v;
+}
+template <typename T>
+void put(char* buf, std::size_t off, T v) {
+  std::memcpy(buf + off, &v, sizeof(T));
+}
+std::string fixedString(const char* buf, std::size_t off, std::size_t n) {
+  std::string s(buf + off, n);
+  return s.substr(0, s.find('\0'));
+}
+void putString(char* buf, std::size_t off, std::size_t n, const std::string& s) {
+  std::memset(buf + off, 0, n);
+  std::memcpy(buf + off, s.data(), std::min(n, s.size()));
+}
+std::string byteAt(std::uint64_t b) { return "byte " + std::to_string(b); }
+
+constexpr std::size_t kVlrHeader = 54, kEvlrHeader = 60;
+
+std::uint16_t headerSize(std::uint8_t minor) { return minor >= 4 ? 375 : minor == 3 ? 235 : 227; }
+
+}  // namespace
+
+std::uint16_t LasHeader::standardRecordLength(std::uint8_t f) {
+  static const std::uint16_t kLength[] = {20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67};
+  return f <= 10 ? kLength[f] : 0;
+}
+
+double scanAngleDeg(const LasHeader& h, const LasPoint& p) {
+  return h.point_format >= 6 ? p.scan_angle * 0.006 : static_cast<double>(p.scan_angle);
+}
+
+void setScanAngleDeg(const LasHeader& h, double deg, LasPoint* p) {
+  if (h.point_format >= 6) {
+    const double units = std::round(std::clamp(deg, -180.0, 180.0) / 0.006);
+    p->scan_angle = static_cast<std::int16_t>(std::clamp(units, -30000.0, 30000.0));
+  } else {
+    p->scan_angle = static_cast<std::int16_t>(std::clamp(std::round(deg), -90.0, 90.0));
+  }
+}
+
+// ------------------------------------------------------------------------------------------
+LasReader::LasReader(const std::string& path) : path_(path) {
+  if (path.size() >= 4) {
+    std::string ext = path.substr(path.size() - 4);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".laz") throw FileError(path, "", "LAZ is not supported; decompress it first (e.g. laszip or pdal translate)");
+  }
+  in_.open(path, std::ios::binary);
+  if (!in_) throw FileError(path, "", "cannot open for reading");
+  in_.seekg(0, std::ios::end);
+  const std::uint64_t file_size = static_cast<std::uint64_t>(in_.tellg());
+  in_.seekg(0);
+  char h[375] = {};
+  if (file_size < 227) throw FileError(path, byteAt(file_size), "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
+  in_.read(h, 227);
+  if (std::memcmp(h, "LASF", 4) != 0) throw FileError(path, byteAt(0), "not a LAS file (signature is not 'LASF')");
+  header_.file_source_id = get<std::uint16_t>(h, 4);
+  header_.global_encoding = get<std::uint16_t>(h, 6);
+  std::memcpy(header_.project_guid.data(), h + 8, 16);
+  header_.version_major = get<std::uint8_t>(h, 24);
+  header_.version_minor = get<std::uint8_t>(h, 25);
+  if (header_.version_major != 1 || header_.version_minor > 4) {
+    throw FileError(path, byteAt(24), "unsupported LAS version " + std::to_string(header_.version_major) + "." + std::to_string(header_.version_minor) + " (1.0-1.4 are read)");
+  }
+  header_.system_identifier = fixedString(h, 26, 32);
+  header_.generating_software = fixedString(h, 58, 32);
+  header_.creation_day = get<std::uint16_t>(h, 90);
+  header_.creation_year = get<std::uint16_t>(h, 92);
+  const std::uint16_t header_size = get<std::uint16_t>(h, 94);
+  point_offset_ = get<std::uint32_t>(h, 96);
+  const std::uint32_t n_vlr = get<std::uint32_t>(h, 100);
+  const std::uint8_t raw_format = get<std::uint8_t>(h, 104);
+  if (raw_format & 0xC0) throw FileError(path, byteAt(104), "point format has the compression bits set: this is a LAZ file; decompress it first");
+  header_.point_format = raw_format;
+  header_.point_record_length = get<std::uint16_t>(h, 105);
+  std::uint64_t count = get<std::uint32_t>(h, 107);
+  for (int r = 0; r < 5; ++r) header_.points_by_return[r] = get<std::uint32_t>(h, 111 + 4 * r);
+  for (int a = 0; a < 3; ++a) {
+    header_.scale[a] = get<double>(h, 131 + 8 * a);
+    header_.offset[a] = get<double>(h, 155 + 8 * a);
+    header_.max[a] = get<double>(h, 179 + 16 * a);
+    header_.min[a] = get<double>(h, 187 + 16 * a);
+  }
+  const std::uint16_t expected_header = headerSize(header_.version_minor);
+  if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
+    throw FileError(path, byteAt(94), "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header_.version_minor));
+  }
+  std::uint64_t evlr_start = 0;
+  std::uint32_t n_evlr = 0;
+  if (header_.version_minor >= 4 && header_size >= 375) {
+    in_.read(h + 227, 375 - 227);
+    evlr_start = get<std::uint64_t>(h, 235);
+    n_evlr = get<std::uint32_t>(h, 243);
+    const std::uint64_t count14 = get<std::uint64_t>(h, 247);
+    if (count14 != 0 || count == 0) count = count14;
+    for (int r = 0; r < 15; ++r) header_.points_by_return[r] = get<std::uint64_t>(h, 255 + 8 * r);
+  }
+  header_.point_count = count;
+  const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
+  if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
+    throw FileError(path, byteAt(104), "point data record format " + std::to_string(header_.point_format) + " is not supported (0-3 and 6-8 are)");
+  }
+  if (header_.point_record_length < std_len) {
+    throw FileError(path, byteAt(105), "point record length " + std::to_string(header_.point_record_length) + " is shorter than format " + std::to_string(header_.point_format) + " needs (" + std::to_string(std_len) + ")");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!(header_.scale[a] > 0) || !std::isfinite(header_.scale[a]) || !std::isfinite(header_.offset[a])) {
+      throw FileError(path, byteAt(131 + 8 * a), "invalid scale or offset");
+    }
+  }
+  // Bytes after the standard header block (user-defined header data).
+  in_.seekg(0);
+  std::vector<char> head(header_size);
+  in_.read(head.data(), header_size);
+  const std::uint16_t known = std::min<std::uint16_t>(header_size, expected_header);
+  header_.header_padding.assign(head.begin() + known, head.end());
+  // VLRs.
+  std::uint64_t pos = header_size;
+  for (std::uint32_t v = 0; v < n_vlr; ++v) {
+    if (pos + kVlrHeader > point_offset_) throw FileError(path, byteAt(pos), "VLR " + std::to_string(v) + " runs into the point data (offset to point data is " + std::to_string(point_offset_) + ")");
+    char vh[kVlrHeader];
+    in_.seekg(static_cast<std::streamoff>(pos));
+    in_.read(vh, kVlrHeader);
+    LasVlr vlr;
+    vlr.user_id = fixedString(vh, 2, 16);
+    vlr.record_id = get<std::uint16_t>(vh, 18);
+    const std::uint16_t len = get<std::uint16_t>(vh, 20);
+    vlr.description = fixedString(vh, 22, 32);
+    if (pos + kVlrHeader + len > point_offset_) throw FileError(path, byteAt(pos), "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
+    vlr.data.resize(len);
+    in_.read(reinterpret_cast<char*>(vlr.data.data()), len);
+    if (vlr.user_id == "laszip encoded") throw FileError(path, byteAt(pos), "this is a LAZ file (laszip VLR); LAZ is not supported, decompress it first");
+    header_.vlrs.push_back(std::move(vlr));
+    pos += kVlrHeader + len;
+  }
+  if (pos < point_offset_) {
+    header_.vlr_padding.resize(point_offset_ - pos);
+    in_.seekg(static_cast<std::streamoff>(pos));
+    in_.read(reinterpret_cast<char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
+  }
+  const std::uint64_t points_end = point_offset_ + count * header_.point_record_length;
+  if (point_offset_ > file_size || points_end > file_size) {
+    throw FileError(path, byteAt(file_size), "truncated: the header announces " + std::to_string(count) + " points of " + std::to_string(header_.point_record_length) + " bytes from byte " + std::to_string(point_offset_) + ", but the file has " + std::to_string(file_size) + " bytes");
+  }
+  // EVLRs.
+  if (n_evlr > 0) {
+    if (evlr_start < points_end || evlr_start > file_size) throw FileError(path, byteAt(235), "start of the first EVLR is invalid");
+    pos = evlr_start;
+    for (std::uint32_t v = 0; v < n_evlr; ++v) {
+      if (pos + kEvlrHeader > file_size) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is truncated");
+      char vh[kEvlrHeader];
+      in_.seekg(static_cast<std::streamoff>(pos));
+      in_.read(vh, kEvlrHeader);
+      LasVlr vlr;
+      vlr.user_id = fixedString(vh, 2, 16);
+      vlr.record_id = get<std::uint16_t>(vh, 18);
+      const std::uint64_t len = get<std::uint64_t>(vh, 20);
+      vlr.description = fixedString(vh, 28, 32);
+      if (len > file_size - pos - kEvlrHeader) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is longer than the file");
+      vlr.data.resize(len);
+      in_.read(reinterpret_cast<char*>(vlr.data.data()), static_cast<std::streamsize>(len));
+      header_.evlrs.push_back(std::move(vlr));
+      pos += kEvlrHeader + len;
+    }
+  }
+  in_.clear();
+  in_.seekg(static_cast<std::streamoff>(point_offset_));
+}
+
+std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) {
+  const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_points, pointsLeft()));
+  out->resize(n);
+  if (n == 0) return 0;
+  const std::size_t len = header_.point_record_length;
+  buffer_.resize(n * len);
+  in_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+  if (static_cast<std::size_t>(in_.gcount()) != buffer_.size()) {
+    throw FileError(path_, "record " + std::to_string(next_), "read failed (file shrank or I/O error)");
+  }
+  const std::uint8_t f = header_.point_format;
+  const std::size_t std_len = LasHeader::standardRecordLength(f);
+  for (std::size_t k = 0; k < n; ++k) {
+    const char* r = buffer_.data() + k * len;
+    LasPoint& p = (*out)[k];
+    p.X = get<std::int32_t>(r, 0);
+    p.Y = get<std::int32_t>(r, 4);
+    p.Z = get<std::int32_t>(r, 8);
+    p.intensity = get<std::uint16_t>(r, 12);
+    const std::uint8_t b14 = get<std::uint8_t>(r, 14);
+    if (f < 6) {
+      p.return_number = b14 & 0x07;
+      p.number_of_returns = (b14 >> 3) & 0x07;
+      p.scan_direction = (b14 >> 6) & 1;
+      p.edge_of_flight_line = (b14 >> 7) & 1;
+      p.classification = get<std::uint8_t>(r, 15);
+      p.scan_angle = get<std::int8_t>(r, 16);
+      p.user_data = get<std::uint8_t>(r, 17);
+      p.point_source_id = get<std::uint16_t>(r, 18);
+      std::size_t off = 20;
+      if (f == 1 || f == 3) { p.gps_time = get<double>(r, off); off += 8; }
+      if (f == 2 || f == 3) {
+        p.red = get<std::uint16_t>(r, off); p.green = get<std::uint16_t>(r, off + 2); p.blue = get<std::uint16_t>(r, off + 4);
+      }
+    } else {
+      const std::uint8_t b15 = get<std::uint8_t>(r, 15);
+      p.return_number = b14 & 0x0F;
+      p.number_of_returns = (b14 >> 4) & 0x0F;
+      p.classification_flags = b15 & 0x0F;
+      p.scanner_channel = (b15 >> 4) & 0x03;
+      p.scan_direction = (b15 >> 6) & 1;
+      p.edge_of_flight_line = (b15 >> 7) & 1;
+      p.classification = get<std::uint8_t>(r, 16);
+      p.user_data = get<std::uint8_t>(r, 17);
+      p.scan_angle = get<std::int16_t>(r, 18);
+      p.point_source_id = get<std::uint16_t>(r, 20);
+      p.gps_time = get<double>(r, 22);
+      if (f >= 7) { p.red = get<std::uint16_t>(r, 30); p.green = get<std::uint16_t>(r, 32); p.blue = get<std::uint16_t>(r, 34); }
+      if (f == 8) p.nir = get<std::uint16_t>(r, 36);
+    }
+    p.extra.assign(reinterpret_cast<const std::uint8_t*>(r) + std_len, reinterpret_cast<const std::uint8_t*>(r) + len);
+  }
+  next_ += n;
+  return n;
+}
+
+// ------------------------------------------------------------------------------------------
+LasWriter::LasWriter(const std::string& path, const LasHeader& header) : path_(path), header_(header) {
+  const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
+  if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
+    throw FileError(path, "", "cannot write point format " + std::to_string(header_.point_format) + " (0-3 and 6-8 are supported)");
+  }
+  if (header_.point_record_length < std_len) header_.point_record_length = std_len;
+  if (header_.point_format >= 6 && header_.version_minor < 4) header_.version_minor = 4;
+  if (!header_.evlrs.empty() && header_.version_minor < 4) throw FileError(path, "", "EVLRs need LAS 1.4");
+  for (int a = 0; a < 3; ++a) {
+    if (!(header_.scale[a] > 0) || !std::isfinite(header_.offset[a])) throw FileError(path, "", "invalid scale or offset");
+  }
+  header_.point_count = 0;
+  header_.points_by_return.fill(0);
+  std::random_device rd;
+  tmp_path_ = path + ".tmp-" + std::to_string(rd() % 1000000u);
+  out_.open(tmp_path_, std::ios::binary | std::ios::trunc);
+  if (!out_) throw FileError(path, "", "cannot create the output file (does the folder exist?)");
+  // Header and VLRs are written now (with zero counts) and rewritten by close().
+  const std::uint16_t hsize = headerSize(header_.version_minor);
+  std::uint64_t offset = hsize + header_.header_padding.size();
+  for (const LasVlr& v : header_.vlrs) offset += kVlrHeader + v.data.size();
+  offset += header_.vlr_padding.size();
+  std::vector<char> head(static_cast<std::size_t>(offset), 0);
+  out_.write(head.data(), static_cast<std::streamsize>(head.size()));
+  record_.resize(header_.point_record_length);
+}
+
+LasWriter::~LasWriter() {
+  if (!closed_) {
+    out_.close();
+    std::remove(tmp_path_.c_str());
+  }
+}
+
+std::int32_t LasWriter::quantize(int axis, double value) const {
+  const double q = std::round((value - header_.offset[axis]) / header_.scale[axis]);
+  if (!(q >= std::numeric_limits<std::int32_t>::min() && q <= std::numeric_limits<std::int32_t>::max())) {
+    throw FileError(path_, "record " + std::to_string(header_.point_count), "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
+  }
+  return static_cast<std::int32_t>(q);
+}
+
+void LasWriter::write(const LasPoint& p) {
+  char* r = record_.data();
+  std::memset(r, 0, record_.size());
+  const std::uint8_t f = header_.point_format;
+  put<std::int32_t>(r, 0, p.X);
+  put<std::int32_t>(r, 4, p.Y);
+  put<std::int32_t>(r, 8, p.Z);
+  put<std::uint16_t>(r, 12, p.intensity);
+  if (f < 6) {
+    put<std::uint8_t>(r, 14, static_cast<std::uint8_t>((p.return_number & 7) | ((p.number_of_returns & 7) << 3) | (p.scan_direction << 6) | (p.edge_of_flight_line << 7)));
+    put<std::uint8_t>(r, 15, p.classification);
+    put<std::int8_t>(r, 16, static_cast<std::int8_t>(std::clamp<int>(p.scan_angle, -128, 127)));
+    put<std::uint8_t>(r, 17, p.user_data);
+    put<std::uint16_t>(r, 18, p.point_source_id);
+    std::size_t off = 20;
+    if (f == 1 || f == 3) { put<double>(r, off, p.gps_time); off += 8; }
+    if (f == 2 || f == 3) { put<std::uint16_t>(r, off, p.red); put<std::uint16_t>(r, off + 2, p.green); put<std::uint16_t>(r, off + 4, p.blue); }
+  } else {
+    put<std::uint8_t>(r, 14, static_cast<std::uint8_t>((p.return_number & 15) | ((p.number_of_returns & 15) << 4)));
+    put<std::uint8_t>(r, 15, static_cast<std::uint8_t>((p.classification_flags & 15) | ((p.scanner_channel & 3) << 4) | (p.scan_direction << 6) | (p.edge_of_flight_line << 7)));
+    put<std::uint8_t>(r, 16, p.classification);
+    put<std::uint8_t>(r, 17, p.user_data);
+    put<std::int16_t>(r, 18, p.scan_angle);
+    put<std::uint16_t>(r, 20, p.point_source_id);
+    put<double>(r, 22, p.gps_time);
+    if (f >= 7) { put<std::uint16_t>(r, 30, p.red); put<std::uint16_t>(r, 32, p.green); put<std::uint16_t>(r, 34, p.blue); }
+    if (f == 8) put<std::uint16_t>(r, 36, p.nir);
+  }
+  const std::size_t std_len = LasHeader::standardRecordLength(f);
+  std::memcpy(r + std_len, p.extra.data(), std::min(p.extra.size(), record_.size() - std_len));
+  out_.write(r, static_cast<std::streamsize>(record_.size()));
+  const double xyz[3] = {p.X * header_.scale[0] + header_.offset[0], p.Y * header_.scale[1] + header_.offset[1], p.Z * header_.scale[2] + header_.offset[2]};
+  for (int a = 0; a < 3; ++a) {
+    if (!any_ || xyz[a] < header_.min[a]) header_.min[a] = xyz[a];
+    if (!any_ || xyz[a] > header_.max[a]) header_.max[a] = xyz[a];
+  }
+  any_ = true;
+  const int ret = p.return_number;
+  if (ret >= 1 && ret <= 15) ++header_.points_by_return[ret - 1];
+  ++header_.point_count;
+}
+
+void LasWriter::write(const std::vector<LasPoint>& points) {
+  for (const LasPoint& p : points) write(p);
+}
+
+void LasWriter::close() {
+  if (closed_) return;
+  if (!any_) header_.min = header_.max = {0, 0, 0};
+  const std::uint64_t evlr_start = static_cast<std::uint64_t>(out_.tellp());
+  for (const LasVlr& v : header_.evlrs) {
+    char vh[kEvlrHeader] = {};
+    putString(vh, 2, 16, v.user_id);
+    put<std::uint16_t>(vh, 18, v.record_id);
+    put<std::uint64_t>(vh, 20, v.data.size());
+    putString(vh, 28, 32, v.description);
+    out_.write(vh, kEvlrHeader);
+    out_.write(reinterpret_cast<const char*>(v.data.data()), static_cast<std::streamsize>(v.data.size()));
+  }
+  const std::uint16_t hsize = headerSize(header_.version_minor);
+  std::vector<char> h(hsize, 0);
+  std::memcpy(h.data(), "LASF", 4);
+  put<std::uint16_t>(h.data(), 4, header_.file_source_id);
+  put<std::uint16_t>(h.data(), 6, header_.global_encoding);
+  std::memcpy(h.data() + 8, header_.project_guid.data(), 16);
+  put<std::uint8_t>(h.data(), 24, 1);
+  put<std::uint8_t>(h.data(), 25, header_.version_minor);
+  putString(h.data(), 26, 32, header_.system_identifier);
+  putString(h.data(), 58, 32, header_.generating_software);
+  put<std::uint16_t>(h.data(), 90, header_.creation_day);
+  put<std::uint16_t>(h.data(), 92, header_.creation_year);
+  put<std::uint16_t>(h.data(), 94, static_cast<std::uint16_t>(hsize + header_.header_padding.size()));
+  std::uint64_t offset = hsize + header_.header_padding.size();
+  for (const LasVlr& v : header_.vlrs) offset += kVlrHeader + v.data.size();
+  offset += header_.vlr_padding.size();
+  put<std::uint32_t>(h.data(), 96, static_cast<std::uint32_t>(offset));
+  put<std::uint32_t>(h.data(), 100, static_cast<std::uint32_t>(header_.vlrs.size()));
+  put<std::uint8_t>(h.data(), 104, header_.point_format);
+  put<std::uint16_t>(h.data(), 105, header_.point_record_length);
+  // Legacy counts: zero when they cannot represent the file (LAS 1.4 rule).
+  const bool legacy_ok = header_.point_format < 6 && header_.point_count <= 0xFFFFFFFFull;
+  put<std::uint32_t>(h.data(), 107, legacy_ok ? static_cast<std::uint32_t>(header_.point_count) : 0u);
+  for (int r = 0; r < 5; ++r) put<std::uint32_t>(h.data(), 111 + 4 * r, legacy_ok ? static_cast<std::uint32_t>(header_.points_by_return[r]) : 0u);
+  for (int a = 0; a < 3; ++a) {
+    put<double>(h.data(), 131 + 8 * a, header_.scale[a]);
+    put<double>(h.data(), 155 + 8 * a, header_.offset[a]);
+    put<double>(h.data(), 179 + 16 * a, header_.max[a]);
+    put<double>(h.data(), 187 + 16 * a, header_.min[a]);
+  }
+  if (header_.version_minor >= 4) {
+    put<std::uint64_t>(h.data(), 235, header_.evlrs.empty() ? 0 : evlr_start);
+    put<std::uint32_t>(h.data(), 243, static_cast<std::uint32_t>(header_.evlrs.size()));
+    put<std::uint64_t>(h.data(), 247, header_.point_count);
+    for (int r = 0; r < 15; ++r) put<std::uint64_t>(h.data(), 255 + 8 * r, header_.points_by_return[r]);
+  }
+  out_.seekp(0);
+  out_.write(h.data(), hsize);
+  out_.write(reinterpret_cast<const char*>(header_.header_padding.data()), static_cast<std::streamsize>(header_.header_padding.size()));
+  for (const LasVlr& v : header_.vlrs) {
+    char vh[kVlrHeader] = {};
+    putString(vh, 2, 16, v.user_id);
+    put<std::uint16_t>(vh, 18, v.record_id);
+    put<std::uint16_t>(vh, 20, static_cast<std::uint16_t>(v.data.size()));
+    putString(vh, 22, 32, v.description);
+    out_.write(vh, kVlrHeader);
+    out_.write(reinterpret_cast<const char*>(v.data.data()), static_cast<std::streamsize>(v.data.size()));
+  }
+  out_.write(reinterpret_cast<const char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
+  out_.flush();
+  const bool ok = static_cast<bool>(out_);
+  out_.close();
+  if (!ok) {
+    std::remove(tmp_path_.c_str());
+    closed_ = true;
+    throw FileError(path_, "", "write failed (disk full?)");
+  }
+  if (std::rename(tmp_path_.c_str(), path_.c_str()) != 0) {
+    std::remove(tmp_path_.c_str());
+    closed_ = true;
+    throw FileError(path_, "", "cannot rename the temporary file into place");
+  }
+  closed_ = true;
+}
+
+void readLas(const std::string& path, LasHeader* header, std::vector<LasPoint>* points) {
+  LasReader reader(path);
+  *header = reader.header();
+  points->clear();
+  points->reserve(static_cast<std::size_t>(reader.header().point_count));
+  std::vector<LasPoint> chunk;
+  while (reader.read(&chunk) > 0) points->insert(points->end(), chunk.begin(), chunk.end());
+}
+
+void writeLas(const std::string& path, const LasHeader& header, const std::vector<LasPoint>& points) {
+  LasWriter writer(path, header);
+  writer.write(points);
+  writer.close();
+}
+
+}  // namespace mountcal::io

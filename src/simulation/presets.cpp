@@ -1,0 +1,165 @@
+// The built-in survey presets (SPEC §4 "Simulator output").
+#include <cmath>
+
+#include "mountcal/error.hpp"
+#include "mountcal/simulation/survey.hpp"
+
+namespace mountcal::simulation {
+
+namespace {
+
+/// Truth used by every preset: the example mounting.
+MountingParameters presetTruth(const Vec3& nominal_deg = Vec3::Zero()) {
+  return MountingParameters::fromDegrees(Vec3(0.10, -0.05, 0.20), Vec3(0.05, -0.08, 0.12), nominal_deg);
+}
+
+/// The first paper's calibration field (Anyang): a flat town with road markings, buildings,
+/// gable roofs and targets, crossed by four strips — E–W and N–S at 760 m (≈0.5 m spacing),
+/// then W–E and S–N at 1310 m (≈0.9 m) — so that opposite directions and two heights separate
+/// the mounting parameters.
+void calibrationField(std::uint64_t seed, SurveyConfig* c, Scene* s) {
+  s->setGround(0.0, 0.001, -0.0015, 40.0f);  // gently sloped (0.1 %, 0.15 %)
+  s->addZebraCrossing("zebra_a", -150, -20, deg2rad(90));
+  s->addZebraCrossing("zebra_b", 120, 40, deg2rad(0));
+  s->addZebraCrossing("zebra_c", 30, 160, deg2rad(45));
+  s->addGroundTarget("target_1", -180, 150, 3.0, deg2rad(0));
+  s->addGroundTarget("target_2", 180, -160, 3.0, deg2rad(30));
+  s->addGroundTarget("target_3", -60, -180, 3.0, deg2rad(0));
+  s->addGroundTarget("target_4", 200, 120, 3.0, deg2rad(15));
+  s->addGroundTarget("target_5", 0, 0, 3.0, deg2rad(0));
+  s->addFlatRoofBuilding("bldg_a", 80, -90, 40, 25, 15, deg2rad(30));
+  s->addFlatRoofBuilding("bldg_b", -110, 90, 30, 20, 24, deg2rad(0));
+  s->addGableHouse("house_a", -40, 60, 14, 10, 6, 10, deg2rad(20));
+  s->addGableHouse("house_b", 150, -40, 16, 12, 5, 9, deg2rad(110));
+  s->addBoard("board_a", Vec3(60, 60, 3.0), 3.0, deg2rad(10), deg2rad(20));
+  s->addBoard("board_b", Vec3(-170, -110, 2.5), 3.0, deg2rad(-25), 0.0);
+  const double trees[][2] = {{-90, -60}, {-20, -120}, {100, 100}, {170, 40}, {-140, 10}, {50, -150}};
+  for (const auto& t : trees) s->addTree(t[0], t[1], 4.0, 3.0, 12.0, 0.6);
+  s->addCheckPlane("plane_1", -30, -100, -10, -80);
+  s->addCheckPlane("plane_2", 100, 160, 130, 190);
+  c->name = "paper-calibration-field";
+  c->sensor = SensorType::kLine;
+  c->true_mounting = presetTruth();
+  c->nominal_mounting = MountingParameters{};
+  c->noise = NoiseModel::realistic();
+  c->seed = seed;
+  c->roi_radius_m = 12.0;
+  const double L = 1400;
+  c->lines = {
+      {"1", -L / 2, 0, deg2rad(90), L, 760, 60},     // E, 760 m
+      {"2", 0, -L / 2, deg2rad(0), L, 760, 60},      // N, 760 m
+      {"3", L / 2, 60, deg2rad(270), L, 1310, 60, 70e3, 35},   // W, 1310 m, 70 kHz
+      {"4", -60, L / 2, deg2rad(180), L, 1310, 60, 70e3, 35},  // S, 1310 m, 70 kHz
+  };
+  // ALS50-II: 150 kHz, 50 Hz mirror at 760 m; the 1310 m lines use 70 kHz, 35 Hz (≈0.9 m).
+  c->line.prf_hz = 150e3;
+  c->line.scan_rate_hz = 50;
+  c->line.half_fov_rad = deg2rad(20);
+}
+
+/// The first paper's check block: four parallel E–W strips at 3200 m (≈2.1 m spacing) with
+/// ≈15 % side overlap, flown back and forth; check points at road crossings in the overlaps and
+/// two check planes (a road and a sports field).
+void checkBlock(std::uint64_t seed, SurveyConfig* c, Scene* s) {
+  s->setGround(0.0, 0.0005, 0.0005, 40.0f);
+  const double swath = 2 * 3200 * std::tan(deg2rad(20));
+  const double spacing = swath * 0.85;
+  c->lines.clear();
+  const double L = 5000;
+  for (int k = 0; k < 4; ++k) {
+    const bool east = (k % 2 == 0);
+    c->lines.push_back({std::to_string(k + 5), east ? -L / 2 : L / 2, k * spacing, deg2rad(east ? 90 : 270), L, 3200, 65});
+  }
+  // Check points: ground targets (road crossings) in the three overlaps.
+  int id = 1;
+  for (int k = 0; k < 3; ++k) {
+    const double y = (k + 0.5) * spacing;
+    const int n = (k == 1) ? 3 : 2;
+    for (int j = 0; j < n; ++j) {
+      const double x = -1500 + 3000.0 * (j + 0.5) / n + 200 * k;
+      s->addGroundTarget("chk_" + std::to_string(id), x, y + 40 * (j % 2 ? 1 : -1), 8.0, deg2rad(10 * j));
+      c->check_point_ids.push_back("chk_" + std::to_string(id));
+      ++id;
+    }
+  }
+  s->addCheckPlane("plane_1", -300, 0.5 * spacing - 40, -200, 0.5 * spacing + 40);      // a road
+  s->addCheckPlane("plane_2", 600, 1.5 * spacing - 30, 660, 1.5 * spacing + 30);        // a field
+  c->name = "paper-check-block";
+  c->sensor = SensorType::kLine;
+  c->true_mounting = presetTruth();
+  c->nominal_mounting = MountingParameters{};
+  c->noise = NoiseModel::realistic();
+  c->noise.pick_sigma_m = 0.3;  // 2 m spacing: picking is coarser
+  c->seed = seed;
+  c->roi_radius_m = 25.0;
+  c->line.prf_hz = 32e3;
+  c->line.scan_rate_hz = 15;
+  c->line.half_fov_rad = deg2rad(20);
+}
+
+/// The second paper's UAV survey: a VLP-16 (spin axis along the flight direction, R_nom =
+/// Ry(90°)) at 50 m, 5 m/s, lines 50 m apart flown back and forth and in the same direction,
+/// over high-intensity targets and road markings.
+void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
+  s->setGround(0.0, 0.002, 0.0, 35.0f);
+  const double tx[] = {-20, 10, 25, 40, 70, -5, 55, 15};
+  const double ty[] = {40, 60, 100, 140, 80, 170, 30, 200};
+  for (int k = 0; k < 8; ++k) {
+    s->addGroundTarget("target_" + std::to_string(k + 1), tx[k], ty[k], 1.5, deg2rad(15.0 * k), 240.0f);
+  }
+  s->addBoard("board_1", Vec3(30, 120, 1.2), 1.5, deg2rad(0), deg2rad(30), 240.0f);
+  s->addBoard("board_2", Vec3(-10, 90, 1.0), 1.5, deg2rad(45), deg2rad(-25), 240.0f);
+  s->addZebraCrossing("zebra", 20, 20, deg2rad(90), 5, 3.0);
+  s->addMarking(25, 120, 60, 0.15, 0.0, 200.0f);  // centre line
+  s->addCheckPlane("plane_1", 35, 150, 45, 160);
+  c->name = "uav-vlp16";
+  c->sensor = SensorType::kMultiBeam;
+  c->multibeam.model = MultiBeamModel::VLP16();
+  c->multibeam.rotation_hz = 10.0;
+  c->multibeam.max_range_m = 100.0;
+  c->true_mounting = MountingParameters::fromDegrees(Vec3(0.10, -0.05, 0.20), Vec3(0.5, -0.8, 1.2), Vec3(0, 90, 0));
+  c->nominal_mounting = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), Vec3(0, 90, 0));
+  c->noise = NoiseModel::realistic();
+  c->noise.range_sigma_m = 0.03;
+  c->noise.pick_sigma_m = 0.03;
+  c->noise.gnss_sigma_m = 0.02;
+  c->noise.attitude_sigma_rad = deg2rad(0.01);
+  c->dynamics.roll_amplitude_rad = deg2rad(1.0);
+  c->dynamics.pitch_amplitude_rad = deg2rad(1.0);
+  c->dynamics.heading_amplitude_rad = deg2rad(0.5);
+  c->seed = seed;
+  c->roi_radius_m = 4.0;
+  c->trajectory_rate_hz = 200.0;
+  c->line_gap_s = 30.0;
+  c->lines = {
+      {"1", 0, -20, deg2rad(0), 260, 50, 5},     // north
+      {"2", 0, 240, deg2rad(180), 260, 50, 5},   // back (opposite direction, same line)
+      {"3", 50, -20, deg2rad(0), 260, 50, 5},    // same direction, 50 m to the right
+  };
+}
+
+}  // namespace
+
+const std::vector<std::string>& presetNames() {
+  static const std::vector<std::string> kNames = {"paper-calibration-field", "paper-check-block", "uav-vlp16"};
+  return kNames;
+}
+
+void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* config, Scene* scene) {
+  *config = SurveyConfig{};
+  *scene = Scene{};
+  if (name == "paper-calibration-field") {
+    calibrationField(seed, config, scene);
+  } else if (name == "paper-check-block") {
+    checkBlock(seed, config, scene);
+  } else if (name == "uav-vlp16") {
+    uavVlp16(seed, config, scene);
+  } else {
+    std::string all;
+    for (const std::string& n : presetNames()) all += (all.empty() ? "" : ", ") + n;
+    throw InvalidInput("unknown simulator preset '" + name + "' (presets: " + all + ")");
+  }
+  scene->build();
+}
+
+}  // namespace mountcal::simulation

@@ -1,0 +1,418 @@
+#include "mountcal/simulation/scene.hpp"
+
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "mountcal/error.hpp"
+
+namespace mountcal::simulation {
+
+namespace {
+
+struct MeshTraits : public OpenMesh::DefaultTraits {
+  using Point = OpenMesh::Vec3d;
+  FaceAttributes(OpenMesh::Attributes::Normal);
+};
+using TriMesh = OpenMesh::TriMesh_ArrayKernelT<MeshTraits>;
+
+struct Triangle {
+  Vec3 a, e1, e2, n;  // vertex, two edges, unit normal
+  float intensity;
+  SurfaceKind kind;
+};
+
+struct Box {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = -Vec3::Constant(std::numeric_limits<double>::infinity());
+  void grow(const Vec3& p) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
+  void grow(const Box& b) { lo = lo.cwiseMin(b.lo); hi = hi.cwiseMax(b.hi); }
+  /// Slab test; true when the ray enters the box before `tmax`.
+  bool hit(const Vec3& o, const Vec3& inv, double tmax) const {
+    double t0 = 0.0, t1 = tmax;
+    for (int a = 0; a < 3; ++a) {
+      double ta = (lo[a] - o[a]) * inv[a], tb = (hi[a] - o[a]) * inv[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      if (t0 > t1) return false;
+    }
+    return true;
+  }
+};
+
+struct Node {
+  Box box;
+  int left = -1, right = -1;  // children, or -1 for a leaf
+  int first = 0, count = 0;   // leaf triangle range in `order`
+};
+
+struct Marking {
+  Vec3 centre;
+  double half_len, half_wid, c, s;  // rectangle in its own frame
+  float intensity;
+  Box box;
+};
+
+struct Tree {
+  double cx, cy, r, z0, z1, density;
+};
+
+/// SplitMix64: a well-mixed hash for deterministic per-pulse randomness.
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+double unit(std::uint64_t h) { return static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0); }
+
+/// Unit vectors of a frame whose "along" axis is at `heading` clockwise from North (+y).
+Vec3 along(double heading) { return {std::sin(heading), std::cos(heading), 0.0}; }
+Vec3 across(double heading) { return {std::cos(heading), -std::sin(heading), 0.0}; }
+
+}  // namespace
+
+struct Scene::Impl {
+  double z0 = 0, gx = 0, gy = 0;
+  float ground_intensity = 40.0f;
+  TriMesh mesh;
+  std::vector<std::pair<float, SurfaceKind>> face_props;  // by face index
+  std::vector<Triangle> tris;
+  std::vector<int> order;
+  std::vector<Node> nodes;
+  std::vector<Marking> markings;
+  std::vector<Tree> trees;
+  bool built = false;
+
+  void addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, float intensity, SurfaceKind kind) {
+    auto va = mesh.add_vertex(TriMesh::Point(a.x(), a.y(), a.z()));
+    auto vb = mesh.add_vertex(TriMesh::Point(b.x(), b.y(), b.z()));
+    auto vc = mesh.add_vertex(TriMesh::Point(c.x(), c.y(), c.z()));
+    mesh.add_face(va, vb, vc);
+    face_props.emplace_back(intensity, kind);
+    built = false;
+  }
+  void addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, float intensity,
+               SurfaceKind kind) {
+    addTriangle(a, b, c, intensity, kind);
+    addTriangle(a, c, d, intensity, kind);
+  }
+
+  int buildNode(int first, int count) {
+    Node node;
+    node.first = first;
+    node.count = count;
+    Box centroids;
+    for (int i = first; i < first + count; ++i) {
+      const Triangle& t = tris[order[i]];
+      node.box.grow(t.a);
+      node.box.grow(t.a + t.e1);
+      node.box.grow(t.a + t.e2);
+      centroids.grow(t.a + (t.e1 + t.e2) / 3.0);
+    }
+    const int index = static_cast<int>(nodes.size());
+    nodes.push_back(node);
+    if (count <= 4) return index;
+    int axis = 0;
+    const Vec3 ext = centroids.hi - centroids.lo;
+    if (ext.y() > ext[axis]) axis = 1;
+    if (ext.z() > ext[axis]) axis = 2;
+    const int mid = first + count / 2;
+    std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count,
+                     [&](int a, int b) {
+                       const Triangle &ta = tris[a], &tb = tris[b];
+                       return (3 * ta.a + ta.e1 + ta.e2)[axis] < (3 * tb.a + tb.e1 + tb.e2)[axis];
+                     });
+    const int l = buildNode(first, mid - first);
+    const int r = buildNode(mid, first + count - mid);
+    nodes[index].left = l;
+    nodes[index].right = r;
+    nodes[index].count = 0;
+    return index;
+  }
+
+  void build() {
+    tris.clear();
+    mesh.request_face_normals();
+    mesh.update_face_normals();
+    for (auto fh : mesh.faces()) {
+      std::array<Vec3, 3> v;
+      int k = 0;
+      for (auto vh : mesh.fv_range(fh)) {
+        const auto& p = mesh.point(vh);
+        v[k++] = Vec3(p[0], p[1], p[2]);
+      }
+      Triangle t;
+      t.a = v[0];
+      t.e1 = v[1] - v[0];
+      t.e2 = v[2] - v[0];
+      t.n = t.e1.cross(t.e2).normalized();
+      t.intensity = face_props[static_cast<std::size_t>(fh.idx())].first;
+      t.kind = face_props[static_cast<std::size_t>(fh.idx())].second;
+      tris.push_back(t);
+    }
+    order.resize(tris.size());
+    std::iota(order.begin(), order.end(), 0);
+    nodes.clear();
+    if (!tris.empty()) buildNode(0, static_cast<int>(tris.size()));
+    built = true;
+  }
+
+  /// Möller–Trumbore; updates *best when closer.
+  bool castTriangles(const Vec3& o, const Vec3& d, double* best, int* which) const {
+    if (nodes.empty()) return false;
+    const Vec3 inv(1.0 / d.x(), 1.0 / d.y(), 1.0 / d.z());
+    int stack[64];
+    int sp = 0;
+    stack[sp++] = 0;
+    bool any = false;
+    while (sp > 0) {
+      const Node& node = nodes[stack[--sp]];
+      if (!node.box.hit(o, inv, *best)) continue;
+      if (node.left < 0) {
+        for (int i = node.first; i < node.first + node.count; ++i) {
+          const Triangle& t = tris[order[i]];
+          const Vec3 p = d.cross(t.e2);
+          const double det = t.e1.dot(p);
+          if (std::abs(det) < 1e-14) continue;
+          const double inv_det = 1.0 / det;
+          const Vec3 s = o - t.a;
+          const double u = s.dot(p) * inv_det;
+          if (u < 0.0 || u > 1.0) continue;
+          const Vec3 q = s.cross(t.e1);
+          const double v = d.dot(q) * inv_det;
+          if (v < 0.0 || u + v > 1.0) continue;
+          const double dist = t.e2.dot(q) * inv_det;
+          if (dist > 1e-9 && dist < *best) {
+            *best = dist;
+            *which = order[i];
+            any = true;
+          }
+        }
+      } else if (sp + 2 <= 64) {
+        stack[sp++] = node.left;
+        stack[sp++] = node.right;
+      }
+    }
+    return any;
+  }
+};
+
+Scene::Scene() : impl_(std::make_unique<Impl>()) {}
+Scene::~Scene() = default;
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+
+void Scene::setGround(double z0_m, double gx, double gy, float intensity) {
+  impl_->z0 = z0_m;
+  impl_->gx = gx;
+  impl_->gy = gy;
+  impl_->ground_intensity = intensity;
+}
+
+double Scene::groundHeight(double x, double y) const { return impl_->z0 + impl_->gx * x + impl_->gy * y; }
+
+std::size_t Scene::triangleCount() const { return impl_->mesh.n_faces(); }
+
+void Scene::addMarking(double cx, double cy, double length_m, double width_m, double heading_rad,
+                       float intensity) {
+  Marking m;
+  m.centre = Vec3(cx, cy, groundHeight(cx, cy));
+  m.half_len = 0.5 * length_m;
+  m.half_wid = 0.5 * width_m;
+  m.c = std::cos(heading_rad);
+  m.s = std::sin(heading_rad);
+  m.intensity = intensity;
+  const double r = std::hypot(m.half_len, m.half_wid);
+  m.box.grow(Vec3(cx - r, cy - r, 0));
+  m.box.grow(Vec3(cx + r, cy + r, 0));
+  impl_->markings.push_back(m);
+}
+
+void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad,
+                             int stripes, double length_m) {
+  // Stripes are 0.5 m wide along the road, `length_m` long across it, 1 m apart.
+  const Vec3 u = along(heading_rad), v = across(heading_rad);
+  const double first = -0.5 * (stripes - 1);
+  for (int k = 0; k < stripes; ++k) {
+    const Vec3 c = Vec3(cx, cy, 0) + (first + k) * u;
+    addMarking(c.x(), c.y(), 0.5, length_m, heading_rad, 220.0f);
+  }
+  // Outer corners of the first and last stripe.
+  const double du = -first + 0.25, dv = 0.5 * length_m;
+  const double sgn[4][2] = {{-1, -1}, {-1, 1}, {1, -1}, {1, 1}};
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 p = Vec3(cx, cy, 0) + sgn[k][0] * du * u + sgn[k][1] * dv * v;
+    addFeature({id + "_c" + std::to_string(k), Vec3(p.x(), p.y(), groundHeight(p.x(), p.y())),
+                SurfaceKind::kMarking, 3.0});
+  }
+}
+
+void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m,
+                                double width_m, double height_m, double heading_rad) {
+  const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
+  const Vec3 c(cx, cy, 0);
+  const Vec3 corners[4] = {c - u - v, c + u - v, c + u + v, c - u + v};
+  const double zb = groundHeight(cx, cy) - 1.0;  // walls start below the (sloped) ground
+  const double zr = groundHeight(cx, cy) + height_m;
+  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  impl_->addQuad(at(corners[0], zr), at(corners[1], zr), at(corners[2], zr), at(corners[3], zr), 70.0f, SurfaceKind::kRoof);
+  for (int k = 0; k < 4; ++k) {
+    const Vec3& a = corners[k];
+    const Vec3& b = corners[(k + 1) % 4];
+    impl_->addQuad(at(a, zb), at(b, zb), at(b, zr), at(a, zr), 50.0f, SurfaceKind::kWall);
+  }
+  const Vec3 ui = u.normalized(), vi = v.normalized();
+  const double iu = 0.5 * length_m - 2.0, iv = 0.5 * width_m - 2.0;
+  const double sgn[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 p = c + sgn[k][0] * iu * ui + sgn[k][1] * iv * vi;
+    addFeature({id + "_r" + std::to_string(k), at(p, zr), SurfaceKind::kRoof, 2.0});
+  }
+}
+
+void Scene::addGableHouse(const std::string& id, double cx, double cy, double length_m,
+                          double width_m, double eave_height_m, double ridge_height_m,
+                          double heading_rad) {
+  const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
+  const Vec3 c(cx, cy, 0);
+  const double g = groundHeight(cx, cy);
+  const double zb = g - 1.0, ze = g + eave_height_m, zr = g + ridge_height_m;
+  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  const Vec3 a = c - u - v, b = c + u - v, cc = c + u + v, d = c - u + v;
+  const Vec3 r0 = c - u, r1 = c + u;
+  // Two roof planes.
+  impl_->addQuad(at(a, ze), at(b, ze), at(r1, zr), at(r0, zr), 80.0f, SurfaceKind::kRoof);
+  impl_->addQuad(at(cc, ze), at(d, ze), at(r0, zr), at(r1, zr), 80.0f, SurfaceKind::kRoof);
+  // Long walls and gable ends.
+  impl_->addQuad(at(a, zb), at(b, zb), at(b, ze), at(a, ze), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(cc, zb), at(d, zb), at(d, ze), at(cc, ze), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(b, zb), at(cc, zb), at(cc, ze), at(b, ze), 50.0f, SurfaceKind::kWall);
+  impl_->addTriangle(at(b, ze), at(cc, ze), at(r1, zr), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(d, zb), at(a, zb), at(a, ze), at(d, ze), 50.0f, SurfaceKind::kWall);
+  impl_->addTriangle(at(d, ze), at(a, ze), at(r0, zr), 50.0f, SurfaceKind::kWall);
+  // Mid-points of the two roof planes.
+  const double zm = 0.5 * (ze + zr);
+  const Vec3 m0 = c - 0.5 * v, m1 = c + 0.5 * v;
+  const double clearance = std::min(0.25 * length_m, 0.25 * std::hypot(0.5 * width_m, zr - ze));
+  addFeature({id + "_s0", at(m0, zm), SurfaceKind::kRoof, clearance});
+  addFeature({id + "_s1", at(m1, zm), SurfaceKind::kRoof, clearance});
+}
+
+void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad,
+                     double tilt_rad, float intensity) {
+  const Vec3 u = along(heading_rad), v0 = across(heading_rad);
+  const Vec3 v = std::cos(tilt_rad) * v0 + std::sin(tilt_rad) * Vec3::UnitZ();
+  const double h = 0.5 * size_m;
+  const Vec3& c = centre_m;
+  impl_->addQuad(c - h * u - h * v, c + h * u - h * v, c + h * u + h * v, c - h * u + h * v,
+                 intensity, SurfaceKind::kBoard);
+  addFeature({id, c, SurfaceKind::kBoard, 0.45 * size_m});
+}
+
+void Scene::addGroundTarget(const std::string& id, double cx, double cy, double size_m,
+                            double heading_rad, float intensity) {
+  addMarking(cx, cy, size_m, size_m, heading_rad, intensity);
+  addFeature({id, Vec3(cx, cy, groundHeight(cx, cy)), SurfaceKind::kMarking, 3.0});
+}
+
+void Scene::addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m,
+                    double density) {
+  const double g = groundHeight(cx, cy);
+  impl_->trees.push_back({cx, cy, radius_m, g + crown_base_m, g + top_m, density});
+}
+
+void Scene::addCheckPlane(const std::string& id, double xmin, double ymin, double xmax, double ymax) {
+  check_planes_.push_back({id, xmin, ymin, xmax, ymax});
+}
+
+void Scene::build() { impl_->build(); }
+
+bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
+                 double max_range_m) const {
+  if (!impl_->built) const_cast<Impl&>(*impl_).build();
+  const Impl& s = *impl_;
+  double best = max_range_m;
+  bool found = false;
+  // Ground: n·x = z0 with n = (−gx, −gy, 1).
+  const Vec3 n(-s.gx, -s.gy, 1.0);
+  const double denom = n.dot(d);
+  if (std::abs(denom) > 1e-12) {
+    const double t = (s.z0 - n.dot(o)) / denom;
+    if (t > 1e-9 && t < best) {
+      best = t;
+      found = true;
+      hit->kind = SurfaceKind::kGround;
+      hit->intensity = s.ground_intensity;
+      hit->normal_m = n.normalized();
+    }
+  }
+  int tri = -1;
+  if (s.castTriangles(o, d, &best, &tri)) {
+    found = true;
+    const auto& t = s.tris[static_cast<std::size_t>(tri)];
+    hit->kind = t.kind;
+    hit->intensity = t.intensity;
+    hit->normal_m = t.n;
+  }
+  // Vegetation: a return somewhere inside the crown cylinder, before the surface behind it.
+  for (const Tree& tree : s.trees) {
+    const double ox = o.x() - tree.cx, oy = o.y() - tree.cy;
+    const double a = d.x() * d.x() + d.y() * d.y();
+    if (a < 1e-12) continue;
+    const double b = ox * d.x() + oy * d.y();
+    const double c = ox * ox + oy * oy - tree.r * tree.r;
+    const double disc = b * b - a * c;
+    if (disc <= 0) continue;
+    double t0 = (-b - std::sqrt(disc)) / a, t1 = (-b + std::sqrt(disc)) / a;
+    // Clip to the crown's height band.
+    if (std::abs(d.z()) > 1e-12) {
+      double za = (tree.z0 - o.z()) / d.z(), zb = (tree.z1 - o.z()) / d.z();
+      if (za > zb) std::swap(za, zb);
+      t0 = std::max(t0, za);
+      t1 = std::min(t1, zb);
+    }
+    t0 = std::max(t0, 1e-9);
+    t1 = std::min(t1, best);
+    if (t0 >= t1) continue;
+    const std::uint64_t h = mix(pulse_id * 0x2545F4914F6CDD1Dull + 17);
+    if (unit(h) < tree.density) {
+      best = t0 + unit(mix(h)) * (t1 - t0);
+      found = true;
+      hit->kind = SurfaceKind::kVegetation;
+      hit->intensity = 25.0f;
+      hit->normal_m = -d;
+    }
+  }
+  if (!found) return false;
+  hit->range_m = best;
+  hit->point_m = o + best * d;
+  if (hit->kind == SurfaceKind::kGround) {
+    for (const Marking& m : s.markings) {
+      const double dx = hit->point_m.x() - m.centre.x(), dy = hit->point_m.y() - m.centre.y();
+      if (std::abs(dx) > m.half_len + m.half_wid || std::abs(dy) > m.half_len + m.half_wid) continue;
+      // Rectangle frame: along = (sin h, cos h), across = (cos h, −sin h).
+      const double a_len = dx * m.s + dy * m.c, a_wid = dx * m.c - dy * m.s;
+      if (std::abs(a_len) <= m.half_len && std::abs(a_wid) <= m.half_wid) {
+        hit->kind = SurfaceKind::kMarking;
+        hit->intensity = m.intensity;
+        break;
+      }
+    }
+  }
+  if (hit->normal_m.dot(d) > 0) hit->normal_m = -hit->normal_m;
+  return true;
+}
+
+void Scene::writeMesh(const std::string& path) const {
+  if (!OpenMesh::IO::write_mesh(impl_->mesh, path)) {
+    throw FileError(path, "", "OpenMesh could not write the scene mesh");
+  }
+}
+
+}  // namespace mountcal::simulation

@@ -1,0 +1,374 @@
+#include "mountcal/simulation/survey.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "mountcal/error.hpp"
+#include "mountcal/georeference_model.hpp"
+
+namespace mountcal::simulation {
+
+NoiseModel NoiseModel::realistic() {
+  NoiseModel n;
+  n.range_sigma_m = 0.02;
+  n.scan_angle_sigma_rad = deg2rad(0.001);
+  n.gnss_sigma_m = 0.03;
+  n.gnss_correlation_s = 100.0;
+  n.attitude_sigma_rad = deg2rad(0.002);
+  n.attitude_correlation_s = 1.0;
+  n.pick_sigma_m = 0.05;
+  return n;
+}
+
+namespace {
+
+/// Per-line geometry helpers.
+struct LineFrame {
+  Vec3 start, u, v;  // start (z = height), along-track and cross-track (to the right) unit vectors
+  double t0 = 0, t1 = 0, speed = 0;
+  double along(const Vec3& x) const { return (x - start).dot(u); }
+  double across(const Vec3& x) const { return (x - start).dot(v); }
+};
+
+LineFrame lineFrame(const FlightLine& line, double t0) {
+  LineFrame f;
+  f.u = Vec3(std::sin(line.heading_rad), std::cos(line.heading_rad), 0.0);
+  f.v = Vec3(std::cos(line.heading_rad), -std::sin(line.heading_rad), 0.0);
+  f.start = Vec3(line.x0_m, line.y0_m, line.height_m);
+  f.t0 = t0;
+  f.t1 = t0 + line.length_m / line.speed_mps;
+  f.speed = line.speed_mps;
+  return f;
+}
+
+double mirrorAngle(const LineScannerConfig& c, double t) {
+  const double phase = c.scan_rate_hz * t;
+  const double frac = phase - std::floor(phase);
+  switch (c.pattern) {
+    case MirrorPattern::kSinusoidal:
+      return c.half_fov_rad * std::sin(2.0 * kPi * frac);
+    case MirrorPattern::kTriangle:  // −1 → 1 → −1 over one period
+      return c.half_fov_rad * (frac < 0.5 ? 4.0 * frac - 1.0 : 3.0 - 4.0 * frac);
+    case MirrorPattern::kSawtooth:
+      return c.half_fov_rad * (2.0 * frac - 1.0);
+  }
+  return 0.0;
+}
+
+/// The true pose at one time; the measured pose is computed only for pulses that return.
+struct Poses {
+  Pose truth;
+  const Trajectory* measured_trajectory;
+  std::size_t* measured_cursor;
+  double t;
+  Pose measured() const { return measured_trajectory->pose(t, measured_cursor); }
+};
+
+void validate(const SurveyConfig& c) {
+  if (c.lines.empty()) throw InvalidInput("survey '" + c.name + "': no flight lines");
+  for (const FlightLine& l : c.lines) {
+    if (!(l.length_m > 0) || !(l.speed_mps > 0) || !(l.height_m > 0)) {
+      throw InvalidInput("survey '" + c.name + "': flight line '" + l.id +
+                         "' needs a positive length, speed and height");
+    }
+  }
+  if (c.sensor == SensorType::kLine) {
+    if (!(c.line.prf_hz > 0) || !(c.line.scan_rate_hz > 0) || !(c.line.half_fov_rad > 0)) {
+      throw InvalidInput("survey '" + c.name + "': line scanner needs positive PRF, scan rate, FOV");
+    }
+  } else if (c.sensor == SensorType::kMultiBeam) {
+    if (c.multibeam.model.laserCount() == 0 || !(c.multibeam.rotation_hz > 0)) {
+      throw InvalidInput("survey '" + c.name + "': multi-beam needs a laser table and a rotation rate");
+    }
+  } else {
+    throw InvalidInput("survey '" + c.name + "': the simulator scans with a line or multi-beam sensor");
+  }
+  if (!(c.trajectory_rate_hz > 0)) throw InvalidInput("survey '" + c.name + "': trajectory rate must be positive");
+}
+
+/// First-order Gauss–Markov step: e ← φ e + σ √(1−φ²) w.
+double gaussMarkov(double e, double dt, double tau, double sigma, std::normal_distribution<double>& n,
+                   std::mt19937_64& rng) {
+  if (sigma <= 0) return 0.0;
+  const double phi = std::exp(-dt / tau);
+  return phi * e + sigma * std::sqrt(1.0 - phi * phi) * n(rng);
+}
+
+}  // namespace
+
+SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
+  validate(config);
+  const Scene& scene = scene_in;
+  SimulatedSurvey out;
+  out.config = config;
+
+  // ---- trajectories ----------------------------------------------------------------------
+  std::mt19937_64 rng(config.seed * 0x9E3779B97F4A7C15ull + 1);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> phase(0.0, 2 * kPi);
+  const AttitudeDynamics& dyn = config.dynamics;
+  const NoiseModel& noise = config.noise;
+  std::vector<TrajectorySample> truth, measured;
+  std::vector<LineFrame> frames;
+  const double dt = 1.0 / config.trajectory_rate_hz;
+  const double lead_s = 2.0;  // trajectory before and after each line
+  double t_line = config.time_origin_s;
+  Vec3 gnss_err = Vec3::Zero(), att_err = Vec3::Zero();
+  double t_prev = t_line - lead_s;
+  for (const FlightLine& line : config.lines) {
+    const LineFrame f = lineFrame(line, t_line);
+    frames.push_back(f);
+    const double pr = phase(rng), pp = phase(rng), ph = phase(rng), pz = phase(rng);
+    const long n0 = -static_cast<long>(std::ceil(lead_s / dt));
+    const long n1 = static_cast<long>(std::ceil((f.t1 - f.t0 + lead_s) / dt));
+    for (long k = n0; k <= n1; ++k) {
+      const double t = f.t0 + static_cast<double>(k) * dt;
+      TrajectorySample s;
+      s.time_s = t;
+      s.p_m = f.start + f.u * (f.speed * (t - f.t0)) + Vec3(0, 0, 0.5 * std::sin(2 * kPi * t / 30.0 + pz));
+      s.roll = dyn.roll_amplitude_rad * std::sin(2 * kPi * t / dyn.roll_period_s + pr);
+      s.pitch = dyn.pitch_amplitude_rad * std::sin(2 * kPi * t / dyn.pitch_period_s + pp);
+      s.heading = line.heading_rad + dyn.heading_amplitude_rad * std::sin(2 * kPi * t / dyn.heading_period_s + ph);
+      truth.push_back(s);
+      const double step = std::max(t - t_prev, dt);
+      t_prev = t;
+      for (int a = 0; a < 3; ++a) {
+        gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, normal, rng);
+        att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s,
+                                 (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, normal, rng);
+      }
+      TrajectorySample m = s;
+      m.p_m += gnss_err;
+      m.roll += att_err[0];
+      m.pitch += att_err[1];
+      m.heading += att_err[2];
+      measured.push_back(m);
+    }
+    t_line = f.t1 + config.line_gap_s;
+  }
+  out.true_trajectory = std::make_shared<const Trajectory>(std::move(truth));
+  out.measured_trajectory = std::make_shared<const Trajectory>(std::move(measured));
+  const Trajectory& T_true = *out.true_trajectory;
+  const Trajectory& T_meas = *out.measured_trajectory;
+
+  const MountingParameters& M_true = config.true_mounting;
+  const MountingParameters& M_nom = config.nominal_mounting;
+  const Mat3 R_bs_true = M_true.R_bs(), R_bs_nom = M_nom.R_bs();
+
+  // ---- features: which are ties, check points, ignored -------------------------------------
+  const std::set<std::string> check_ids(config.check_point_ids.begin(), config.check_point_ids.end());
+  const std::set<std::string> ignored(config.ignored_feature_ids.begin(), config.ignored_feature_ids.end());
+  std::vector<const FeaturePoint*> features;
+  for (const FeaturePoint& fp : scene.features())
+    if (!ignored.count(fp.id)) features.push_back(&fp);
+
+  // ROI centres: features and check planes.
+  std::vector<Vec3> roi;
+  if (config.roi_radius_m > 0) {
+    for (const FeaturePoint* fp : features) roi.push_back(fp->x_m);
+    for (const PlanePatch& p : scene.checkPlanes())
+      roi.push_back(Vec3(0.5 * (p.xmin + p.xmax), 0.5 * (p.ymin + p.ymax), 0));
+  }
+  double roi_extra = 0;  // check planes may be larger than the ROI radius
+  for (const PlanePatch& p : scene.checkPlanes())
+    roi_extra = std::max(roi_extra, 0.5 * std::hypot(p.xmax - p.xmin, p.ymax - p.ymin));
+
+  // ---- strips ------------------------------------------------------------------------------
+  const double scan_axis_index = config.sensor == SensorType::kLine ? 0 : 2;  // scan-plane normal
+  for (std::size_t li = 0; li < config.lines.size(); ++li) {
+    const FlightLine& line = config.lines[li];
+    const LineFrame& f = frames[li];
+    SimulatedStrip strip;
+    strip.id = line.id;
+    std::mt19937_64 prng(config.seed * 1000003ull + li * 7919ull + 11);
+    std::normal_distribution<double> pn(0.0, 1.0);
+
+    // Time windows of the ROI centres along this line.
+    struct Window { double t0, t1; Vec3 c; double r; };
+    std::vector<Window> windows;
+    const double margin = line.height_m * std::tan(deg2rad(3.0)) + 1.0;
+    for (std::size_t k = 0; k < roi.size(); ++k) {
+      const double r = config.roi_radius_m + (k >= features.size() ? roi_extra : 0.0);
+      const double s = f.along(Vec3(roi[k].x(), roi[k].y(), line.height_m));
+      windows.push_back({f.t0 + (s - r - margin) / f.speed, f.t0 + (s + r + margin) / f.speed, roi[k], r});
+    }
+    auto inRoi = [&](double t, const Vec3& approx) {
+      if (roi.empty()) return true;
+      for (const Window& w : windows) {
+        if (t < w.t0 || t > w.t1) continue;
+        const double dx = approx.x() - w.c.x(), dy = approx.y() - w.c.y();
+        if (dx * dx + dy * dy < (w.r + 3.0) * (w.r + 3.0)) return true;
+      }
+      return false;
+    };
+    // Time intervals to fire in: the whole line, or the union of the windows.
+    std::vector<std::pair<double, double>> spans;
+    if (roi.empty()) {
+      spans.push_back({f.t0, f.t1});
+    } else {
+      for (const Window& w : windows) {
+        const double a = std::max(w.t0, f.t0), b = std::min(w.t1, f.t1);
+        if (a < b) spans.push_back({a, b});
+      }
+      std::sort(spans.begin(), spans.end());
+      std::vector<std::pair<double, double>> merged;
+      for (const auto& s : spans) {
+        if (!merged.empty() && s.first <= merged.back().second) merged.back().second = std::max(merged.back().second, s.second);
+        else merged.push_back(s);
+      }
+      spans.swap(merged);
+    }
+
+    std::size_t cur_true = 0, cur_meas = 0;
+    auto emit = [&](double t, const Vec3& origin_s, const Vec3& dir_s, std::uint64_t pulse_id,
+                    const Poses& poses, RawPulse raw, double max_range, double range_offset) {
+      const Vec3 origin = poses.truth.p_m + poses.truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
+      const Vec3 dir = poses.truth.R_mb * (R_bs_true * dir_s);
+      if (!roi.empty()) {
+        const double ground = scene.groundHeight(origin.x(), origin.y());
+        if (dir.z() > -1e-6) return;
+        const Vec3 approx = origin + dir * ((origin.z() - ground) / -dir.z());
+        if (!inRoi(t, approx)) return;
+      }
+      Hit hit;
+      if (!scene.cast(origin, dir, pulse_id, &hit, max_range)) return;
+      raw.time_s = t;
+      // The sensor model adds its range offset to the measured range: measured = path − offset.
+      raw.range_m = hit.range_m - range_offset + (noise.range_sigma_m > 0 ? noise.range_sigma_m * pn(prng) : 0.0);
+      raw.intensity = hit.intensity;
+      Vec3 r_s_obs;
+      if (config.sensor == SensorType::kLine) {
+        if (noise.scan_angle_sigma_rad > 0) raw.angle_rad += noise.scan_angle_sigma_rad * pn(prng);
+        r_s_obs = LineScannerModel{}.vector(raw.angle_rad, raw.range_m);
+      } else {
+        r_s_obs = config.multibeam.model.vector(raw.laser_id, raw.angle_rad, raw.range_m);
+      }
+      raw.r_s = r_s_obs;
+      strip.points_m.push_back(georeference(poses.measured(), R_bs_nom, M_nom.a_b, r_s_obs));  // seed eq. (1)
+      strip.true_points_m.push_back(hit.point_m);
+      strip.kinds.push_back(hit.kind);
+      strip.pulses.push_back(raw);
+    };
+
+    for (const auto& span : spans) {
+      if (config.sensor == SensorType::kLine) {
+        LineScannerConfig scanner = config.line;
+        if (line.prf_hz > 0) scanner.prf_hz = line.prf_hz;
+        if (line.scan_rate_hz > 0) scanner.scan_rate_hz = line.scan_rate_hz;
+        const double prf = scanner.prf_hz;
+        const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
+        const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
+        for (long k = k0; k <= k1; ++k) {
+          const double t = f.t0 + static_cast<double>(k) / prf;
+          Poses poses{T_true.pose(t, &cur_true), &T_meas, &cur_meas, t};
+          RawPulse raw;
+          raw.angle_rad = mirrorAngle(scanner, t - f.t0);
+          const Vec3 dir_s(0.0, std::sin(raw.angle_rad), std::cos(raw.angle_rad));
+          emit(t, Vec3::Zero(), dir_s, (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(k),
+               poses, raw, 1e5, 0.0);
+        }
+      } else {
+        const MultiBeamModel& mb = config.multibeam.model;
+        const double period = mb.sequencePeriod();
+        const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
+        const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
+        for (long s = s0; s <= s1; ++s) {
+          for (int laser = 0; laser < mb.laserCount(); ++laser) {
+            const double t = f.t0 + mb.firingTime(laser, s);
+            if (t > f.t1) break;
+            Poses poses{T_true.pose(t, &cur_true), &T_meas, &cur_meas, t};
+            RawPulse raw;
+            raw.laser_id = laser;
+            double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
+            raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
+            const LaserSpec& spec = mb.laser(laser);
+            const double ce = std::cos(spec.elevation_rad);
+            const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
+            const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
+            const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
+            emit(t, origin_s, dir_s,
+                 (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser),
+                 poses, raw, config.multibeam.max_range_m, spec.range_offset_m);
+          }
+        }
+      }
+    }
+
+    // ---- tie picks for this strip ----------------------------------------------------------
+    std::mt19937_64 krng(config.seed * 2654435761ull + li * 40503ull + 3);
+    std::normal_distribution<double> kn(0.0, 1.0);
+    for (const FeaturePoint* fp : features) {
+      const Vec3& F = fp->x_m;
+      const double s_c = f.along(Vec3(F.x(), F.y(), line.height_m));
+      if (s_c < 0 || s_c > line.length_m) continue;
+      // g(t): component of the true scanner-frame vector to F along the scan-plane normal.
+      auto vecAt = [&](double t) {
+        const Pose p = T_true.pose(t);
+        return Vec3(R_bs_true.transpose() * (p.R_mb.transpose() * (F - p.p_m) - M_true.a_b));
+      };
+      const int axis = static_cast<int>(scan_axis_index);
+      double lo = std::max(f.t0, f.t0 + s_c / f.speed - 3.0), hi = std::min(f.t1, f.t0 + s_c / f.speed + 3.0);
+      double glo = vecAt(lo)[axis];
+      bool bracketed = false;
+      for (double t = lo + 0.05; t <= hi + 1e-9; t += 0.05) {
+        const double g = vecAt(t)[axis];
+        if ((g <= 0) != (glo <= 0)) {
+          hi = t;
+          bracketed = true;
+          break;
+        }
+        lo = t;
+        glo = g;
+      }
+      if (!bracketed) continue;
+      for (int it = 0; it < 80 && hi - lo > 1e-10; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        const double g = vecAt(mid)[axis];
+        if ((g <= 0) == (glo <= 0)) { lo = mid; glo = g; } else { hi = mid; }
+      }
+      const double t = 0.5 * (lo + hi);
+      const Vec3 r_true = vecAt(t);
+      Vec3 r_s_seen;
+      if (config.sensor == SensorType::kLine) {
+        const double theta = std::atan2(r_true.y(), r_true.z());
+        if (std::abs(theta) > config.line.half_fov_rad * 0.98 || r_true.z() <= 0) continue;
+        r_s_seen = LineScannerModel{}.vector(theta, std::hypot(r_true.y(), r_true.z()));
+      } else {
+        if (r_true.norm() > 0.9 * config.multibeam.max_range_m) continue;
+        r_s_seen = r_true;
+      }
+      TiePick pick;
+      pick.tie_id = fp->id;
+      pick.strip_id = line.id;
+      pick.true_m = F;
+      pick.time_s = t;
+      pick.apparent_m = georeference(T_meas.pose(t), R_bs_nom, M_nom.a_b, r_s_seen);
+      pick.x_m = pick.apparent_m.x() + noise.pick_sigma_m * kn(krng);
+      pick.y_m = pick.apparent_m.y() + noise.pick_sigma_m * kn(krng);
+      (check_ids.count(fp->id) ? out.check_points : out.ties).push_back(pick);
+    }
+    out.strips.push_back(std::move(strip));
+  }
+
+  // Keep only features seen on at least two strips.
+  auto prune = [](std::vector<TiePick>* picks) {
+    std::map<std::string, int> count;
+    for (const TiePick& p : *picks) ++count[p.tie_id];
+    picks->erase(std::remove_if(picks->begin(), picks->end(), [&](const TiePick& p) { return count[p.tie_id] < 2; }),
+                 picks->end());
+    std::stable_sort(picks->begin(), picks->end(), [](const TiePick& a, const TiePick& b) { return a.tie_id < b.tie_id; });
+  };
+  prune(&out.ties);
+  prune(&out.check_points);
+  std::set<std::string> tie_ids;
+  for (const TiePick& p : out.ties) tie_ids.insert(p.tie_id);
+  for (const FeaturePoint* fp : features)
+    if (tie_ids.count(fp->id)) out.gcps.push_back(*fp);
+  out.check_planes = scene.checkPlanes();
+  return out;
+}
+
+}  // namespace mountcal::simulation

@@ -1,0 +1,209 @@
+// Writing a simulated survey in the folder layout of SPEC §4.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <nlohmann/json.hpp>
+
+#include "mountcal/error.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/csv.hpp"
+#include "mountcal/io/las.hpp"
+#include "mountcal/simulation/survey.hpp"
+
+namespace mountcal::simulation {
+
+namespace {
+
+nlohmann::json mountingJson(const MountingParameters& m) {
+  const Vec3 b = m.boresightDeg();
+  return {{"lever_arm_m", {m.a_b.x(), m.a_b.y(), m.a_b.z()}}, {"boresight_deg", {b.x(), b.y(), b.z()}}};
+}
+
+/// Nominal rotation of a mounting as (roll, pitch, heading) [deg] composed Rz·Ry·Rx.
+std::array<double, 3> nominalDeg(const MountingParameters& m) {
+  // R_nom = Rz(h) Ry(p) Rx(r): same extraction as rollPitchHeading.
+  const Vec3 rph = rollPitchHeading(m.R_nom);
+  return {rad2deg(rph.x()), rad2deg(rph.y()), rad2deg(rph.z())};
+}
+
+void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip,
+                   int source_id) {
+  io::LasHeader h;
+  h.version_minor = 4;
+  h.point_format = 6;
+  h.point_record_length = 30;
+  h.global_encoding = 0;  // GPS week seconds
+  h.file_source_id = static_cast<std::uint16_t>(source_id);
+  h.generating_software = "mountcal simulate";
+  h.system_identifier = survey.config.name;
+  Vec3 lo = Vec3::Constant(1e300);
+  for (const Vec3& p : strip.points_m) lo = lo.cwiseMin(p);
+  if (strip.points_m.empty()) lo.setZero();
+  for (int a = 0; a < 3; ++a) h.offset[a] = std::floor(lo[a] / 1000.0) * 1000.0;
+  io::LasWriter w(path, h);
+  io::LasPoint p;
+  for (std::size_t k = 0; k < strip.points_m.size(); ++k) {
+    const RawPulse& r = strip.pulses[k];
+    p.X = w.quantize(0, strip.points_m[k].x());
+    p.Y = w.quantize(1, strip.points_m[k].y());
+    p.Z = w.quantize(2, strip.points_m[k].z());
+    p.intensity = static_cast<std::uint16_t>(std::lround(std::max(0.0f, r.intensity)));
+    p.gps_time = r.time_s;
+    p.point_source_id = static_cast<std::uint16_t>(source_id);
+    p.classification = strip.kinds[k] == SurfaceKind::kVegetation ? 5 : strip.kinds[k] == SurfaceKind::kRoof || strip.kinds[k] == SurfaceKind::kWall ? 6 : 2;
+    if (survey.config.sensor == SensorType::kLine) {
+      io::setScanAngleDeg(w.header(), rad2deg(r.angle_rad), &p);
+      p.user_data = 0;
+    } else {
+      p.scan_angle = 0;
+      p.user_data = static_cast<std::uint8_t>(r.laser_id);
+      p.scanner_channel = 0;
+    }
+    w.write(p);
+  }
+  w.close();
+}
+
+}  // namespace
+
+void writeSurvey(const SimulatedSurvey& survey, const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
+  const SurveyConfig& c = survey.config;
+  io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
+
+  nlohmann::json strips = nlohmann::json::array();
+  for (std::size_t k = 0; k < survey.strips.size(); ++k) {
+    const SimulatedStrip& s = survey.strips[k];
+    writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1));
+    io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
+    strips.push_back({{"id", s.id}, {"path", "strip_" + s.id + ".las"}});
+  }
+  auto toObs = [](const std::vector<TiePick>& picks) {
+    std::vector<io::TieObservation> out;
+    for (const TiePick& p : picks) out.push_back({p.tie_id, p.strip_id, p.x_m, p.y_m, 0});
+    return out;
+  };
+  io::writeTiesCsv(dir + "/ties.csv", toObs(survey.ties));
+  io::writeTiesCsv(dir + "/check_points.csv", toObs(survey.check_points));
+  std::vector<io::PlaneRegion> planes;
+  for (const PlanePatch& p : survey.check_planes) planes.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+  io::writePlanesCsv(dir + "/check_planes.csv", planes);
+  std::vector<io::GroundControlPoint> gcps;
+  for (const FeaturePoint& f : survey.gcps) gcps.push_back({f.id, f.x_m.x(), f.x_m.y(), f.x_m.z(), 0.02, 0.02});
+  io::writeGcpCsv(dir + "/gcps.csv", gcps);
+
+  const auto nom = nominalDeg(c.nominal_mounting);
+  nlohmann::json sensor;
+  if (c.sensor == SensorType::kLine) {
+    sensor = {{"type", "line"}, {"nominal_rotation_deg", nom}};
+  } else {
+    sensor = {{"type", "multibeam"}, {"model", c.multibeam.model.name()}, {"nominal_rotation_deg", nom}};
+  }
+  nlohmann::json job = {
+      {"frame", {{"type", "local"}}},
+      {"trajectory", {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}}},
+      {"sensor", sensor},
+      {"mounting_used", mountingJson(c.nominal_mounting)},
+      {"strips", strips},
+      {"ties", "ties.csv"},
+      {"check_points", "check_points.csv"},
+      {"check_planes", "check_planes.csv"},
+      {"method", "vtpm"},
+      {"estimate", {{"lever_arm", {true, true, false}}, {"boresight", {true, true, true}}}},
+      {"vtpm", {{"radius_m", 1.0}, {"ransac_threshold_m", 0.05}}},
+      {"solver", {{"max_iterations", 100}, {"loss", "trivial"}}},
+      {"output", {{"result", "result.json"}, {"report", "report.html"}}},
+  };
+  io::writeFileAtomically(dir + "/job.json", job.dump(2) + "\n");
+
+  const NoiseModel& n = c.noise;
+  nlohmann::json truth = {
+      {"preset", c.name},
+      {"seed", c.seed},
+      {"mounting", mountingJson(c.true_mounting)},
+      {"mounting_used", mountingJson(c.nominal_mounting)},
+      {"nominal_rotation_deg", nom},
+      {"noise",
+       {{"range_sigma_m", n.range_sigma_m},
+        {"scan_angle_sigma_deg", rad2deg(n.scan_angle_sigma_rad)},
+        {"gnss_sigma_m", n.gnss_sigma_m},
+        {"gnss_correlation_s", n.gnss_correlation_s},
+        {"attitude_sigma_deg", rad2deg(n.attitude_sigma_rad)},
+        {"heading_sigma_deg", 2 * rad2deg(n.attitude_sigma_rad)},
+        {"attitude_correlation_s", n.attitude_correlation_s},
+        {"pick_sigma_m", n.pick_sigma_m}}},
+      {"strips", survey.strips.size()},
+      {"ties", survey.ties.size()},
+      {"check_points", survey.check_points.size()},
+  };
+  io::writeFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
+}
+
+void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "", "cannot open the scenario file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
+  }
+  if (!j.is_object()) throw FileError(path, "", "a scenario is a JSON object");
+  static const std::set<std::string> kKnown = {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m"};
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (!kKnown.count(it.key())) throw FileError(path, "field '" + it.key() + "'", "unknown field (known: preset, seed, true_mounting, nominal_mounting, noise, roi_radius_m)");
+  }
+  if (!j.contains("preset") || !j["preset"].is_string()) throw FileError(path, "field 'preset'", "missing or not a string");
+  try {
+    const std::uint64_t seed = j.value("seed", 1ull);
+    try {
+      makePreset(j["preset"].get<std::string>(), seed, config, scene);
+    } catch (const InvalidInput& e) {
+      throw FileError(path, "field 'preset'", e.what());
+    }
+    auto vec3 = [&](const nlohmann::json& a, const std::string& field) {
+      if (!a.is_array() || a.size() != 3) throw FileError(path, "field '" + field + "'", "expected an array of 3 numbers");
+      return Vec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+    };
+    auto mounting = [&](const std::string& key, MountingParameters* m) {
+      if (!j.contains(key)) return;
+      const auto& o = j[key];
+      if (o.contains("lever_arm_m")) m->a_b = vec3(o["lever_arm_m"], key + ".lever_arm_m");
+      if (o.contains("boresight_deg")) m->boresight = vec3(o["boresight_deg"], key + ".boresight_deg") * (kPi / 180.0);
+    };
+    mounting("true_mounting", &config->true_mounting);
+    mounting("nominal_mounting", &config->nominal_mounting);
+    if (j.contains("roi_radius_m")) config->roi_radius_m = j["roi_radius_m"].get<double>();
+    if (j.contains("noise")) {
+      const auto& n = j["noise"];
+      if (n.is_string()) {
+        if (n == "none") config->noise = NoiseModel::none();
+        else if (n == "realistic") config->noise = NoiseModel::realistic();
+        else throw FileError(path, "field 'noise'", "expected \"none\", \"realistic\" or an object");
+      } else if (n.is_object()) {
+        NoiseModel& m = config->noise;
+        for (auto it = n.begin(); it != n.end(); ++it) {
+          const std::string& k = it.key();
+          const double v = it.value().get<double>();
+          if (k == "range_sigma_m") m.range_sigma_m = v;
+          else if (k == "scan_angle_sigma_deg") m.scan_angle_sigma_rad = deg2rad(v);
+          else if (k == "gnss_sigma_m") m.gnss_sigma_m = v;
+          else if (k == "gnss_correlation_s") m.gnss_correlation_s = v;
+          else if (k == "attitude_sigma_deg") m.attitude_sigma_rad = deg2rad(v);
+          else if (k == "attitude_correlation_s") m.attitude_correlation_s = v;
+          else if (k == "pick_sigma_m") m.pick_sigma_m = v;
+          else throw FileError(path, "field 'noise." + k + "'", "unknown noise field");
+        }
+      } else {
+        throw FileError(path, "field 'noise'", "expected a string or an object");
+      }
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw FileError(path, "", std::string("wrong type: ") + e.what());
+  }
+}
+
+}  // namespace mountcal::simulation

@@ -1,0 +1,187 @@
+// Survey simulator tests (issue: survey simulator).
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "mountcal/error.hpp"
+#include "mountcal/georeference_model.hpp"
+#include "mountcal/simulation/survey.hpp"
+
+using namespace mountcal;
+using namespace mountcal::simulation;
+
+namespace {
+
+/// Calibration-field preset with no noise and a small ROI: quick to simulate.
+SurveyConfig quietField(Scene* scene, std::uint64_t seed = 3) {
+  SurveyConfig c;
+  makePreset("paper-calibration-field", seed, &c, scene);
+  c.noise = NoiseModel::none();
+  c.roi_radius_m = 3.0;
+  return c;
+}
+
+}  // namespace
+
+TEST(Simulator, PointsGeoreferencedWithTheTruthLieOnTheSurfaceTheyHit) {
+  Scene scene;
+  SurveyConfig c = quietField(&scene);
+  const SimulatedSurvey s = simulate(c, scene);
+  const GeoreferenceModel truth(s.true_trajectory, c.true_mounting);
+  std::size_t n = 0, ground = 0;
+  for (const SimulatedStrip& strip : s.strips) {
+    ASSERT_EQ(strip.pulses.size(), strip.points_m.size());
+    for (std::size_t k = 0; k < strip.pulses.size(); k += 7) {
+      const Vec3 x = truth.forward(strip.pulses[k].time_s, strip.pulses[k].r_s);
+      EXPECT_LT((x - strip.true_points_m[k]).norm(), 1e-6);
+      if (strip.kinds[k] == SurfaceKind::kGround || strip.kinds[k] == SurfaceKind::kMarking) {
+        EXPECT_NEAR(x.z(), scene.groundHeight(x.x(), x.y()), 1e-6);
+        ++ground;
+      }
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 1000u);
+  EXPECT_GT(ground, 500u);
+}
+
+TEST(Simulator, WithNominalEqualToTruthAndNoNoiseEveryTiesPicksCoincide) {
+  Scene scene;
+  SurveyConfig c = quietField(&scene);
+  c.nominal_mounting = c.true_mounting;
+  const SimulatedSurvey s = simulate(c, scene);
+  ASSERT_GT(s.ties.size(), 40u);
+  std::map<std::string, std::vector<const TiePick*>> by_tie;
+  for (const TiePick& p : s.ties) by_tie[p.tie_id].push_back(&p);
+  for (const auto& [id, picks] : by_tie) {
+    ASSERT_GE(picks.size(), 2u) << id;
+    for (const TiePick* p : picks) {
+      EXPECT_LT(std::hypot(p->x_m - picks[0]->x_m, p->y_m - picks[0]->y_m), 1e-6) << id;
+      EXPECT_LT((p->apparent_m - p->true_m).norm(), 1e-6) << id;
+    }
+  }
+}
+
+TEST(Simulator, PicksSpreadAsTheFirstOrderStripOffsetFormulasPredict) {
+  // SPEC §2 closed form: level flight at height H, A and B opposite over one line, C in A's
+  // direction displaced by D to A's right. ε = δ_used − δ, η = a_used − a.
+  Scene scene;
+  scene.setGround(0.0, 0.0, 0.0);
+  for (int k = 0; k < 7; ++k) {
+    const double y = 40.0 * k - 120.0;  // cross-track offsets of the targets (x is East)
+    scene.addGroundTarget("t" + std::to_string(k), 150 + y, 300.0 + 50 * k, 3.0, 0.0);
+  }
+  scene.build();
+  SurveyConfig c;
+  c.name = "closed-form";
+  c.dynamics = AttitudeDynamics{0, 0, 0, 9, 13, 21};
+  c.noise = NoiseModel::none();
+  c.roi_radius_m = 2.0;
+  const double H = 500, D = 100;
+  c.lines = {{"A", 150, 0, 0.0, 800, H, 60}, {"B", 150, 800, kPi, 800, H, 60}, {"C", 150 + D, 0, 0.0, 800, H, 60}};
+  c.nominal_mounting = MountingParameters{};
+  c.true_mounting = MountingParameters::fromDegrees(Vec3(0.10, -0.05, 0.20), Vec3(0.05, -0.08, 0.12));
+  const SimulatedSurvey s = simulate(c, scene);
+  const Vec3 eps = c.nominal_mounting.boresight - c.true_mounting.boresight;
+  const Vec3 eta = c.nominal_mounting.a_b - c.true_mounting.a_b;
+  std::map<std::string, std::map<std::string, const TiePick*>> picks;
+  for (const TiePick& p : s.ties) picks[p.tie_id][p.strip_id] = &p;
+  // Strip A's axes in the mapping frame: along = North, cross (right) = East, down = −Up.
+  auto inA = [](const Vec3& d) { return Vec3(d.y(), d.x(), -d.z()); };
+  const double tol = 5e-3;  // O(δ²ρ) ≈ 2 mm here, and the 0.5 m vertical undulation of the flight
+  int checked = 0;
+  for (const auto& [id, by_strip] : picks) {
+    ASSERT_TRUE(by_strip.count("A") && by_strip.count("B")) << id;
+    const Vec3 x_A = by_strip.at("A")->apparent_m, true_m = by_strip.at("A")->true_m;
+    const double y_A = true_m.x() - 150.0;
+    const double H_A = H + 0.5;  // the flight undulates by ±0.5 m; allow for it in the tolerance
+    const Vec3 dAB = inA(x_A - by_strip.at("B")->apparent_m);
+    EXPECT_NEAR(dAB.x(), 2 * (eps.y() * H_A + eta.x()), tol + 2 * std::abs(eps.y()) * 1.0) << id;
+    EXPECT_NEAR(dAB.y(), 2 * (eta.y() - eps.x() * H_A), tol + 2 * std::abs(eps.x()) * 1.0) << id;
+    EXPECT_NEAR(dAB.z(), 2 * eps.x() * y_A, tol) << id;
+    if (by_strip.count("C")) {
+      const Vec3 dAC = inA(x_A - by_strip.at("C")->apparent_m);
+      EXPECT_NEAR(dAC.x(), -eps.z() * D, tol) << id;
+      EXPECT_NEAR(dAC.z(), eps.x() * D, tol) << id;
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 7);
+  // The spread is real: pitch error of 0.08° at 500 m moves picks by 1.4 m between A and B.
+  EXPECT_GT(std::abs(2 * eps.y() * H), 1.0);
+}
+
+TEST(Simulator, PointSpacingOfThe760mPresetIsHalfAMetre) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 1, &c, &scene);
+  c.roi_radius_m = 0;  // whole strip
+  c.lines.resize(1);
+  c.lines[0].x0_m = -150;
+  c.lines[0].length_m = 300;
+  const SimulatedSurvey s = simulate(c, scene);
+  const auto& pts = s.strips[0].true_points_m;
+  // Count ground returns in a 100 m window across the whole swath (mean density).
+  std::size_t n = 0;
+  double ymin = 1e9, ymax = -1e9;
+  for (const Vec3& p : pts) {
+    if (p.x() < -50 || p.x() > 50) continue;
+    ++n;
+    ymin = std::min(ymin, p.y());
+    ymax = std::max(ymax, p.y());
+  }
+  const double spacing = std::sqrt(100.0 * (ymax - ymin) / static_cast<double>(n));
+  EXPECT_NEAR(spacing, 0.5, 0.1) << n << " points over " << ymax - ymin << " m";
+}
+
+TEST(Simulator, SameSeedSameOutputOtherSeedOtherNoise) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 42, &c, &scene);
+  c.roi_radius_m = 2.0;
+  const SimulatedSurvey a = simulate(c, scene), b = simulate(c, scene);
+  ASSERT_EQ(a.strips.size(), b.strips.size());
+  for (std::size_t k = 0; k < a.strips.size(); ++k) {
+    ASSERT_EQ(a.strips[k].points_m.size(), b.strips[k].points_m.size());
+    for (std::size_t i = 0; i < a.strips[k].points_m.size(); ++i)
+      ASSERT_EQ(a.strips[k].points_m[i], b.strips[k].points_m[i]);
+  }
+  ASSERT_EQ(a.ties.size(), b.ties.size());
+  for (std::size_t i = 0; i < a.ties.size(); ++i) ASSERT_EQ(a.ties[i].x_m, b.ties[i].x_m);
+  c.seed = 43;
+  const SimulatedSurvey d = simulate(c, scene);
+  EXPECT_NE(a.ties[0].x_m, d.ties[0].x_m);
+}
+
+TEST(Simulator, MultiBeamPresetScansTheGroundAroundTheTargets) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("uav-vlp16", 1, &c, &scene);
+  c.noise = NoiseModel::none();
+  c.roi_radius_m = 1.5;
+  const SimulatedSurvey s = simulate(c, scene);
+  ASSERT_EQ(s.strips.size(), 3u);
+  const GeoreferenceModel truth(s.true_trajectory, c.true_mounting);
+  std::size_t n = 0;
+  for (const SimulatedStrip& strip : s.strips) {
+    for (std::size_t k = 0; k < strip.pulses.size(); k += 11) {
+      const RawPulse& p = strip.pulses[k];
+      const Vec3 r_s = c.multibeam.model.vector(p.laser_id, p.angle_rad, p.range_m);
+      EXPECT_LT((truth.forward(p.time_s, r_s) - strip.true_points_m[k]).norm(), 1e-6);
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 100u);
+  EXPECT_GE(s.ties.size(), 16u);
+}
+
+TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {
+  Scene scene;
+  SurveyConfig c;
+  EXPECT_THROW(makePreset("no-such-preset", 1, &c, &scene), InvalidInput);
+  makePreset("paper-check-block", 1, &c, &scene);
+  c.lines[0].speed_mps = 0;
+  EXPECT_THROW(simulate(c, scene), InvalidInput);
+  c.lines.clear();
+  EXPECT_THROW(simulate(c, scene), InvalidInput);
+}
