@@ -27,6 +27,18 @@ void calibrationField(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   s->addGroundTarget("target_3", -60, -180, 3.0, deg2rad(0));
   s->addGroundTarget("target_4", 200, 120, 3.0, deg2rad(15));
   s->addGroundTarget("target_5", 0, 0, 3.0, deg2rad(0));
+  // Rings of ground targets, the outer one near the edge of the 760 m swath: the heading
+  // boresight is seen through along-track offsets that grow with the cross-track distance.
+  for (int k = 0; k < 16; ++k) {
+    const double az = deg2rad(22.5 * k + 10.0);
+    s->addGroundTarget("ring_" + std::to_string(k + 1), 250.0 * std::sin(az), 250.0 * std::cos(az), 3.0, az);
+  }
+  for (int k = 0; k < 8; ++k) {
+    const double az = deg2rad(45.0 * k + 30.0);
+    s->addGroundTarget("inner_" + std::to_string(k + 1), 120.0 * std::sin(az), 120.0 * std::cos(az), 3.0, az);
+  }
+  s->addZebraCrossing("zebra_d", -200, 205, deg2rad(30));
+  s->addZebraCrossing("zebra_e", 215, -200, deg2rad(60));
   s->addFlatRoofBuilding("bldg_a", 80, -90, 40, 25, 15, deg2rad(30));
   s->addFlatRoofBuilding("bldg_b", -110, 90, 30, 20, 24, deg2rad(0));
   s->addGableHouse("house_a", -40, 60, 14, 10, 6, 10, deg2rad(20));

@@ -15,10 +15,10 @@ NoiseModel NoiseModel::realistic() {
   NoiseModel n;
   n.range_sigma_m = 0.02;
   n.scan_angle_sigma_rad = deg2rad(0.001);
-  n.gnss_sigma_m = 0.03;
+  n.gnss_sigma_m = 0.015;
   n.gnss_correlation_s = 100.0;
-  n.attitude_sigma_rad = deg2rad(0.002);
-  n.attitude_correlation_s = 1.0;
+  n.attitude_sigma_rad = deg2rad(0.001);
+  n.attitude_correlation_s = 0.1;
   n.pick_sigma_m = 0.05;
   return n;
 }
@@ -369,6 +369,28 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     if (tie_ids.count(fp->id)) out.gcps.push_back(*fp);
   out.check_planes = scene.checkPlanes();
   return out;
+}
+
+CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_points) {
+  CalibrationData d;
+  d.trajectory = survey.measured_trajectory;
+  d.mounting_used = survey.config.nominal_mounting;
+  for (const SimulatedStrip& s : survey.strips) {
+    StripData strip;
+    strip.id = s.id;
+    strip.time_s.reserve(s.pulses.size());
+    strip.r_s.reserve(s.pulses.size());
+    for (const RawPulse& p : s.pulses) {
+      strip.time_s.push_back(p.time_s);
+      strip.r_s.push_back(p.r_s);
+    }
+    strip.x_m = s.points_m;
+    d.strips.push_back(std::move(strip));
+  }
+  for (const TiePick& p : use_check_points ? survey.check_points : survey.ties) {
+    d.ties.push_back({p.tie_id, p.strip_id, p.x_m, p.y_m, 0});
+  }
+  return d;
 }
 
 }  // namespace mountcal::simulation

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mountcal/observations.hpp"
 #include "mountcal/sensor_model.hpp"
 #include "mountcal/trajectory.hpp"
 
@@ -44,30 +45,18 @@ Trajectory readTrajectoryCsv(const std::string& path, double time_offset_s = 0.0
 /// Writes the local-frame trajectory CSV (atomically).
 void writeTrajectoryCsv(const std::string& path, const Trajectory& trajectory);
 
-/// One row of a Ties CSV (`tie_id,strip_id,x,y`) or check-points CSV.
-struct TieObservation {
-  std::string tie_id;
-  std::string strip_id;
-  double x_m = 0, y_m = 0;
-  std::size_t line = 0;  ///< line in the file (for messages)
-};
+/// Ties CSV (`tie_id,strip_id,x,y`) and check-points CSV.
+using mountcal::TieObservation;
 std::vector<TieObservation> readTiesCsv(const std::string& path);
 void writeTiesCsv(const std::string& path, const std::vector<TieObservation>& ties);
 
-/// One row of a check-planes / planes / targets CSV (`plane_id,xmin,ymin,xmax,ymax`).
-struct PlaneRegion {
-  std::string id;
-  double xmin = 0, ymin = 0, xmax = 0, ymax = 0;
-};
+/// Check-planes / planes / targets CSV (`plane_id,xmin,ymin,xmax,ymax`).
+using mountcal::PlaneRegion;
 std::vector<PlaneRegion> readPlanesCsv(const std::string& path);
 void writePlanesCsv(const std::string& path, const std::vector<PlaneRegion>& planes);
 
-/// One row of a GCP CSV (`gcp_id,x,y,z,sigma_xy_m,sigma_z_m`).
-struct GroundControlPoint {
-  std::string id;
-  double x_m = 0, y_m = 0, z_m = 0;
-  double sigma_xy_m = 0.02, sigma_z_m = 0.02;
-};
+/// GCP CSV (`gcp_id,x,y,z,sigma_xy_m,sigma_z_m`).
+using mountcal::GroundControlPoint;
 std::vector<GroundControlPoint> readGcpCsv(const std::string& path);
 void writeGcpCsv(const std::string& path, const std::vector<GroundControlPoint>& gcps);
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "mountcal/mounting.hpp"
+#include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/sensor_model.hpp"
 #include "mountcal/simulation/scene.hpp"
 #include "mountcal/trajectory.hpp"
@@ -72,8 +73,9 @@ struct NoiseModel {
   double pick_sigma_m = 0.0;             ///< tie picking, per horizontal axis [m]
 
   static NoiseModel none() { return {}; }
-  /// A post-processed airborne survey: 2 cm range, 0.001° encoder, 3 cm GNSS (100 s),
-  /// 0.002° roll/pitch and 0.004° heading (1 s), 5 cm picking.
+  /// A post-processed airborne survey: 2 cm range, 0.001° scan-angle encoder, 1.5 cm
+  /// strip-to-strip GNSS (PPK, Gauss–Markov 100 s), 0.001° roll/pitch and 0.002° heading
+  /// noise (Gauss–Markov 0.1 s), 5 cm tie picking.
   static NoiseModel realistic();
 };
 
@@ -133,6 +135,11 @@ struct SimulatedSurvey {
 
 /// Runs the survey. Throws InvalidInput for an inconsistent configuration.
 SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
+
+/// The survey as a calibrator sees it: the measured trajectory, the nominal mounting, every
+/// strip's raw vectors and georeferenced points, and the ties (or the check points when
+/// `use_check_points`). No file round trip, so no LAS quantisation.
+CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_points = false);
 
 /// The names of the built-in presets (SPEC §4): "paper-calibration-field",
 /// "paper-check-block", "uav-vlp16".

@@ -1,0 +1,124 @@
+#pragma once
+/// \file virtual_tie_point.hpp
+/// The virtual tie point model (VTPM) of the first paper (seed 000 §2.3–2.4, SPEC §3).
+///
+/// Laser footprints are discrete, so no two strips share a real point. A virtual tie point
+/// ties a picked plan position (X, Y) on one strip to the three real, coplanar laser points
+/// whose triangle encloses it:
+///  1. FLANN radius search around (X, Y); RANSAC keeps the coplanar points; a 2-D Delaunay
+///     triangulation of them in the fitted plane (an OpenMesh TriMesh); the enclosing triangle.
+///  2. Rule 1 (seed eq. 5): the tie's height is interpolated on the triangle's plane → P⁰.
+///  3. Rule 2 (seed eq. 6): for any mounting M the three vertices are georeferenced again, the
+///     rigid transform from the reference triangle to the new one is fitted (Kabsch), and
+///     applied to P⁰ → P(M). A pure function of M.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mountcal/mounting.hpp"
+#include "mountcal/observations.hpp"
+#include "mountcal/trajectory.hpp"
+
+namespace mountcal {
+
+/// A strip as the calibrators need it: per point the emission time, the raw laser vector and
+/// (optionally) the position georeferenced with the reference mounting.
+struct StripData {
+  std::string id;
+  std::vector<double> time_s;  ///< [s]
+  std::vector<Vec3> r_s;       ///< laser vectors in the scanner frame [m]
+  std::vector<Vec3> x_m;       ///< georeferenced with the reference mounting [m]; filled if empty
+};
+
+/// A real laser point with what Rule 2 needs to georeference it again.
+struct LaserFootprint {
+  Pose pose;                     ///< trajectory pose at the emission time
+  Vec3 r_s = Vec3::Zero();       ///< raw laser vector [m]
+  Vec3 x0_m = Vec3::Zero();      ///< position at the reference mounting [m]
+  std::size_t index = 0;         ///< index in its strip
+};
+
+/// Settings of the VTPM construction.
+struct VtpOptions {
+  double radius_m = 1.0;            ///< search radius around the pick [m] (seed: 1 m)
+  /// The radius grows to this multiple of the local point spacing when that is larger, so that
+  /// sparse strips still give enough points [-].
+  double radius_spacing_factor = 2.5;
+  double max_radius_m = 5.0;        ///< the grown radius never exceeds this [m]
+  double ransac_threshold_m = 0.05; ///< max point-to-plane distance of an inlier [m]
+  int ransac_iterations = 200;      ///< [-]
+  int min_points = 5;               ///< fewer coplanar points than this → rejected
+  /// The plane must hold at least this fraction of the pick's 6 nearest points, else "no plane".
+  double min_inlier_fraction = 0.5;
+  double min_triangle_angle_deg = 5.0;  ///< a sliver triangle is degenerate [deg]
+  double max_plane_tilt_deg = 75.0; ///< a plane steeper than this cannot hold a plan pick [deg]
+};
+
+/// One virtual tie point: a pick on one strip and its three laser footprints.
+class VirtualTiePoint {
+ public:
+  VirtualTiePoint() = default;
+  VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m,
+                  const std::array<LaserFootprint, 3>& vertices, const Mat3& R_nom);
+
+  const std::string& tieId() const { return tie_id_; }
+  const std::string& stripId() const { return strip_id_; }
+  const std::array<LaserFootprint, 3>& vertices() const { return vertices_; }
+  /// P⁰: the pick with its Rule 1 height, at the reference mounting [m].
+  const Vec3& referencePosition() const { return P0_m_; }
+
+  /// Rule 2: the tie position at mounting (lever arm, boresight) given as the 6-vector
+  /// `mounting6` in MountingIndex order [m, rad]; the nominal rotation is the reference one.
+  Vec3 position(const double* mounting6) const;
+  Vec3 position(const MountingParameters& m) const;
+
+ private:
+  std::string tie_id_, strip_id_;
+  std::array<LaserFootprint, 3> vertices_{};
+  Vec3 P0_m_ = Vec3::Zero();
+  Vec3 centroid0_m_ = Vec3::Zero();
+  std::array<Vec3, 3> p_rel_m_{};  // trajectory positions relative to centroid0 (round-off)
+  Mat3 R_nom_ = Mat3::Identity();
+};
+
+/// seed eq. (5): height at (x, y) on the plane through three points.
+double interpolateHeight(const Vec3& p1, const Vec3& p2, const Vec3& p3, double x, double y);
+
+/// Least-squares rigid transform (Kabsch) with q ≈ R p + t for three or more point pairs.
+void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t);
+
+/// A strip ready for VTPM construction: its points at the reference mounting in a FLANN k-d
+/// tree over (x, y), and its poses.
+class VtpStrip {
+ public:
+  /// Georeferences `strip` with `reference` through `trajectory` when `strip.x_m` is empty.
+  /// Throws InvalidInput for inconsistent sizes, TimeOutOfRange for a point outside the
+  /// trajectory.
+  VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,
+           const MountingParameters& reference);
+  ~VtpStrip();
+  VtpStrip(VtpStrip&&) noexcept;
+  VtpStrip& operator=(VtpStrip&&) noexcept;
+
+  const StripData& data() const { return strip_; }
+  /// Indices of the points within `radius_m` of (x, y) in plan (exact search).
+  std::vector<std::size_t> radiusSearch(double x_m, double y_m, double radius_m) const;
+  /// Mean plan spacing of points around (x, y) [m] (from the 8 nearest neighbours).
+  double localSpacing(double x_m, double y_m) const;
+
+  /// Builds the VTP of a pick; on failure returns false and sets `reason`.
+  bool build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp,
+             std::string* reason) const;
+
+ private:
+  struct Index;
+  StripData strip_;
+  std::shared_ptr<const Trajectory> trajectory_;
+  MountingParameters reference_;
+  std::unique_ptr<Index> index_;
+};
+
+}  // namespace mountcal
