@@ -6,6 +6,9 @@
 #include <string>
 
 #include "mountcal/error.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/job.hpp"
+#include "mountcal/report.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "mountcal/version.hpp"
 
@@ -35,6 +38,42 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   return 0;
 }
 
+int runCalibrate(const std::string& job_path, bool quiet) {
+  using namespace mountcal;
+  const Job job = readJob(job_path);
+  const CalibrationData data = loadJobData(job);
+  const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
+  ResultEvaluation ev;
+  bool any_eval = false;
+  const std::vector<TieObservation> checks = loadCheckPoints(job);
+  const std::vector<PlaneRegion> planes = loadCheckPlanes(job);
+  if (!checks.empty() || !planes.empty()) {
+    any_eval = true;
+    CalibrationData check = data;
+    check.ties = checks;
+    if (!checks.empty()) {
+      ev.has_check_points = true;
+      ev.check_points_before = evaluateCheckPoints(check, data.mounting_used, job.options.vtp);
+      ev.check_points_after = evaluateCheckPoints(check, S.mounting, job.options.vtp);
+    }
+    if (!planes.empty()) {
+      ev.check_planes_before = evaluateCheckPlanes(check, planes, data.mounting_used);
+      ev.check_planes_after = evaluateCheckPlanes(check, planes, S.mounting);
+    }
+  }
+  if (!job.result_path.empty()) io::writeFileAtomically(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
+  if (!job.report_path.empty()) {
+    io::writeFileAtomically(job.report_path, htmlReport(S, any_eval ? &ev : nullptr, "mountcal calibration — " + job_path));
+  }
+  if (!quiet) std::printf("%s", S.FullReport().c_str());
+  if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
+  if (!S.IsSolutionUsable()) {
+    std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(S.termination), S.message.c_str());
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -52,6 +91,12 @@ int main(int argc, char** argv) {
   sim->add_option("--out", out, "Output folder")->required();
   sim->add_flag("--no-noise", no_noise, "Switch every noise source off");
 
+  std::string job_path;
+  bool quiet = false;
+  CLI::App* cal = app.add_subcommand("calibrate", "Calibrate the mounting from a job file (SPEC §4); writes the result file");
+  cal->add_option("job", job_path, "Job JSON file")->required();
+  cal->add_flag("--quiet", quiet, "Print nothing on success");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -65,6 +110,7 @@ int main(int argc, char** argv) {
       }
       return runSimulate(scenario, preset, seed, out, no_noise);
     }
+    if (cal->parsed()) return runCalibrate(job_path, quiet);
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());
     return 2;
