@@ -251,6 +251,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     return S;
   }
 
+  S.construction_time_s = elapsed();
   // Residuals before (seed Table 1): P_ki(M_used) − mean_k (seed eqs. 7–8).
   std::vector<Vec3> P_before(vtps.size());
   for (std::size_t k = 0; k < vtps.size(); ++k) P_before[k] = vtps[k].position(m0.data());
@@ -327,7 +328,10 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   for (auto* c : costs) owned_costs.emplace_back(c);
   auto problem = std::make_unique<ceres::Problem>(po);
   ceres::Solver::Summary cs;
+  double t_mark = elapsed();
   solve(estimate, &cs, problem.get());
+  S.solve_time_s += elapsed() - t_mark;
+  t_mark = elapsed();
   S.initial_cost = cs.initial_cost;
   int iterations = static_cast<int>(cs.iterations.size()) - 1;
 
@@ -393,7 +397,11 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
       for (int a = 0; a < 3; ++a) tie.X[a] = mean[a];
     }
     problem = std::make_unique<ceres::Problem>(po);
+    S.analysis_time_s += elapsed() - t_mark;
+    t_mark = elapsed();
     solve(est, &cs, problem.get());
+    S.solve_time_s += elapsed() - t_mark;
+    t_mark = elapsed();
     iterations += static_cast<int>(cs.iterations.size()) - 1;
     reducedNormalMatrix(ties, costs, m.data(), offset_index, offset_sigma, o, &N_red, &diag);
   }
@@ -447,6 +455,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     for (int b = 0; b < 6; ++b)
       S.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S.sigma[a] * S.sigma[b]) : std::nan("");
 
+  S.analysis_time_s += elapsed() - t_mark;
   // ---- residuals, RMS, outliers ------------------------------------------------------------
   Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
   std::vector<double> norms;
@@ -497,7 +506,8 @@ std::string MountingCalibrator::Summary::FullReport() const {
   char buf[256];
   r << "mountcal — mounting calibration with the virtual tie point model\n\n";
   r << "Termination: " << toString(termination) << " (" << message << ")\n";
-  std::snprintf(buf, sizeof buf, "Iterations %d, cost %.6g -> %.6g, %.3f s\n", iterations, initial_cost, final_cost, time_s);
+  std::snprintf(buf, sizeof buf, "Iterations %d, cost %.6g -> %.6g, %.3f s (construction %.3f, solve %.3f, analysis %.3f)\n",
+                iterations, initial_cost, final_cost, time_s, construction_time_s, solve_time_s, analysis_time_s);
   r << buf;
   std::snprintf(buf, sizeof buf, "Ties %d, observations %d, rejected %zu, degrees of freedom %d, variance factor %.4g\n\n",
                 ties_used, observations_used, rejected.size(), degrees_of_freedom, variance_factor);

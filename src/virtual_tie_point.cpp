@@ -42,30 +42,31 @@ void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t) {
 // ------------------------------------------------------------------------------------------
 VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m,
                                  double pick_y_m, const std::array<LaserFootprint, 3>& vertices,
-                                 const Mat3& R_nom)
-    : tie_id_(std::move(tie_id)), strip_id_(std::move(strip_id)), vertices_(vertices), R_nom_(R_nom) {
+                                 const MountingParameters& reference)
+    : tie_id_(std::move(tie_id)), strip_id_(std::move(strip_id)), vertices_(vertices),
+      R_nom_(reference.R_nom), R_bs0_(reference.R_bs()), a0_b_(reference.a_b) {
   // Rule 1 (seed eq. 5): height of the pick on the triangle's plane.
   const double z = interpolateHeight(vertices_[0].x0_m, vertices_[1].x0_m, vertices_[2].x0_m, pick_x_m, pick_y_m);
   P0_m_ = Vec3(pick_x_m, pick_y_m, z);
   centroid0_m_ = (vertices_[0].x0_m + vertices_[1].x0_m + vertices_[2].x0_m) / 3.0;
-  for (int i = 0; i < 3; ++i) p_rel_m_[i] = vertices_[i].pose.p_m - centroid0_m_;
+  for (int i = 0; i < 3; ++i) d0_m_[i] = vertices_[i].x0_m - centroid0_m_;
+  P0_rel_m_ = P0_m_ - centroid0_m_;
 }
 
-Vec3 VirtualTiePoint::position(const double* m) const {
-  // Rule 2: georeference the vertices with M (seed eq. 1), fit the rigid motion of the
-  // triangle (seed eq. 6), carry P⁰ along.
-  const Mat3 R_bs = R_zyx(Vec3(m[3], m[4], m[5])) * R_nom_;
-  const Vec3 a_b(m[0], m[1], m[2]);
-  Vec3 p[3], q[3];
-  for (int i = 0; i < 3; ++i) {
-    p[i] = vertices_[i].x0_m - centroid0_m_;  // centred for round-off
-    q[i] = p_rel_m_[i] + vertices_[i].pose.R_mb * (R_bs * vertices_[i].r_s + a_b);  // seed eq. (1)
-  }
+Vec3 VirtualTiePoint::relativePosition(const double* m) const {
+  // Rule 2: georeference the vertices with M (seed eq. 1) — as displacements from their
+  // reference positions — fit the rigid motion of the triangle (seed eq. 6), carry P⁰ along.
+  const Mat3 dR_bs = R_zyx(Vec3(m[3], m[4], m[5])) * R_nom_ - R_bs0_;
+  const Vec3 da_b = Vec3(m[0], m[1], m[2]) - a0_b_;
+  Vec3 q[3];
+  for (int i = 0; i < 3; ++i) q[i] = d0_m_[i] + vertices_[i].pose.R_mb * (dR_bs * vertices_[i].r_s + da_b);
   Mat3 R;
   Vec3 t;
-  fitRigidTransform(p, q, 3, &R, &t);
-  return centroid0_m_ + R * (P0_m_ - centroid0_m_) + t;
+  fitRigidTransform(d0_m_.data(), q, 3, &R, &t);
+  return R * P0_rel_m_ + t;
 }
+
+Vec3 VirtualTiePoint::position(const double* m) const { return centroid0_m_ + relativePosition(m); }
 
 Vec3 VirtualTiePoint::position(const MountingParameters& m) const {
   const auto a = m.toArray();
@@ -330,7 +331,7 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
     verts[k].x0_m = X[i];
     verts[k].pose = trajectory_->pose(strip_.time_s[i]);
   }
-  *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_.R_nom);
+  *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
   // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the
   // same nominal rotation, so P(reference) = P⁰ exactly.
   return true;

@@ -115,6 +115,9 @@ class MountingCalibrator {
     double initial_cost = 0.0;    ///< ½ Σ r², r normalised by σ [-]
     double final_cost = 0.0;
     double time_s = 0.0;          ///< wall time of the whole calibration [s]
+    double construction_time_s = 0.0;  ///< of which: k-d trees and virtual tie points [s]
+    double solve_time_s = 0.0;         ///< of which: Levenberg–Marquardt (all solves) [s]
+    double analysis_time_s = 0.0;      ///< of which: observability and covariance [s]
 
     MountingParameters mounting_used;
     MountingParameters mounting;  ///< the complete mounting to use from now on

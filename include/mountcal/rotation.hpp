@@ -77,13 +77,18 @@ inline Vec3 quatLog(const Quat& q_in) {
   return (2.0 * std::atan2(n, q.w()) / n) * q.vec();
 }
 
-/// Unit quaternion of a rotation vector (axis · angle [rad]).
+/// Unit quaternion of a rotation vector (axis · angle [rad]). Below 0.01 rad the half-angle
+/// sine and cosine come from their Taylor series (the first omitted term is < 1e-21 relative),
+/// which spares the square root and the trigonometry on the hot path of trajectory slerp.
 inline Quat quatExp(const Vec3& rotvec) {
-  const double angle = rotvec.norm();
-  if (angle < 1e-12) {
-    Quat q(1.0, 0.5 * rotvec.x(), 0.5 * rotvec.y(), 0.5 * rotvec.z());
-    return q.normalized();
+  const double a2 = rotvec.squaredNorm();
+  if (a2 < 1e-4) {
+    const double h2 = 0.25 * a2;  // (angle/2)²
+    const double c = 1.0 - h2 / 2.0 * (1.0 - h2 / 12.0 * (1.0 - h2 / 30.0 * (1.0 - h2 / 56.0)));
+    const double s = 0.5 * (1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0 * (1.0 - h2 / 72.0))));
+    return Quat(c, s * rotvec.x(), s * rotvec.y(), s * rotvec.z());
   }
+  const double angle = std::sqrt(a2);
   const double half = 0.5 * angle;
   const double s = std::sin(half) / angle;
   return Quat(std::cos(half), s * rotvec.x(), s * rotvec.y(), s * rotvec.z());

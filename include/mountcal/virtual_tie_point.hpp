@@ -61,8 +61,9 @@ struct VtpOptions {
 class VirtualTiePoint {
  public:
   VirtualTiePoint() = default;
+  /// `reference` is the mounting the vertices' x0_m were georeferenced with.
   VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m,
-                  const std::array<LaserFootprint, 3>& vertices, const Mat3& R_nom);
+                  const std::array<LaserFootprint, 3>& vertices, const MountingParameters& reference);
 
   const std::string& tieId() const { return tie_id_; }
   const std::string& stripId() const { return strip_id_; }
@@ -74,14 +75,23 @@ class VirtualTiePoint {
   /// `mounting6` in MountingIndex order [m, rad]; the nominal rotation is the reference one.
   Vec3 position(const double* mounting6) const;
   Vec3 position(const MountingParameters& m) const;
+  /// P(M) − centroid(): the same, free of the round-off of large map coordinates. Each vertex
+  /// moves by R_mb·[(R_bs(M) − R_bs(M₀))·r_s + (a − a₀)] from its reference position, so the
+  /// central differences of the calibrator see no cancellation of ~1 km terms.
+  Vec3 relativePosition(const double* mounting6) const;
+  /// Centroid of the reference triangle [m].
+  const Vec3& centroid() const { return centroid0_m_; }
 
  private:
   std::string tie_id_, strip_id_;
   std::array<LaserFootprint, 3> vertices_{};
   Vec3 P0_m_ = Vec3::Zero();
   Vec3 centroid0_m_ = Vec3::Zero();
-  std::array<Vec3, 3> p_rel_m_{};  // trajectory positions relative to centroid0 (round-off)
+  std::array<Vec3, 3> d0_m_{};     // reference vertices relative to centroid0
+  Vec3 P0_rel_m_ = Vec3::Zero();    // P⁰ − centroid0
   Mat3 R_nom_ = Mat3::Identity();
+  Mat3 R_bs0_ = Mat3::Identity();   // reference R_bore·R_nom
+  Vec3 a0_b_ = Vec3::Zero();        // reference lever arm
 };
 
 /// seed eq. (5): height at (x, y) on the plane through three points.

@@ -88,6 +88,52 @@ struct Scene::Impl {
   std::vector<Marking> markings;
   std::vector<Tree> trees;
   bool built = false;
+  // Uniform plan grid over markings and tree crowns: each cell lists what overlaps it.
+  double grid_x0 = 0, grid_y0 = 0, cell = 8.0;
+  int grid_nx = 0, grid_ny = 0;
+  std::vector<std::vector<int>> cell_markings, cell_trees;
+  double max_crown_top = -1e300;
+
+  int cellIndex(double x, double y) const {
+    const int i = static_cast<int>(std::floor((x - grid_x0) / cell)), j = static_cast<int>(std::floor((y - grid_y0) / cell));
+    if (i < 0 || j < 0 || i >= grid_nx || j >= grid_ny) return -1;
+    return j * grid_nx + i;
+  }
+  void buildGrid() {
+    Box b;
+    for (const Marking& m : markings) b.grow(m.box);
+    for (const Tree& t : trees) {
+      b.grow(Vec3(t.cx - t.r, t.cy - t.r, 0));
+      b.grow(Vec3(t.cx + t.r, t.cy + t.r, 0));
+      max_crown_top = std::max(max_crown_top, t.z1);
+    }
+    cell_markings.clear();
+    cell_trees.clear();
+    if (markings.empty() && trees.empty()) {
+      grid_nx = grid_ny = 0;
+      return;
+    }
+    grid_x0 = b.lo.x() - cell;
+    grid_y0 = b.lo.y() - cell;
+    grid_nx = static_cast<int>((b.hi.x() - grid_x0) / cell) + 2;
+    grid_ny = static_cast<int>((b.hi.y() - grid_y0) / cell) + 2;
+    cell_markings.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
+    cell_trees.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
+    auto fill = [&](std::vector<std::vector<int>>& cells, int id, double x0, double y0, double x1, double y1) {
+      const int i0 = static_cast<int>(std::floor((x0 - grid_x0) / cell)), i1 = static_cast<int>(std::floor((x1 - grid_x0) / cell));
+      const int j0 = static_cast<int>(std::floor((y0 - grid_y0) / cell)), j1 = static_cast<int>(std::floor((y1 - grid_y0) / cell));
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) cells[static_cast<std::size_t>(j * grid_nx + i)].push_back(id);
+    };
+    for (std::size_t k = 0; k < markings.size(); ++k) {
+      const Box& mb = markings[k].box;
+      fill(cell_markings, static_cast<int>(k), mb.lo.x(), mb.lo.y(), mb.hi.x(), mb.hi.y());
+    }
+    for (std::size_t k = 0; k < trees.size(); ++k) {
+      const Tree& t = trees[k];
+      fill(cell_trees, static_cast<int>(k), t.cx - t.r, t.cy - t.r, t.cx + t.r, t.cy + t.r);
+    }
+  }
 
   void addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, float intensity, SurfaceKind kind) {
     auto va = mesh.add_vertex(TriMesh::Point(a.x(), a.y(), a.z()));
@@ -160,6 +206,7 @@ struct Scene::Impl {
     std::iota(order.begin(), order.end(), 0);
     nodes.clear();
     if (!tris.empty()) buildNode(0, static_cast<int>(tris.size()));
+    buildGrid();
     built = true;
   }
 
@@ -232,6 +279,7 @@ void Scene::addMarking(double cx, double cy, double length_m, double width_m, do
   m.box.grow(Vec3(cx - r, cy - r, 0));
   m.box.grow(Vec3(cx + r, cy + r, 0));
   impl_->markings.push_back(m);
+  impl_->built = false;
 }
 
 void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad,
@@ -325,6 +373,7 @@ void Scene::addTree(double cx, double cy, double radius_m, double crown_base_m, 
                     double density) {
   const double g = groundHeight(cx, cy);
   impl_->trees.push_back({cx, cy, radius_m, g + crown_base_m, g + top_m, density});
+  impl_->built = false;
 }
 
 void Scene::addCheckPlane(const std::string& id, double xmin, double ymin, double xmax, double ymax) {
@@ -360,48 +409,66 @@ bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
     hit->intensity = t.intensity;
     hit->normal_m = t.n;
   }
-  // Vegetation: a return somewhere inside the crown cylinder, before the surface behind it.
-  for (const Tree& tree : s.trees) {
-    const double ox = o.x() - tree.cx, oy = o.y() - tree.cy;
-    const double a = d.x() * d.x() + d.y() * d.y();
-    if (a < 1e-12) continue;
-    const double b = ox * d.x() + oy * d.y();
-    const double c = ox * ox + oy * oy - tree.r * tree.r;
-    const double disc = b * b - a * c;
-    if (disc <= 0) continue;
-    double t0 = (-b - std::sqrt(disc)) / a, t1 = (-b + std::sqrt(disc)) / a;
-    // Clip to the crown's height band.
-    if (std::abs(d.z()) > 1e-12) {
+  // Vegetation: a return somewhere inside a crown cylinder, before the surface behind it. Only
+  // the trees in the grid cells under the ray's part below the highest crown are tested.
+  if (!s.trees.empty() && found && std::abs(d.z()) > 1e-6) {
+    const Vec3 hit_point = o + best * d;
+    const double t_top = (s.max_crown_top - o.z()) / d.z();
+    const Vec3 top_point = (t_top > 0 && t_top < best) ? Vec3(o + t_top * d) : o;
+    const int i0 = static_cast<int>(std::floor((std::min(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell));
+    const int i1 = static_cast<int>(std::floor((std::max(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell));
+    const int j0 = static_cast<int>(std::floor((std::min(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell));
+    const int j1 = static_cast<int>(std::floor((std::max(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell));
+    const bool narrow = (i1 - i0) <= 2 && (j1 - j0) <= 2;
+    int candidates[16];
+    int n_cand = 0;
+    if (narrow) {
+      for (int j = std::max(j0, 0); j <= std::min(j1, s.grid_ny - 1); ++j)
+        for (int i = std::max(i0, 0); i <= std::min(i1, s.grid_nx - 1); ++i)
+          for (int id : s.cell_trees[static_cast<std::size_t>(j * s.grid_nx + i)])
+            if (n_cand < 16 && std::find(candidates, candidates + n_cand, id) == candidates + n_cand) candidates[n_cand++] = id;
+    }
+    const int n_test = narrow ? n_cand : static_cast<int>(s.trees.size());
+    for (int q = 0; q < n_test; ++q) {
+      const Tree& tree = s.trees[static_cast<std::size_t>(narrow ? candidates[q] : q)];
+      const double ox = o.x() - tree.cx, oy = o.y() - tree.cy;
+      const double a = d.x() * d.x() + d.y() * d.y();
+      if (a < 1e-12) continue;
+      const double b = ox * d.x() + oy * d.y();
+      const double c = ox * ox + oy * oy - tree.r * tree.r;
+      const double disc = b * b - a * c;
+      if (disc <= 0) continue;
+      double t0 = (-b - std::sqrt(disc)) / a, t1 = (-b + std::sqrt(disc)) / a;
       double za = (tree.z0 - o.z()) / d.z(), zb = (tree.z1 - o.z()) / d.z();
       if (za > zb) std::swap(za, zb);
-      t0 = std::max(t0, za);
-      t1 = std::min(t1, zb);
-    }
-    t0 = std::max(t0, 1e-9);
-    t1 = std::min(t1, best);
-    if (t0 >= t1) continue;
-    const std::uint64_t h = mix(pulse_id * 0x2545F4914F6CDD1Dull + 17);
-    if (unit(h) < tree.density) {
-      best = t0 + unit(mix(h)) * (t1 - t0);
-      found = true;
-      hit->kind = SurfaceKind::kVegetation;
-      hit->intensity = 25.0f;
-      hit->normal_m = -d;
+      t0 = std::max(std::max(t0, za), 1e-9);
+      t1 = std::min(std::min(t1, zb), best);
+      if (t0 >= t1) continue;
+      const std::uint64_t h = mix(pulse_id * 0x2545F4914F6CDD1Dull + 17);
+      if (unit(h) < tree.density) {
+        best = t0 + unit(mix(h)) * (t1 - t0);
+        hit->kind = SurfaceKind::kVegetation;
+        hit->intensity = 25.0f;
+        hit->normal_m = -d;
+      }
     }
   }
   if (!found) return false;
   hit->range_m = best;
   hit->point_m = o + best * d;
   if (hit->kind == SurfaceKind::kGround) {
-    for (const Marking& m : s.markings) {
-      const double dx = hit->point_m.x() - m.centre.x(), dy = hit->point_m.y() - m.centre.y();
-      if (std::abs(dx) > m.half_len + m.half_wid || std::abs(dy) > m.half_len + m.half_wid) continue;
-      // Rectangle frame: along = (sin h, cos h), across = (cos h, −sin h).
-      const double a_len = dx * m.s + dy * m.c, a_wid = dx * m.c - dy * m.s;
-      if (std::abs(a_len) <= m.half_len && std::abs(a_wid) <= m.half_wid) {
-        hit->kind = SurfaceKind::kMarking;
-        hit->intensity = m.intensity;
-        break;
+    const int cell = s.cellIndex(hit->point_m.x(), hit->point_m.y());
+    if (cell >= 0) {
+      for (int id : s.cell_markings[static_cast<std::size_t>(cell)]) {
+        const Marking& m = s.markings[static_cast<std::size_t>(id)];
+        const double dx = hit->point_m.x() - m.centre.x(), dy = hit->point_m.y() - m.centre.y();
+        // Rectangle frame: along = (sin h, cos h), across = (cos h, −sin h).
+        const double a_len = dx * m.s + dy * m.c, a_wid = dx * m.c - dy * m.s;
+        if (std::abs(a_len) <= m.half_len && std::abs(a_wid) <= m.half_wid) {
+          hit->kind = SurfaceKind::kMarking;
+          hit->intensity = m.intensity;
+          break;
+        }
       }
     }
   }

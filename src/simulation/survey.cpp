@@ -6,6 +6,7 @@
 #include <random>
 #include <set>
 
+#include "mountcal/detail/random.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 
@@ -90,11 +91,10 @@ void validate(const SurveyConfig& c) {
 }
 
 /// First-order Gauss–Markov step: e ← φ e + σ √(1−φ²) w.
-double gaussMarkov(double e, double dt, double tau, double sigma, std::normal_distribution<double>& n,
-                   std::mt19937_64& rng) {
+double gaussMarkov(double e, double dt, double tau, double sigma, detail::Rng& rng) {
   if (sigma <= 0) return 0.0;
   const double phi = std::exp(-dt / tau);
-  return phi * e + sigma * std::sqrt(1.0 - phi * phi) * n(rng);
+  return phi * e + sigma * std::sqrt(1.0 - phi * phi) * rng.normal();
 }
 
 }  // namespace
@@ -106,9 +106,8 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
   out.config = config;
 
   // ---- trajectories ----------------------------------------------------------------------
-  std::mt19937_64 rng(config.seed * 0x9E3779B97F4A7C15ull + 1);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::uniform_real_distribution<double> phase(0.0, 2 * kPi);
+  detail::Rng rng(config.seed * 0x9E3779B97F4A7C15ull + 1);
+  auto phase = [](detail::Rng& r) { return 2 * kPi * r.uniform(); };
   const AttitudeDynamics& dyn = config.dynamics;
   const NoiseModel& noise = config.noise;
   std::vector<TrajectorySample> truth, measured;
@@ -136,9 +135,9 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       const double step = std::max(t - t_prev, dt);
       t_prev = t;
       for (int a = 0; a < 3; ++a) {
-        gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, normal, rng);
+        gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, rng);
         att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s,
-                                 (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, normal, rng);
+                                 (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
       }
       TrajectorySample m = s;
       m.p_m += gnss_err;
@@ -183,8 +182,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     const LineFrame& f = frames[li];
     SimulatedStrip strip;
     strip.id = line.id;
-    std::mt19937_64 prng(config.seed * 1000003ull + li * 7919ull + 11);
-    std::normal_distribution<double> pn(0.0, 1.0);
+    detail::Rng prng(config.seed * 1000003ull + li * 7919ull + 11);
 
     // Time windows of the ROI centres along this line.
     struct Window { double t0, t1; Vec3 c; double r; };
@@ -222,6 +220,16 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       spans.swap(merged);
     }
 
+    double fire_time = 0;
+    for (const auto& sp : spans) fire_time += sp.second - sp.first;
+    const double rate = config.sensor == SensorType::kLine
+                            ? (line.prf_hz > 0 ? line.prf_hz : config.line.prf_hz)
+                            : config.multibeam.model.laserCount() / config.multibeam.model.sequencePeriod();
+    const std::size_t expected = static_cast<std::size_t>(std::min(fire_time * rate * (roi.empty() ? 1.0 : 0.5), 5e7));
+    strip.pulses.reserve(expected);
+    strip.points_m.reserve(expected);
+    strip.true_points_m.reserve(expected);
+    strip.kinds.reserve(expected);
     std::size_t cur_true = 0, cur_meas = 0;
     auto emit = [&](double t, const Vec3& origin_s, const Vec3& dir_s, std::uint64_t pulse_id,
                     const Poses& poses, RawPulse raw, double max_range, double range_offset) {
@@ -237,11 +245,11 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       if (!scene.cast(origin, dir, pulse_id, &hit, max_range)) return;
       raw.time_s = t;
       // The sensor model adds its range offset to the measured range: measured = path − offset.
-      raw.range_m = hit.range_m - range_offset + (noise.range_sigma_m > 0 ? noise.range_sigma_m * pn(prng) : 0.0);
+      raw.range_m = hit.range_m - range_offset + (noise.range_sigma_m > 0 ? noise.range_sigma_m * prng.normal() : 0.0);
       raw.intensity = hit.intensity;
       Vec3 r_s_obs;
       if (config.sensor == SensorType::kLine) {
-        if (noise.scan_angle_sigma_rad > 0) raw.angle_rad += noise.scan_angle_sigma_rad * pn(prng);
+        if (noise.scan_angle_sigma_rad > 0) raw.angle_rad += noise.scan_angle_sigma_rad * prng.normal();
         r_s_obs = LineScannerModel{}.vector(raw.angle_rad, raw.range_m);
       } else {
         r_s_obs = config.multibeam.model.vector(raw.laser_id, raw.angle_rad, raw.range_m);
@@ -298,8 +306,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     }
 
     // ---- tie picks for this strip ----------------------------------------------------------
-    std::mt19937_64 krng(config.seed * 2654435761ull + li * 40503ull + 3);
-    std::normal_distribution<double> kn(0.0, 1.0);
+    detail::Rng krng(config.seed * 2654435761ull + li * 40503ull + 3);
     for (const FeaturePoint* fp : features) {
       const Vec3& F = fp->x_m;
       const double s_c = f.along(Vec3(F.x(), F.y(), line.height_m));
@@ -346,8 +353,8 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       pick.true_m = F;
       pick.time_s = t;
       pick.apparent_m = georeference(T_meas.pose(t), R_bs_nom, M_nom.a_b, r_s_seen);
-      pick.x_m = pick.apparent_m.x() + noise.pick_sigma_m * kn(krng);
-      pick.y_m = pick.apparent_m.y() + noise.pick_sigma_m * kn(krng);
+      pick.x_m = pick.apparent_m.x() + noise.pick_sigma_m * krng.normal();
+      pick.y_m = pick.apparent_m.y() + noise.pick_sigma_m * krng.normal();
       (check_ids.count(fp->id) ? out.check_points : out.ties).push_back(pick);
     }
     out.strips.push_back(std::move(strip));

@@ -15,8 +15,11 @@ struct VtpResidual {
   const VirtualTiePoint* vtp;
   Vec3 inv_sigma;
   bool operator()(const double* mounting, const double* X, const double* offset, double* r) const {
-    const Vec3 P = vtp->position(mounting);  // Rule 2
-    for (int a = 0; a < 3; ++a) r[a] = (P[a] + offset[a] - X[a]) * inv_sigma[a];
+    // Rule 2 relative to the triangle's centroid: X − centroid is the same in the ± steps of
+    // the central difference and cancels exactly, so no map-size round-off enters the Jacobian.
+    const Vec3 P_rel = vtp->relativePosition(mounting);
+    const Vec3& c = vtp->centroid();
+    for (int a = 0; a < 3; ++a) r[a] = (P_rel[a] + offset[a] - (X[a] - c[a])) * inv_sigma[a];
     return true;
   }
 };
