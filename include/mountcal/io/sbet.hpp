@@ -1,0 +1,40 @@
+#pragma once
+/// \file io/sbet.hpp
+/// Applanix SBET trajectories (SPEC §4): no header; records of 17 little-endian float64.
+
+#include <string>
+#include <vector>
+
+#include "mountcal/geodesy.hpp"
+#include "mountcal/trajectory.hpp"
+
+namespace mountcal::io {
+
+/// One SBET record, in the file's units.
+struct SbetRecord {
+  double time_s;              ///< GPS seconds of week [s]
+  double lat_rad, lon_rad;    ///< [rad]
+  double h_m;                 ///< ellipsoidal height [m]
+  double vx, vy, vz;          ///< velocity, wander frame [m/s]
+  double roll_rad, pitch_rad; ///< [rad]
+  double platform_heading_rad;///< heading in the wander frame [rad]
+  double wander_rad;          ///< wander angle [rad]
+  double ax, ay, az;          ///< body acceleration [m/s²]
+  double wx, wy, wz;          ///< body angular rate [rad/s]
+  /// True heading = platform heading − wander angle (SPEC §4).
+  double trueHeading() const { return platform_heading_rad - wander_rad; }
+};
+static_assert(sizeof(SbetRecord) == 136, "an SBET record is 17 float64");
+
+/// Reads an SBET file. Throws FileError naming the file for a size that is not a multiple of
+/// 136 bytes (a corrupt or truncated file), for fewer than one record, and — naming the record
+/// — for non-finite values or an out-of-range latitude.
+std::vector<SbetRecord> readSbet(const std::string& path);
+
+/// The SBET as a trajectory in the ENU tangent frame `frame` (R_mn per sample, true heading).
+/// `time_offset_s` is added to every time. Throws FileError for unsorted or duplicate times.
+Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecord>& records,
+                            const LocalTangentFrame& frame, double time_offset_s = 0.0,
+                            PositionInterpolation interpolation = PositionInterpolation::kLinear);
+
+}  // namespace mountcal::io

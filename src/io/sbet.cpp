@@ -1,0 +1,57 @@
+#include "mountcal/io/sbet.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "mountcal/error.hpp"
+
+namespace mountcal::io {
+
+std::vector<SbetRecord> readSbet(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path, "", "cannot open the SBET file");
+  in.seekg(0, std::ios::end);
+  const auto size = static_cast<std::uint64_t>(in.tellg());
+  in.seekg(0);
+  if (size % 136 != 0) {
+    throw FileError(path, "byte " + std::to_string(size - size % 136),
+                    "size " + std::to_string(size) + " bytes is not a multiple of the 136-byte SBET record: the file is truncated or not an SBET");
+  }
+  if (size == 0) throw FileError(path, "", "empty SBET file");
+  std::vector<SbetRecord> out(size / 136);
+  in.read(reinterpret_cast<char*>(out.data()), static_cast<std::streamsize>(size));
+  if (!in) throw FileError(path, "", "read failed");
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const double* v = reinterpret_cast<const double*>(&out[i]);
+    for (int k = 0; k < 17; ++k) {
+      if (!std::isfinite(v[k])) throw FileError(path, "record " + std::to_string(i), "field " + std::to_string(k) + " is not finite");
+    }
+    if (std::abs(out[i].lat_rad) > kPi / 2 || std::abs(out[i].lon_rad) > 2 * kPi) {
+      throw FileError(path, "record " + std::to_string(i), "latitude/longitude out of range (are they in radians?)");
+    }
+  }
+  return out;
+}
+
+Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecord>& records, const LocalTangentFrame& frame,
+                            double time_offset_s, PositionInterpolation interpolation) {
+  std::vector<TrajectorySample> samples(records.size());
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const SbetRecord& r = records[i];
+    TrajectorySample& s = samples[i];
+    s.time_s = r.time_s + time_offset_s;
+    if (i > 0 && !(s.time_s > samples[i - 1].time_s)) {
+      throw FileError(path, "record " + std::to_string(i), "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
+    }
+    s.p_m = frame.toLocal({r.lat_rad, r.lon_rad, r.h_m});
+    s.R_mn = frame.R_mn(r.lat_rad, r.lon_rad);  // SPEC §2: curvature and convergence
+    s.roll = r.roll_rad;
+    s.pitch = r.pitch_rad;
+    s.heading = r.trueHeading();
+  }
+  if (samples.size() < 2) throw FileError(path, "", "a trajectory needs at least 2 records");
+  return Trajectory(std::move(samples), interpolation);
+}
+
+}  // namespace mountcal::io

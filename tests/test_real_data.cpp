@@ -1,0 +1,164 @@
+// Real data of SPEC §5, read from ../shared/data (skipped with a message when absent).
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mountcal/error.hpp"
+#include "mountcal/georeference_model.hpp"
+#include "mountcal/io/crs.hpp"
+#include "mountcal/io/las.hpp"
+#include "mountcal/io/sbet.hpp"
+
+using namespace mountcal;
+namespace fs = std::filesystem;
+
+namespace {
+std::string dataFile(const std::string& rel) { return std::string(MOUNTCAL_SHARED_DIR) + "/data/" + rel; }
+#define REQUIRE_DATA(rel)                                                                       \
+  if (!fs::exists(dataFile(rel))) GTEST_SKIP() << "real data not found: " << dataFile(rel) \
+                                               << " (needs ../shared beside the repository)"
+}  // namespace
+
+TEST(RealData, PdalTwoPointSbetReproducesTheExpectedValues) {
+  REQUIRE_DATA("pdal/2-points.sbet");
+  const auto r = io::readSbet(dataFile("pdal/2-points.sbet"));
+  ASSERT_EQ(r.size(), 2u);
+  const io::SbetRecord& a = r[0];
+  EXPECT_NEAR(a.time_s, 151631.0028360710, 1e-4);
+  EXPECT_NEAR(rad2deg(a.lat_rad), 32.545149, 1e-4);
+  EXPECT_NEAR(rad2deg(a.lon_rad), -116.978180, 1e-4);
+  EXPECT_NEAR(a.h_m, 107.7152953296560, 1e-4);
+  EXPECT_NEAR(a.vx, -2.332420866600025, 1e-4);
+  EXPECT_NEAR(a.vy, -0.3335067504871401, 1e-4);
+  EXPECT_NEAR(a.vz, -0.03093961631767838, 1e-4);
+  EXPECT_NEAR(rad2deg(a.roll_rad), -1.611964, 1e-4);
+  EXPECT_NEAR(rad2deg(a.pitch_rad), -1.392233, 1e-4);
+  EXPECT_NEAR(rad2deg(a.platform_heading_rad), 174.567247, 1e-4);
+  EXPECT_NEAR(rad2deg(a.wander_rad), -1.259599, 1e-4);
+  EXPECT_NEAR(a.ax, 0.7859639737752390, 1e-4);
+  EXPECT_NEAR(a.ay, 0.7849084719295495, 1e-4);
+  EXPECT_NEAR(a.az, -0.2978807916450262, 1e-4);
+  EXPECT_NEAR(rad2deg(a.wx), 0.003568, 1e-4);
+  EXPECT_NEAR(rad2deg(a.wy), 0.533548, 1e-4);
+  EXPECT_NEAR(rad2deg(a.wz), 4.135502, 1e-4);
+  EXPECT_NEAR(rad2deg(a.trueHeading()), 174.567247 + 1.259599, 1e-4);
+}
+
+TEST(RealData, TruncatedSbetIsRefusedNamingTheFile) {
+  REQUIRE_DATA("pdal/badfile.sbet");
+  try {
+    io::readSbet(dataFile("pdal/badfile.sbet"));
+    FAIL() << "badfile.sbet was accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("badfile.sbet"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("not a multiple of the 136-byte"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RealData, LeewardBodyVectorsLieInOneScanPlaneRotated14DegreesInYaw) {
+  REQUIRE_DATA("leeward/points.las");
+  REQUIRE_DATA("leeward/sbet.out");
+  io::LasHeader h;
+  std::vector<io::LasPoint> pts;
+  io::readLas(dataFile("leeward/points.las"), &h, &pts);
+  ASSERT_EQ(pts.size(), 1325u);
+  ASSERT_EQ(h.point_format, 3);
+  const auto sbet = io::readSbet(dataFile("leeward/sbet.out"));
+  const LocalTangentFrame frame({sbet[0].lat_rad, sbet[0].lon_rad, 0.0});
+  const auto traj = std::make_shared<const Trajectory>(io::sbetToTrajectory(dataFile("leeward/sbet.out"), sbet, frame));
+  const io::CrsTransform utm("EPSG:32611");
+  // Inverse georeferencing with zero mounting: the vector from the IMU in body axes.
+  const GeoreferenceModel model(traj, MountingParameters{});
+  std::vector<Vec3> u;
+  std::vector<double> rank;
+  for (const io::LasPoint& p : pts) {
+    const Vec3 x_utm(p.X * h.scale[0] + h.offset[0], p.Y * h.scale[1] + h.offset[1], p.Z * h.scale[2] + h.offset[2]);
+    const Vec3 x_m = frame.toLocal(utm.toGeodetic(x_utm));
+    u.push_back(model.inverse(p.gps_time, x_m).normalized());
+    rank.push_back(io::scanAngleDeg(h, p));
+  }
+  // The scan plane through the sensor: the direction least represented by the vectors.
+  Mat3 C = Mat3::Zero();
+  for (const Vec3& v : u) C += v * v.transpose();
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+  Vec3 n = eig.eigenvectors().col(0);
+  if (n.x() < 0) n = -n;
+  double ss = 0;
+  for (const Vec3& v : u) ss += std::pow(rad2deg(std::asin(n.dot(v))), 2);
+  const double sigma_deg = std::sqrt(ss / static_cast<double>(u.size()));
+  EXPECT_LE(sigma_deg, 0.02);
+  // The body y–z plane has normal +x; the scan plane's normal is turned by the yaw.
+  const double yaw_deg = rad2deg(std::atan2(n.y(), n.x()));
+  EXPECT_NEAR(yaw_deg, 14.0, 1.0) << "normal " << n.transpose();
+  // Across-track angles in the scan plane against the LAS scan-angle rank (positive right).
+  const Mat3 R_sb = Rz(deg2rad(yaw_deg)).transpose();
+  double diff = 0;
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    const Vec3 s = R_sb * u[i];
+    diff += rad2deg(std::atan2(s.y(), s.z())) - rank[i];
+  }
+  EXPECT_LT(std::abs(diff / static_cast<double>(u.size())), 1.0);
+}
+
+TEST(RealData, LasRoundTripKeepsEveryFieldBitIdentical) {
+  REQUIRE_DATA("leeward/points.las");
+  io::LasHeader h;
+  std::vector<io::LasPoint> pts;
+  io::readLas(dataFile("leeward/points.las"), &h, &pts);
+  const std::string out = (fs::temp_directory_path() / "mountcal_roundtrip.las").string();
+  io::writeLas(out, h, pts);
+  io::LasHeader h2;
+  std::vector<io::LasPoint> pts2;
+  io::readLas(out, &h2, &pts2);
+  ASSERT_EQ(pts.size(), pts2.size());
+  EXPECT_EQ(h2.point_format, h.point_format);
+  EXPECT_EQ(h2.version_minor, h.version_minor);
+  EXPECT_EQ(h2.global_encoding, h.global_encoding);
+  ASSERT_EQ(h2.vlrs.size(), h.vlrs.size());
+  for (std::size_t i = 0; i < h.vlrs.size(); ++i) {
+    EXPECT_EQ(h2.vlrs[i].user_id, h.vlrs[i].user_id);
+    EXPECT_EQ(h2.vlrs[i].record_id, h.vlrs[i].record_id);
+    EXPECT_EQ(h2.vlrs[i].data, h.vlrs[i].data);
+  }
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const auto &a = pts[i], &b = pts2[i];
+    ASSERT_TRUE(a.X == b.X && a.Y == b.Y && a.Z == b.Z && a.intensity == b.intensity && a.return_number == b.return_number &&
+                a.number_of_returns == b.number_of_returns && a.scan_direction == b.scan_direction &&
+                a.edge_of_flight_line == b.edge_of_flight_line && a.classification == b.classification &&
+                a.scan_angle == b.scan_angle && a.user_data == b.user_data && a.point_source_id == b.point_source_id &&
+                std::memcmp(&a.gps_time, &b.gps_time, 8) == 0 && a.red == b.red && a.green == b.green && a.blue == b.blue &&
+                a.extra == b.extra)
+        << "point " << i;
+  }
+  // The point records themselves are byte-identical to the original file's.
+  std::ifstream fa(dataFile("leeward/points.las"), std::ios::binary), fb(out, std::ios::binary);
+  std::stringstream sa, sb;
+  sa << fa.rdbuf();
+  sb << fb.rdbuf();
+  const std::string A = sa.str(), B = sb.str();
+  const std::size_t n = pts.size() * h.point_record_length;
+  EXPECT_EQ(A.substr(A.size() - n), B.substr(B.size() - n));
+  fs::remove(out);
+}
+
+TEST(Geodesy, EcefRoundTripAndFrames) {
+  const Geodetic g{deg2rad(32.5), deg2rad(-117.0), 6991.6};
+  const Geodetic back = ecefToGeodetic(geodeticToEcef(g));
+  EXPECT_NEAR(back.lat, g.lat, 1e-13);
+  EXPECT_NEAR(back.lon, g.lon, 1e-13);
+  EXPECT_NEAR(back.h, g.h, 1e-8);
+  // At the origin, NED maps to the local ENU exactly as R_mn_local().
+  const LocalTangentFrame f(g);
+  EXPECT_LT((f.R_mn(g.lat, g.lon) - R_mn_local()).norm(), 1e-15);
+  // 10 km east the navigation frame is turned by the meridian convergence (≈ Δλ·sin φ).
+  const Geodetic east{g.lat, g.lon + 10000.0 / (6378137.0 * std::cos(g.lat)), g.h};
+  const Mat3 R = f.R_mn(east.lat, east.lon);
+  const double convergence = rad2deg(std::atan2(R(0, 0), R(1, 0)));  // north's azimuth from grid north
+  EXPECT_NEAR(std::abs(convergence), rad2deg(10000.0 / 6378137.0 / std::cos(g.lat) * std::sin(g.lat)), 2e-3);
+  EXPECT_GT(std::abs(convergence), 0.05);  // larger than the boresight precision: no flat earth
+  EXPECT_THROW(io::CrsTransform("EPSG:999999"), InvalidInput);
+}
