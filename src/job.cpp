@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -11,6 +12,7 @@
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/sbet.hpp"
 
 namespace mountcal {
 
@@ -229,13 +231,20 @@ Job readJob(const std::string& path) {
   return job;
 }
 
+JobFrame::JobFrame(const std::string& crs, const Geodetic& origin)
+    : crs_(std::make_shared<io::CrsTransform>(crs)), tangent_(std::make_shared<LocalTangentFrame>(origin)) {}
+
+Vec3 JobFrame::toLocal(const Vec3& x) const { return crs_ ? tangent_->toLocal(crs_->toGeodetic(x)) : x; }
+Vec3 JobFrame::fromLocal(const Vec3& x) const { return crs_ ? crs_->fromGeodetic(tangent_->toGeodetic(x)) : x; }
+
 namespace {
 
 /// GPS week seconds lie in [0, 604800]; adjusted standard GPS time (GPS seconds − 1e9) of
 /// any date since 2011 is far larger.
 bool looksLikeWeekSeconds(double t) { return t >= -1.0 && t <= 604801.0; }
 
-StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model) {
+StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const JobFrame& frame,
+                       std::vector<Vec3>* x_crs) {
   io::LasReader reader(js.path);
   const io::LasHeader& h = reader.header();
   if (!h.hasGpsTime()) {
@@ -266,7 +275,9 @@ StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model) {
         throw FileError(js.path, "record " + std::to_string(record), buf);
       }
       s.time_s.push_back(t);
-      s.x_m.emplace_back(reader.x(p), reader.y(p), reader.z(p));
+      const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
+      if (x_crs) x_crs->push_back(x);
+      s.x_m.push_back(frame.toLocal(x));
       ++record;
     }
   }
@@ -307,43 +318,169 @@ StripData loadRawStrip(const JobStrip& js, const SensorModel& sensor, const Geor
   return s;
 }
 
+/// Height of the strip point nearest to (x, y) in the strips' own coordinates.
+double nearestHeight(const std::vector<std::vector<Vec3>>& strips_crs, double x, double y) {
+  double best = std::numeric_limits<double>::infinity(), z = 0.0;
+  for (const auto& pts : strips_crs) {
+    for (const Vec3& p : pts) {
+      const double d = (p.x() - x) * (p.x() - x) + (p.y() - y) * (p.y() - y);
+      if (d < best) {
+        best = d;
+        z = p.z();
+      }
+    }
+  }
+  return z;
+}
+
+/// Picks are plan positions in the strips' CRS; in the tangent frame a plan position moves with
+/// height, so each is lifted with the height of the nearest strip point before conversion.
+std::vector<TieObservation> liftTies(std::vector<TieObservation> ties, const LoadedJob& loaded) {
+  if (loaded.frame.isLocal()) return ties;
+  for (TieObservation& t : ties) {
+    const Vec3 x = loaded.frame.toLocal(Vec3(t.x_m, t.y_m, nearestHeight(loaded.crs_strips, t.x_m, t.y_m)));
+    t.x_m = x.x();
+    t.y_m = x.y();
+  }
+  return ties;
+}
+
 }  // namespace
 
-CalibrationData loadJobData(const Job& job) {
-  if (job.frame_type == "crs") {
-    throw FileError(job.path, "field 'frame.type'", "geodetic (CRS) frames are not supported yet; use a local-frame job (SBET and CRS input are the next I/O milestone)");
+LoadedJob loadJobTrajectory(const Job& job) {
+  LoadedJob out;
+  CalibrationData& d = out.data;
+  if (job.frame_type == "local") {
+    if (job.trajectory_format != "csv") {
+      throw FileError(job.path, "field 'trajectory.format'", "a local-frame job needs the local trajectory CSV of SPEC §4; an SBET needs \"frame\": {\"type\": \"crs\"}");
+    }
+    d.trajectory = std::make_shared<const Trajectory>(io::readTrajectoryCsv(job.trajectory_path, job.time_offset_s));
+  } else {
+    const std::vector<io::SbetRecord> records = job.trajectory_format == "sbet" ? io::readSbet(job.trajectory_path)
+                                                                                 : io::readGeodeticTrajectoryCsv(job.trajectory_path);
+    if (records.empty()) throw FileError(job.trajectory_path, "", "no trajectory records");
+    try {
+      out.frame = JobFrame(job.crs, Geodetic{records.front().lat_rad, records.front().lon_rad, 0.0});
+    } catch (const InvalidInput& e) {
+      throw FileError(job.path, "field 'frame.crs'", e.what());
+    }
+    d.trajectory = std::make_shared<const Trajectory>(
+        io::sbetToTrajectory(job.trajectory_path, records, *out.frame.tangentFrame(), job.time_offset_s));
   }
-  if (job.trajectory_format != "csv") {
-    throw FileError(job.path, "field 'trajectory.format'", "SBET trajectories are not supported yet; convert to the trajectory CSV of SPEC §4");
-  }
+  d.mounting_used = job.mounting_used;
+  return out;
+}
+
+LoadedJob loadJob(const Job& job) {
   if (job.method != "vtpm") {
     throw FileError(job.path, "field 'method'", "method '" + job.method + "' is not implemented yet; use \"vtpm\"");
   }
-  CalibrationData d;
-  d.trajectory = std::make_shared<const Trajectory>(io::readTrajectoryCsv(job.trajectory_path, job.time_offset_s));
-  d.mounting_used = job.mounting_used;
+  LoadedJob out = loadJobTrajectory(job);
+  CalibrationData& d = out.data;
   const GeoreferenceModel model(d.trajectory, job.mounting_used);
   for (const JobStrip& js : job.strips) {
-    d.strips.push_back(js.format == "las" ? loadLasStrip(js, model) : loadRawStrip(js, job.sensor, model));
+    if (js.format == "las") {
+      out.crs_strips.emplace_back();
+      d.strips.push_back(loadLasStrip(js, model, out.frame, out.frame.isLocal() ? nullptr : &out.crs_strips.back()));
+    } else {
+      if (!out.frame.isLocal()) throw FileError(js.path, "", "raw CSV strips are supported in local-frame jobs only");
+      d.strips.push_back(loadRawStrip(js, job.sensor, model));
+    }
   }
-  d.ties = io::readTiesCsv(job.ties_path);
+  std::vector<TieObservation> ties = io::readTiesCsv(job.ties_path);
   std::set<std::string> ids;
   for (const JobStrip& js : job.strips) ids.insert(js.id);
-  for (const TieObservation& t : d.ties) {
+  for (const TieObservation& t : ties) {
     if (!ids.count(t.strip_id)) {
       throw FileError(job.ties_path, "line " + std::to_string(t.line), "tie '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
     }
   }
-  if (!job.gcps_path.empty()) d.gcps = io::readGcpCsv(job.gcps_path);
-  return d;
+  d.ties = liftTies(std::move(ties), out);
+  if (!job.gcps_path.empty()) {
+    d.gcps = io::readGcpCsv(job.gcps_path);
+    for (GroundControlPoint& g : d.gcps) {
+      const Vec3 x = out.frame.toLocal(Vec3(g.x_m, g.y_m, g.z_m));
+      g.x_m = x.x();
+      g.y_m = x.y();
+      g.z_m = x.z();
+    }
+  }
+  return out;
 }
 
-std::vector<TieObservation> loadCheckPoints(const Job& job) {
-  return job.check_points_path.empty() ? std::vector<TieObservation>{} : io::readTiesCsv(job.check_points_path);
+CalibrationData loadJobData(const Job& job) { return loadJob(job).data; }
+
+ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
+                         std::size_t chunk_points) {
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
+  const LoadedJob loaded = loadJobTrajectory(job);
+  const Trajectory& T = *loaded.data.trajectory;
+  const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
+  ApplyStats stats;
+  for (const JobStrip& js : job.strips) {
+    if (js.format != "las") throw FileError(js.path, "", "apply rewrites LAS strips; this strip is a raw CSV");
+    const std::string out_path = (fs::path(out_dir) / fs::path(js.path).filename()).string();
+    if (fs::exists(out_path) && fs::equivalent(out_path, js.path)) {
+      throw FileError(out_path, "", "apply would overwrite its own input; choose another --out folder");
+    }
+    io::LasReader reader(js.path);
+    const io::LasHeader& h = reader.header();
+    if (!h.hasGpsTime()) throw FileError(js.path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
+    io::LasWriter writer(out_path, h);
+    std::vector<io::LasPoint> chunk;
+    std::size_t cursor = 0;
+    std::uint64_t record = 0;
+    while (reader.read(&chunk, chunk_points) > 0) {
+      for (io::LasPoint& p : chunk) {
+        if (!(p.gps_time >= T.startTime() && p.gps_time <= T.endTime())) {
+          throw FileError(js.path, "record " + std::to_string(record), "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
+        }
+        const Pose pose = T.pose(p.gps_time, &cursor);
+        const Vec3 x_crs(reader.x(p), reader.y(p), reader.z(p));
+        const Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, loaded.frame.toLocal(x_crs));
+        const Vec3 x_new = loaded.frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));
+        stats.max_shift_m = std::max(stats.max_shift_m, (x_new - x_crs).norm());
+        p.X = writer.quantize(0, x_new.x());
+        p.Y = writer.quantize(1, x_new.y());
+        p.Z = writer.quantize(2, x_new.z());
+        writer.write(p);
+        ++record;
+      }
+    }
+    writer.close();
+    stats.points += record;
+    ++stats.strips;
+  }
+  return stats;
 }
 
-std::vector<PlaneRegion> loadCheckPlanes(const Job& job) {
-  return job.check_planes_path.empty() ? std::vector<PlaneRegion>{} : io::readPlanesCsv(job.check_planes_path);
+std::vector<TieObservation> loadCheckPoints(const Job& job, const LoadedJob& loaded) {
+  if (job.check_points_path.empty()) return {};
+  return liftTies(io::readTiesCsv(job.check_points_path), loaded);
+}
+
+std::vector<PlaneRegion> loadCheckPlanes(const Job& job, const LoadedJob& loaded) {
+  if (job.check_planes_path.empty()) return {};
+  std::vector<PlaneRegion> regions = io::readPlanesCsv(job.check_planes_path);
+  if (loaded.frame.isLocal()) return regions;
+  for (PlaneRegion& r : regions) {
+    // The region's bounding box in the computation frame (meridian convergence turns it slightly).
+    const double z = nearestHeight(loaded.crs_strips, 0.5 * (r.xmin + r.xmax), 0.5 * (r.ymin + r.ymax));
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (double x : {r.xmin, r.xmax}) {
+      for (double y : {r.ymin, r.ymax}) {
+        const Vec3 l = loaded.frame.toLocal(Vec3(x, y, z));
+        x0 = std::min(x0, l.x());
+        y0 = std::min(y0, l.y());
+        x1 = std::max(x1, l.x());
+        y1 = std::max(y1, l.y());
+      }
+    }
+    r = {r.id, x0, y0, x1, y1};
+  }
+  return regions;
 }
 
 namespace {

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "mountcal/io/las.hpp"
 #include "mountcal/simulation/survey.hpp"
 
 using namespace mountcal;
@@ -192,7 +193,9 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("badties.json", "\"ties.csv\"", "\"badties.csv\""), "badties.csv:line 3"},
       {variant("outside.json", "\"traj.csv\"", "\"shorttraj.csv\""), "outside the trajectory"},
       {variant("offset.json", "\"format\": \"csv\"}", "\"format\": \"csv\", \"time_offset_s\": 1e9}"), "time encoding mismatch"},
-      {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"), "not supported yet"},
+      {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"), "traj.csv:line 1: missing column 'lat_deg'"},
+      {variant("sbetlocal.json", "\"format\": \"csv\"}", "\"format\": \"sbet\"}"), "an SBET needs"},
+      {variant("planes.json", "\"method\": \"vtpm\"", "\"method\": \"planes\""), "not implemented yet"},
   };
   for (const Case& c : cases) {
     const CliRun r = runCli("calibrate --quiet " + c.job);
@@ -204,4 +207,87 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
   EXPECT_EQ(slurp((dir / "result.json").string()), result_before);
   EXPECT_EQ(runCli("no-such-command").code, 2);
   EXPECT_EQ(runCli("simulate --preset nope --out " + (dir / "x").string()).code, 2);
+}
+
+namespace {
+nlohmann::json resultOf(const std::string& job_dir) {
+  return nlohmann::json::parse(slurp(job_dir + "/result.json"));
+}
+}  // namespace
+
+TEST(Cli, SameSurveyInUtmWithSbetAndInALocalFrameGivesTheSameMounting) {
+  const std::string base = (fs::temp_directory_path() / ("mountcal_crs_" + std::to_string(::getpid()))).string();
+  const std::string loc = base + "/local", crs = base + "/utm";
+  ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 6 --out " + loc).code, 0);
+  const CliRun sim = runCli("simulate --preset paper-calibration-field --seed 6 --crs EPSG:32611 --out " + crs);
+  ASSERT_EQ(sim.code, 0) << sim.err;
+  ASSERT_TRUE(fs::exists(crs + "/trajectory.sbet"));
+  ASSERT_EQ(runCli("calibrate --quiet " + loc + "/job.json").code, 0);
+  const CliRun cal = runCli("calibrate --quiet " + crs + "/job.json");
+  ASSERT_EQ(cal.code, 0) << cal.err;
+  const auto a = resultOf(loc), b = resultOf(crs);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(a["mounting"]["boresight_deg"][i].get<double>(), b["mounting"]["boresight_deg"][i].get<double>(), 1e-4) << i;
+    EXPECT_NEAR(a["mounting"]["lever_arm_m"][i].get<double>(), b["mounting"]["lever_arm_m"][i].get<double>(), 2e-3) << i;
+  }
+  // Both are near the truth (default realistic noise; see the README for its sigmas).
+  const double truth[3] = {0.05, -0.08, 0.12};
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(b["mounting"]["boresight_deg"][i].get<double>(), truth[i], 0.01) << i;
+  fs::remove_all(base);
+}
+
+TEST(Cli, ApplyWithTheProducingMountingReproducesTheStripAndEvaluateReports) {
+  const std::string base = (fs::temp_directory_path() / ("mountcal_apply_" + std::to_string(::getpid()))).string();
+  ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 7 --crs EPSG:32611 --out " + base).code, 0);
+  // A result holding the mounting the strips were produced with.
+  std::ofstream(base + "/same.json") << "{\"mounting\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]}}";
+  const CliRun r = runCli("apply " + base + "/job.json --result " + base + "/same.json --out " + base + "/same");
+  ASSERT_EQ(r.code, 0) << r.err;
+  io::LasHeader ha, hb;
+  std::vector<io::LasPoint> pa, pb;
+  io::readLas(base + "/strip_1.las", &ha, &pa);
+  io::readLas(base + "/same/strip_1.las", &hb, &pb);
+  ASSERT_EQ(pa.size(), pb.size());
+  EXPECT_EQ(ha.offset, hb.offset);
+  EXPECT_EQ(ha.scale, hb.scale);
+  for (std::size_t i = 0; i < pa.size(); ++i) {
+    ASSERT_LE(std::abs(pa[i].X - pb[i].X), 1) << i;  // within the LAS scale (1 mm)
+    ASSERT_LE(std::abs(pa[i].Y - pb[i].Y), 1) << i;
+    ASSERT_LE(std::abs(pa[i].Z - pb[i].Z), 1) << i;
+    ASSERT_TRUE(pa[i].gps_time == pb[i].gps_time && pa[i].intensity == pb[i].intensity && pa[i].scan_angle == pb[i].scan_angle &&
+                pa[i].classification == pb[i].classification && pa[i].point_source_id == pb[i].point_source_id)
+        << i;
+  }
+  // Calibrate, apply, and the check planes of the rewritten strips agree better.
+  ASSERT_EQ(runCli("calibrate --quiet " + base + "/job.json").code, 0);
+  ASSERT_EQ(runCli("apply " + base + "/job.json --result " + base + "/result.json --out " + base + "/applied").code, 0);
+  const auto res = resultOf(base);
+  const auto planes = res["evaluation"]["check_planes"];
+  ASSERT_EQ(planes.size(), 2u);
+  for (const auto& p : planes) EXPECT_LT(p["rms_after_m"].get<double>(), p["rms_before_m"].get<double>());
+  EXPECT_EQ(runCli("evaluate " + base + "/job.json --result " + base + "/result.json").code, 0);
+  // Applying onto its own input is refused.
+  EXPECT_EQ(runCli("apply " + base + "/job.json --result " + base + "/result.json --out " + base).code, 2);
+  EXPECT_EQ(runCli("info " + base + "/strip_1.las").code, 0);
+  EXPECT_EQ(runCli("info " + base + "/trajectory.sbet").code, 0);
+  EXPECT_EQ(runCli("curves --out " + base).code, 0);
+  EXPECT_TRUE(fs::exists(base + "/fig2_y.svg"));
+  fs::remove_all(base);
+}
+
+TEST(Cli, UnknownCrsAndCorruptSbetAreBadInput) {
+  const std::string base = (fs::temp_directory_path() / ("mountcal_crsbad_" + std::to_string(::getpid()))).string();
+  ASSERT_EQ(runCli("simulate --preset paper-check-block --crs EPSG:32611 --out " + base).code, 0);
+  std::string job = slurp(base + "/job.json");
+  job.replace(job.find("EPSG:32611"), 10, "EPSG:999999");
+  std::ofstream(base + "/badcrs.json") << job;
+  CliRun r = runCli("calibrate --quiet " + base + "/badcrs.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("badcrs.json:field 'frame.crs'"), std::string::npos) << r.err;
+  const std::string sbet = slurp(base + "/trajectory.sbet");
+  std::ofstream(base + "/trajectory.sbet", std::ios::binary) << sbet.substr(0, sbet.size() - 5);
+  r = runCli("calibrate --quiet " + base + "/job.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("trajectory.sbet:byte"), std::string::npos) << r.err;
+  fs::remove_all(base);
 }

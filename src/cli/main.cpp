@@ -1,11 +1,18 @@
 // mountcal — the command-line tool. Exit codes (SPEC §4): 0 success; 1 the solve ran but is
 // not usable; 2 bad input, with one line on stderr naming the file and where it went wrong.
 #include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <string>
 
 #include "mountcal/error.hpp"
+#include "mountcal/error_curves.hpp"
+#include "mountcal/io/las.hpp"
+#include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/job.hpp"
 #include "mountcal/report.hpp"
@@ -14,8 +21,14 @@
 
 namespace {
 
+/// Progress for long steps, only when a person is watching stderr.
+void progress(const char* what) {
+  static const bool tty = ::isatty(2) != 0;
+  if (tty) std::fprintf(stderr, "mountcal: %s\n", what);
+}
+
 int runSimulate(const std::string& scenario, const std::string& preset, std::uint64_t seed,
-                const std::string& out, bool no_noise) {
+                const std::string& out, bool no_noise, const std::string& crs) {
   using namespace mountcal::simulation;
   SurveyConfig config;
   Scene scene;
@@ -27,7 +40,9 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   if (no_noise) config.noise = NoiseModel::none();
   const auto t0 = std::chrono::steady_clock::now();
   const SimulatedSurvey survey = simulate(config, scene);
-  writeSurvey(survey, out);
+  SurveyWriteOptions write_options;
+  write_options.crs = crs;
+  writeSurvey(survey, out, write_options);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;
   for (const auto& s : survey.strips) points += s.points_m.size();
@@ -41,12 +56,15 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
 int runCalibrate(const std::string& job_path, bool quiet) {
   using namespace mountcal;
   const Job job = readJob(job_path);
-  const CalibrationData data = loadJobData(job);
+  progress("reading the trajectory and strips");
+  const LoadedJob loaded = loadJob(job);
+  const CalibrationData& data = loaded.data;
+  progress("building virtual tie points and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
   ResultEvaluation ev;
   bool any_eval = false;
-  const std::vector<TieObservation> checks = loadCheckPoints(job);
-  const std::vector<PlaneRegion> planes = loadCheckPlanes(job);
+  const std::vector<TieObservation> checks = loadCheckPoints(job, loaded);
+  const std::vector<PlaneRegion> planes = loadCheckPlanes(job, loaded);
   if (!checks.empty() || !planes.empty()) {
     any_eval = true;
     CalibrationData check = data;
@@ -74,6 +92,111 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   return 0;
 }
 
+int runApply(const std::string& job_path, const std::string& result_path, const std::string& out) {
+  using namespace mountcal;
+  const Job job = readJob(job_path);
+  const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
+  progress("rewriting the strips");
+  const ApplyStats st = applyMounting(job, m, out);
+  std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu strips, %llu points; "
+              "largest shift %.3f m; wrote %s\n",
+              m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
+              static_cast<unsigned long long>(st.points), st.max_shift_m, out.c_str());
+  return 0;
+}
+
+int runEvaluate(const std::string& job_path, const std::string& result_path) {
+  using namespace mountcal;
+  const Job job = readJob(job_path);
+  const LoadedJob loaded = loadJob(job);
+  const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
+  const auto checks = loadCheckPoints(job, loaded);
+  const auto planes = loadCheckPlanes(job, loaded);
+  if (checks.empty() && planes.empty()) {
+    std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes\n", job_path.c_str());
+    return 2;
+  }
+  CalibrationData check = loaded.data;
+  check.ties = checks;
+  if (!checks.empty()) {
+    const auto b = evaluateCheckPoints(check, job.mounting_used, job.options.vtp);
+    const auto a = evaluateCheckPoints(check, m, job.options.vtp);
+    std::printf("check points: %zu observations (%zu rejected)\n", a.residuals.size(), a.rejected.size());
+    std::printf("  RMS before (%.4f, %.4f, %.4f) m\n  RMS after  (%.4f, %.4f, %.4f) m\n", b.rms_m.x(), b.rms_m.y(), b.rms_m.z(),
+                a.rms_m.x(), a.rms_m.y(), a.rms_m.z());
+  }
+  if (!planes.empty()) {
+    const auto b = evaluateCheckPlanes(check, planes, job.mounting_used);
+    const auto a = evaluateCheckPlanes(check, planes, m);
+    std::printf("check planes (RMS = sqrt(sum d^2/(n-3)), seed eq. 13):\n");
+    for (std::size_t i = 0; i < a.size(); ++i)
+      std::printf("  %-12s %7d points  before %.4f m  after %.4f m\n", a[i].plane_id.c_str(), a[i].points, b[i].rms_m, a[i].rms_m);
+  }
+  return 0;
+}
+
+int runInfo(const std::string& path) {
+  using namespace mountcal;
+  std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".las" || ext == ".laz") {
+    io::LasReader r(path);
+    const io::LasHeader& h = r.header();
+    std::printf("%s: LAS %d.%d, point format %d (%d bytes, %d extra), %llu points\n", path.c_str(), h.version_major,
+                h.version_minor, h.point_format, h.point_record_length, h.extraBytesPerPoint(),
+                static_cast<unsigned long long>(h.point_count));
+    std::printf("  scale (%g, %g, %g), offset (%.3f, %.3f, %.3f)\n", h.scale[0], h.scale[1], h.scale[2], h.offset[0], h.offset[1], h.offset[2]);
+    std::printf("  bounds x [%.3f, %.3f] y [%.3f, %.3f] z [%.3f, %.3f]\n", h.min[0], h.max[0], h.min[1], h.max[1], h.min[2], h.max[2]);
+    std::printf("  GPS time: %s\n", h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
+    for (const auto& v : h.vlrs) std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+    for (const auto& v : h.evlrs) std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+    if (h.hasGpsTime()) {
+      double t0 = 1e300, t1 = -1e300, a0 = 1e300, a1 = -1e300;
+      std::vector<io::LasPoint> chunk;
+      while (r.read(&chunk) > 0) {
+        for (const auto& p : chunk) {
+          t0 = std::min(t0, p.gps_time);
+          t1 = std::max(t1, p.gps_time);
+          a0 = std::min(a0, io::scanAngleDeg(h, p));
+          a1 = std::max(a1, io::scanAngleDeg(h, p));
+        }
+      }
+      if (h.point_count) std::printf("  time [%.6f, %.6f] s, scan angle [%.3f, %.3f] deg\n", t0, t1, a0, a1);
+    }
+    return 0;
+  }
+  const auto rec = io::readSbet(path);
+  double lat0 = 1e9, lat1 = -1e9, lon0 = 1e9, lon1 = -1e9, h0 = 1e9, h1 = -1e9;
+  for (const auto& r : rec) {
+    lat0 = std::min(lat0, r.lat_rad), lat1 = std::max(lat1, r.lat_rad);
+    lon0 = std::min(lon0, r.lon_rad), lon1 = std::max(lon1, r.lon_rad);
+    h0 = std::min(h0, r.h_m), h1 = std::max(h1, r.h_m);
+  }
+  const double span = rec.back().time_s - rec.front().time_s;
+  std::printf("%s: SBET, %zu records, time [%.6f, %.6f] s (%.1f Hz)\n", path.c_str(), rec.size(), rec.front().time_s,
+              rec.back().time_s, span > 0 ? static_cast<double>(rec.size() - 1) / span : 0.0);
+  std::printf("  latitude [%.7f, %.7f] deg, longitude [%.7f, %.7f] deg, height [%.3f, %.3f] m\n", rad2deg(lat0), rad2deg(lat1),
+              rad2deg(lon0), rad2deg(lon1), h0, h1);
+  return 0;
+}
+
+int runCurves(const std::string& out, double delta_deg) {
+  using namespace mountcal;
+  std::vector<double> angles, ranges{500, 1000, 1500, 2000};
+  for (int a = -45; a <= 45; ++a) angles.push_back(deg2rad(a));
+  const auto samples = boresightErrorCurves(Vec3::Constant(deg2rad(delta_deg)), angles, ranges);
+  if (out.empty()) {
+    std::printf("%s", errorCurvesCsv(samples).c_str());
+    return 0;
+  }
+  io::writeFileAtomically(out + "/fig_errors.csv", errorCurvesCsv(samples));
+  const char* names[3] = {"fig1_x.svg", "fig2_y.svg", "fig3_z.svg"};
+  const char* titles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error", "Fig. 3 — vertical (z) error"};
+  for (int axis = 0; axis < 3; ++axis) io::writeFileAtomically(out + "/" + names[axis], errorCurveSvg(samples, axis, titles[axis]));
+  std::printf("wrote %s/fig_errors.csv, fig1_x.svg, fig2_y.svg, fig3_z.svg\n", out.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -90,12 +213,31 @@ int main(int argc, char** argv) {
   sim->add_option("--seed", seed, "Random seed for the noise")->capture_default_str();
   sim->add_option("--out", out, "Output folder")->required();
   sim->add_flag("--no-noise", no_noise, "Switch every noise source off");
+  std::string crs;
+  sim->add_option("--crs", crs, "Write the survey in this CRS (e.g. EPSG:32611) with an SBET trajectory");
 
   std::string job_path;
   bool quiet = false;
   CLI::App* cal = app.add_subcommand("calibrate", "Calibrate the mounting from a job file (SPEC §4); writes the result file");
   cal->add_option("job", job_path, "Job JSON file")->required();
   cal->add_flag("--quiet", quiet, "Print nothing on success");
+
+  std::string result_path, apply_out;
+  CLI::App* apply = app.add_subcommand("apply", "Rewrite the job's LAS strips with the calibrated mounting");
+  apply->add_option("job", job_path, "Job JSON file")->required();
+  apply->add_option("--result", result_path, "Result JSON file of mountcal calibrate")->required();
+  apply->add_option("--out", apply_out, "Output folder (the strips keep their file names)")->required();
+  CLI::App* evaluate = app.add_subcommand("evaluate", "Check points and check planes before and after a result (seed Tables 2, 3)");
+  evaluate->add_option("job", job_path, "Job JSON file")->required();
+  evaluate->add_option("--result", result_path, "Result JSON file")->required();
+  std::string info_path;
+  CLI::App* info = app.add_subcommand("info", "Summary of a LAS or SBET file");
+  info->add_option("file", info_path, "LAS or SBET file")->required();
+  std::string curves_out;
+  double curves_deg = 0.1;
+  CLI::App* curves = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
+  curves->add_option("--out", curves_out, "Folder for fig_errors.csv and the SVG plots");
+  curves->add_option("--boresight-deg", curves_deg, "Boresight error on each axis [deg]")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -108,9 +250,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "mountcal simulate: give either a SCENARIO file or --preset NAME\n");
         return 2;
       }
-      return runSimulate(scenario, preset, seed, out, no_noise);
+      return runSimulate(scenario, preset, seed, out, no_noise, crs);
     }
     if (cal->parsed()) return runCalibrate(job_path, quiet);
+    if (apply->parsed()) return runApply(job_path, result_path, apply_out);
+    if (evaluate->parsed()) return runEvaluate(job_path, result_path);
+    if (info->parsed()) return runInfo(info_path);
+    if (curves->parsed()) return runCurves(curves_out, curves_deg);
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());
     return 2;

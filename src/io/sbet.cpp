@@ -5,6 +5,8 @@
 #include <fstream>
 
 #include "mountcal/error.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/csv.hpp"
 
 namespace mountcal::io {
 
@@ -30,6 +32,30 @@ std::vector<SbetRecord> readSbet(const std::string& path) {
     if (std::abs(out[i].lat_rad) > kPi / 2 || std::abs(out[i].lon_rad) > 2 * kPi) {
       throw FileError(path, "record " + std::to_string(i), "latitude/longitude out of range (are they in radians?)");
     }
+  }
+  return out;
+}
+
+void writeSbet(const std::string& path, const std::vector<SbetRecord>& records) {
+  writeFileAtomically(path, std::string(reinterpret_cast<const char*>(records.data()), records.size() * sizeof(SbetRecord)));
+}
+
+std::vector<SbetRecord> readGeodeticTrajectoryCsv(const std::string& path) {
+  const CsvTable t = CsvTable::read(path);
+  const std::size_t ct = t.column("time"), cla = t.column("lat_deg"), clo = t.column("lon_deg"), ch = t.column("h_m");
+  const std::size_t cr = t.column("roll_deg"), cp = t.column("pitch_deg"), chd = t.column("heading_deg");
+  std::vector<SbetRecord> out(t.rows());
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    SbetRecord& s = out[r];
+    std::memset(&s, 0, sizeof s);
+    s.time_s = t.number(r, ct);
+    s.lat_rad = deg2rad(t.number(r, cla));
+    s.lon_rad = deg2rad(t.number(r, clo));
+    if (std::abs(s.lat_rad) > kPi / 2) throw FileError(path, "line " + std::to_string(t.lineOf(r)), "latitude out of range");
+    s.h_m = t.number(r, ch);
+    s.roll_rad = deg2rad(t.number(r, cr));
+    s.pitch_rad = deg2rad(t.number(r, cp));
+    s.platform_heading_rad = deg2rad(t.number(r, chd));
   }
   return out;
 }

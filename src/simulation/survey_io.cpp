@@ -7,7 +7,9 @@
 
 #include "mountcal/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/crs.hpp"
 #include "mountcal/io/csv.hpp"
+#include "mountcal/io/sbet.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/simulation/survey.hpp"
 
@@ -27,8 +29,15 @@ std::array<double, 3> nominalDeg(const MountingParameters& m) {
   return {rad2deg(rph.x()), rad2deg(rph.y()), rad2deg(rph.z())};
 }
 
+/// Local (simulated ENU) → output coordinates: identity, or through WGS84 into a CRS.
+struct OutputFrame {
+  std::unique_ptr<io::CrsTransform> crs;
+  std::unique_ptr<LocalTangentFrame> tangent;
+  Vec3 operator()(const Vec3& x_m) const { return crs ? crs->fromGeodetic(tangent->toGeodetic(x_m)) : x_m; }
+};
+
 void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip,
-                   int source_id) {
+                   int source_id, const OutputFrame& frame) {
   io::LasHeader h;
   h.version_minor = 4;
   h.point_format = 6;
@@ -37,17 +46,20 @@ void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const
   h.file_source_id = static_cast<std::uint16_t>(source_id);
   h.generating_software = "mountcal simulate";
   h.system_identifier = survey.config.name;
+  std::vector<Vec3> out_points;
+  out_points.reserve(strip.points_m.size());
+  for (const Vec3& p : strip.points_m) out_points.push_back(frame(p));
   Vec3 lo = Vec3::Constant(1e300);
-  for (const Vec3& p : strip.points_m) lo = lo.cwiseMin(p);
-  if (strip.points_m.empty()) lo.setZero();
+  for (const Vec3& p : out_points) lo = lo.cwiseMin(p);
+  if (out_points.empty()) lo.setZero();
   for (int a = 0; a < 3; ++a) h.offset[a] = std::floor(lo[a] / 1000.0) * 1000.0;
   io::LasWriter w(path, h);
   io::LasPoint p;
   for (std::size_t k = 0; k < strip.points_m.size(); ++k) {
     const RawPulse& r = strip.pulses[k];
-    p.X = w.quantize(0, strip.points_m[k].x());
-    p.Y = w.quantize(1, strip.points_m[k].y());
-    p.Z = w.quantize(2, strip.points_m[k].z());
+    p.X = w.quantize(0, out_points[k].x());
+    p.Y = w.quantize(1, out_points[k].y());
+    p.Z = w.quantize(2, out_points[k].z());
     p.intensity = static_cast<std::uint16_t>(std::lround(std::max(0.0f, r.intensity)));
     p.gps_time = r.time_s;
     p.point_source_id = static_cast<std::uint16_t>(source_id);
@@ -67,32 +79,71 @@ void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const
 
 }  // namespace
 
-void writeSurvey(const SimulatedSurvey& survey, const std::string& dir) {
+void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
   const SurveyConfig& c = survey.config;
-  io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
+  OutputFrame frame;
+  nlohmann::json trajectory_json;
+  if (options.crs.empty()) {
+    io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
+    trajectory_json = {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}};
+  } else {
+    frame.crs = std::make_unique<io::CrsTransform>(options.crs);
+    frame.tangent = std::make_unique<LocalTangentFrame>(frame.crs->toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
+    // SBET: position through WGS84; attitude relative to the true NED frame at each sample:
+    // R_n(t)b = R_mn(t)ᵀ · R_mb, where R_mb is the simulated body attitude in the ENU frame.
+    std::vector<io::SbetRecord> records;
+    for (const TrajectorySample& s : survey.measured_trajectory->samples()) {
+      io::SbetRecord r{};
+      const Geodetic g = frame.tangent->toGeodetic(s.p_m);
+      const Mat3 R_mb = s.R_mn * R_nb(s.roll, s.pitch, s.heading);
+      const Vec3 rph = rollPitchHeading(frame.tangent->R_mn(g.lat, g.lon).transpose() * R_mb);
+      r.time_s = s.time_s;
+      r.lat_rad = g.lat;
+      r.lon_rad = g.lon;
+      r.h_m = g.h;
+      r.roll_rad = rph.x();
+      r.pitch_rad = rph.y();
+      r.platform_heading_rad = rph.z();
+      r.wander_rad = 0.0;
+      records.push_back(r);
+    }
+    io::writeSbet(dir + "/trajectory.sbet", records);
+    trajectory_json = {{"path", "trajectory.sbet"}, {"format", "sbet"}, {"time_offset_s", 0.0}};
+  }
 
   nlohmann::json strips = nlohmann::json::array();
   for (std::size_t k = 0; k < survey.strips.size(); ++k) {
     const SimulatedStrip& s = survey.strips[k];
-    writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1));
+    writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1), frame);
     io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
     strips.push_back({{"id", s.id}, {"path", "strip_" + s.id + ".las"}});
   }
-  auto toObs = [](const std::vector<TiePick>& picks) {
+  auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;
-    for (const TiePick& p : picks) out.push_back({p.tie_id, p.strip_id, p.x_m, p.y_m, 0});
+    for (const TiePick& p : picks) {
+      const Vec3 x = frame(Vec3(p.x_m, p.y_m, p.apparent_m.z()));
+      out.push_back({p.tie_id, p.strip_id, x.x(), x.y(), 0});
+    }
     return out;
   };
   io::writeTiesCsv(dir + "/ties.csv", toObs(survey.ties));
   io::writeTiesCsv(dir + "/check_points.csv", toObs(survey.check_points));
   std::vector<io::PlaneRegion> planes;
-  for (const PlanePatch& p : survey.check_planes) planes.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+  for (const PlanePatch& p : survey.check_planes) {
+    // Corners inset by 1 m so that the box stays inside the patch after the CRS's rotation.
+    const Vec3 a = frame(Vec3(p.xmin + 1, p.ymin + 1, 0)), b = frame(Vec3(p.xmax - 1, p.ymax - 1, 0));
+    planes.push_back(frame.crs ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
+                               : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+  }
   io::writePlanesCsv(dir + "/check_planes.csv", planes);
   std::vector<io::GroundControlPoint> gcps;
-  for (const FeaturePoint& f : survey.gcps) gcps.push_back({f.id, f.x_m.x(), f.x_m.y(), f.x_m.z(), 0.02, 0.02});
+  for (const FeaturePoint& f : survey.gcps) {
+    const Vec3 x = frame(f.x_m);
+    gcps.push_back({f.id, x.x(), x.y(), x.z(), 0.02, 0.02});
+  }
   io::writeGcpCsv(dir + "/gcps.csv", gcps);
 
   const auto nom = nominalDeg(c.nominal_mounting);
@@ -103,8 +154,8 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir) {
     sensor = {{"type", "multibeam"}, {"model", c.multibeam.model.name()}, {"nominal_rotation_deg", nom}};
   }
   nlohmann::json job = {
-      {"frame", {{"type", "local"}}},
-      {"trajectory", {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}}},
+      {"frame", options.crs.empty() ? nlohmann::json{{"type", "local"}} : nlohmann::json{{"type", "crs"}, {"crs", options.crs}}},
+      {"trajectory", trajectory_json},
       {"sensor", sensor},
       {"mounting_used", mountingJson(c.nominal_mounting)},
       {"strips", strips},

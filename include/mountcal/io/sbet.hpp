@@ -31,6 +31,13 @@ static_assert(sizeof(SbetRecord) == 136, "an SBET record is 17 float64");
 /// — for non-finite values or an out-of-range latitude.
 std::vector<SbetRecord> readSbet(const std::string& path);
 
+/// Writes an SBET file (atomically).
+void writeSbet(const std::string& path, const std::vector<SbetRecord>& records);
+
+/// Reads the geodetic trajectory CSV of SPEC §4 (`time,lat_deg,lon_deg,h_m,roll_deg,
+/// pitch_deg,heading_deg`) as SBET-like records (wander 0, rates and accelerations 0).
+std::vector<SbetRecord> readGeodeticTrajectoryCsv(const std::string& path);
+
 /// The SBET as a trajectory in the ENU tangent frame `frame` (R_mn per sample, true heading).
 /// `time_offset_s` is added to every time. Throws FileError for unsorted or duplicate times.
 Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecord>& records,

@@ -156,9 +156,20 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 /// or malformed.
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
 
-/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv, strip_<id>.las
-/// (LAS 1.4, point format 6), raw_<id>.csv, ties.csv, check_points.csv, check_planes.csv,
-/// gcps.csv. Creates `dir` if needed. Throws FileError.
-void writeSurvey(const SimulatedSurvey& survey, const std::string& dir);
+/// How a survey is written.
+struct SurveyWriteOptions {
+  /// Empty: a local-frame job (trajectory.csv, coordinates as simulated). Otherwise a CRS code
+  /// ("EPSG:32611"): the simulated ENU frame is placed tangent to WGS84 under the CRS point
+  /// (500000, 4000000), strips, ties, check data and GCPs are written in the CRS, the
+  /// trajectory as trajectory.sbet (true heading, zero wander), and job.json says
+  /// `"frame": {"type": "crs", ...}` — so the same survey can be calibrated both ways.
+  std::string crs;
+};
+
+/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv (or .sbet),
+/// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,
+/// check_points.csv, check_planes.csv, gcps.csv. Creates `dir` if needed. Throws FileError,
+/// or InvalidInput for an unknown CRS.
+void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options = {});
 
 }  // namespace mountcal::simulation
