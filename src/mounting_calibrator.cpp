@@ -269,7 +269,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     costs[k] = detail::makeVtpCostFunction(&vtps[k], Vec3(o.tie_sigma_xy_m, o.tie_sigma_xy_m, o.tie_sigma_z_m),
                                            o.numeric_diff_relative_step);  // seed eq. (10)
   }
-  std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;
+  std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;  // the problem owns none of them
   std::array<double, 6> m = m0;
 
   auto solve = [&](const std::array<bool, 6>& est, ceres::Solver::Summary* cs, ceres::Problem* problem) {
@@ -283,15 +283,20 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
       }
       if (tie.gcp) {
         const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
-        problem->AddResidualBlock(new GcpPrior(x, Vec3(1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_z_m)), nullptr, tie.X);
+        owned_costs.emplace_back(new GcpPrior(x, Vec3(1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_z_m)));
+        problem->AddResidualBlock(owned_costs.back().get(), nullptr, tie.X);
       }
     }
     for (int j = 0; j < 6; ++j)
-      if (est[j] && priorOn(o, j)) problem->AddResidualBlock(new MountingPrior(j, o.prior_value[j], o.prior_sigma[j]), nullptr, m.data());
+      if (est[j] && priorOn(o, j)) {
+        owned_costs.emplace_back(new MountingPrior(j, o.prior_value[j], o.prior_sigma[j]));
+        problem->AddResidualBlock(owned_costs.back().get(), nullptr, m.data());
+      }
     for (auto& entry : offset_index) {
       if (offset_sigma > 0) {
         const double w = 1.0 / offset_sigma;
-        problem->AddResidualBlock(new GcpPrior(Vec3::Zero(), Vec3(w, w, w)), nullptr, entry.first);
+        owned_costs.emplace_back(new GcpPrior(Vec3::Zero(), Vec3(w, w, w)));
+        problem->AddResidualBlock(owned_costs.back().get(), nullptr, entry.first);
       } else {
         problem->SetParameterBlockConstant(entry.first);
       }

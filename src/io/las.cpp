@@ -161,10 +161,11 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     in_.seekg(static_cast<std::streamoff>(pos));
     in_.read(reinterpret_cast<char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
   }
-  const std::uint64_t points_end = point_offset_ + count * header_.point_record_length;
-  if (point_offset_ > file_size || points_end > file_size) {
+  // Checked by division: count · length can overflow 64 bits in a corrupt header.
+  if (point_offset_ > file_size || count > (file_size - point_offset_) / header_.point_record_length) {
     throw FileError(path, byteAt(file_size), "truncated: the header announces " + std::to_string(count) + " points of " + std::to_string(header_.point_record_length) + " bytes from byte " + std::to_string(point_offset_) + ", but the file has " + std::to_string(file_size) + " bytes");
   }
+  const std::uint64_t points_end = point_offset_ + count * header_.point_record_length;
   // EVLRs.
   if (n_evlr > 0) {
     if (evlr_start < points_end || evlr_start > file_size) throw FileError(path, byteAt(235), "start of the first EVLR is invalid");
@@ -318,7 +319,7 @@ void LasWriter::write(const LasPoint& p) {
     if (f == 8) put<std::uint16_t>(r, 36, p.nir);
   }
   const std::size_t std_len = LasHeader::standardRecordLength(f);
-  std::memcpy(r + std_len, p.extra.data(), std::min(p.extra.size(), record_.size() - std_len));
+  if (!p.extra.empty()) std::memcpy(r + std_len, p.extra.data(), std::min(p.extra.size(), record_.size() - std_len));
   out_.write(r, static_cast<std::streamsize>(record_.size()));
   const double xyz[3] = {p.X * header_.scale[0] + header_.offset[0], p.Y * header_.scale[1] + header_.offset[1], p.Z * header_.scale[2] + header_.offset[2]};
   for (int a = 0; a < 3; ++a) {

@@ -1,0 +1,28 @@
+// libFuzzer target: the LAS reader must refuse any malformed input with a FileError — never
+// crash, hang, read out of bounds or allocate without bound.
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "mountcal/error.hpp"
+#include "mountcal/io/las.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const std::string path = "/tmp/mountcal_fuzz_las_" + std::to_string(::getpid()) + ".las";
+  if (FILE* f = std::fopen(path.c_str(), "wb")) {
+    std::fwrite(data, 1, size, f);
+    std::fclose(f);
+  }
+  try {
+    mountcal::io::LasReader reader(path);
+    std::vector<mountcal::io::LasPoint> chunk;
+    while (reader.read(&chunk, 4096) > 0) {
+      for (const auto& p : chunk) (void)mountcal::io::scanAngleDeg(reader.header(), p);
+    }
+  } catch (const mountcal::Error&) {
+  }
+  return 0;
+}
