@@ -25,6 +25,7 @@ fi
 for target in las sbet; do
   echo "fuzz: $target for ${seconds} s"
   "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
+    -artifact_prefix="$out/" \
     "$out/corpus_$target" > "$out/fuzz_$target.log" 2>&1 || { tail -40 "$out/fuzz_$target.log"; echo "fuzz: $target FAILED"; exit 1; }
   grep -E "stat::number_of_executed_units|Done" "$out/fuzz_$target.log" | tail -2
 done

@@ -196,6 +196,8 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"), "traj.csv:line 1: missing column 'lat_deg'"},
       {variant("sbetlocal.json", "\"format\": \"csv\"}", "\"format\": \"sbet\"}"), "an SBET needs"},
       {variant("planes.json", "\"method\": \"vtpm\"", "\"method\": \"planes\""), "not implemented yet"},
+      {variant("nostrips.json", "\"strips\": [", "\"strip_list\": ["), "field 'strip_list'"},
+      {variant("noties.json", "\"ties\": \"ties.csv\",", ""), "field 'ties': missing"},
   };
   for (const Case& c : cases) {
     const CliRun r = runCli("calibrate --quiet " + c.job);
@@ -289,5 +291,13 @@ TEST(Cli, UnknownCrsAndCorruptSbetAreBadInput) {
   r = runCli("calibrate --quiet " + base + "/job.json");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("trajectory.sbet:byte"), std::string::npos) << r.err;
+  // A non-finite value in record 3 (its height) is named by record.
+  std::string nan_sbet = sbet;
+  const double nan = std::nan("");
+  std::memcpy(&nan_sbet[3 * 136 + 3 * 8], &nan, 8);
+  std::ofstream(base + "/trajectory.sbet", std::ios::binary) << nan_sbet;
+  r = runCli("calibrate --quiet " + base + "/job.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("trajectory.sbet:record 3"), std::string::npos) << r.err;
   fs::remove_all(base);
 }

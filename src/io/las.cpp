@@ -104,6 +104,9 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     header_.max[a] = get<double>(h, 179 + 16 * a);
     header_.min[a] = get<double>(h, 187 + 16 * a);
   }
+  if (point_offset_ > file_size) {
+    throw FileError(path, byteAt(96), "offset to point data " + std::to_string(point_offset_) + " is beyond the end of the file (" + std::to_string(file_size) + " bytes)");
+  }
   const std::uint16_t expected_header = headerSize(header_.version_minor);
   if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
     throw FileError(path, byteAt(94), "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header_.version_minor));

@@ -49,6 +49,7 @@ void calibrationField(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   for (const auto& t : trees) s->addTree(t[0], t[1], 4.0, 3.0, 12.0, 0.6);
   s->addCheckPlane("plane_1", -30, -100, -10, -80);
   s->addCheckPlane("plane_2", 100, 160, 130, 190);
+  c->check_point_ids = {"inner_2", "inner_4", "inner_6", "inner_8"};
   c->name = "paper-calibration-field";
   c->sensor = SensorType::kLine;
   c->true_mounting = presetTruth();
@@ -94,6 +95,13 @@ void checkBlock(std::uint64_t seed, SurveyConfig* c, Scene* s) {
       ++id;
     }
   }
+  // Ties (road crossings) in the overlaps too, so that the block's job.json runs as it is: a
+  // calibration from four parallel strips, whose report names what such a block cannot fix.
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 2; ++j) {
+      s->addGroundTarget("tie_" + std::to_string(2 * k + j + 1), -2000 + 3500.0 * j + 150 * k, (k + 0.5) * spacing + (j ? 30 : -30), 8.0, deg2rad(20));
+    }
+  }
   s->addCheckPlane("plane_1", -300, 0.5 * spacing - 40, -200, 0.5 * spacing + 40);      // a road
   s->addCheckPlane("plane_2", 600, 1.5 * spacing - 30, 660, 1.5 * spacing + 30);        // a field
   c->name = "paper-check-block";
@@ -124,6 +132,7 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   s->addZebraCrossing("zebra", 20, 20, deg2rad(90), 5, 3.0);
   s->addMarking(25, 120, 60, 0.15, 0.0, 200.0f);  // centre line
   s->addCheckPlane("plane_1", 35, 150, 45, 160);
+  c->check_point_ids = {"target_3", "target_6"};
   c->name = "uav-vlp16";
   c->sensor = SensorType::kMultiBeam;
   c->multibeam.model = MultiBeamModel::VLP16();

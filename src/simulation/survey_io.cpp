@@ -86,34 +86,38 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   const SurveyConfig& c = survey.config;
   OutputFrame frame;
   nlohmann::json trajectory_json;
+  // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
+  // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
+  const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
+  const io::CrsTransform placement(placement_crs);
+  const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
+  // SBET: position through WGS84; attitude relative to the true NED frame at each sample:
+  // R_n(t)b = R_mn(t)ᵀ · R_mb, where R_mb is the simulated body attitude in the ENU frame.
+  std::vector<io::SbetRecord> records;
+  for (const TrajectorySample& s : survey.measured_trajectory->samples()) {
+    io::SbetRecord r{};
+    const Geodetic g = tangent.toGeodetic(s.p_m);
+    const Mat3 R_mb = s.R_mn * R_nb(s.roll, s.pitch, s.heading);
+    const Vec3 rph = rollPitchHeading(tangent.R_mn(g.lat, g.lon).transpose() * R_mb);
+    r.time_s = s.time_s;
+    r.lat_rad = g.lat;
+    r.lon_rad = g.lon;
+    r.h_m = g.h;
+    r.roll_rad = rph.x();
+    r.pitch_rad = rph.y();
+    r.platform_heading_rad = rph.z();
+    r.wander_rad = 0.0;
+    records.push_back(r);
+  }
+  io::writeSbet(dir + "/trajectory.sbet", records);
   if (options.crs.empty()) {
     io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
     trajectory_json = {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}};
   } else {
     frame.crs = std::make_unique<io::CrsTransform>(options.crs);
-    frame.tangent = std::make_unique<LocalTangentFrame>(frame.crs->toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
-    // SBET: position through WGS84; attitude relative to the true NED frame at each sample:
-    // R_n(t)b = R_mn(t)ᵀ · R_mb, where R_mb is the simulated body attitude in the ENU frame.
-    std::vector<io::SbetRecord> records;
-    for (const TrajectorySample& s : survey.measured_trajectory->samples()) {
-      io::SbetRecord r{};
-      const Geodetic g = frame.tangent->toGeodetic(s.p_m);
-      const Mat3 R_mb = s.R_mn * R_nb(s.roll, s.pitch, s.heading);
-      const Vec3 rph = rollPitchHeading(frame.tangent->R_mn(g.lat, g.lon).transpose() * R_mb);
-      r.time_s = s.time_s;
-      r.lat_rad = g.lat;
-      r.lon_rad = g.lon;
-      r.h_m = g.h;
-      r.roll_rad = rph.x();
-      r.pitch_rad = rph.y();
-      r.platform_heading_rad = rph.z();
-      r.wander_rad = 0.0;
-      records.push_back(r);
-    }
-    io::writeSbet(dir + "/trajectory.sbet", records);
+    frame.tangent = std::make_unique<LocalTangentFrame>(tangent.origin());
     trajectory_json = {{"path", "trajectory.sbet"}, {"format", "sbet"}, {"time_offset_s", 0.0}};
   }
-
   nlohmann::json strips = nlohmann::json::array();
   for (std::size_t k = 0; k < survey.strips.size(); ++k) {
     const SimulatedStrip& s = survey.strips[k];

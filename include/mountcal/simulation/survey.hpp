@@ -166,7 +166,8 @@ struct SurveyWriteOptions {
   std::string crs;
 };
 
-/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv (or .sbet),
+/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
+/// trajectory.sbet (a local job's ENU frame placed under UTM 11 N's (500000, 4000000)),
 /// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,
 /// check_points.csv, check_planes.csv, gcps.csv. Creates `dir` if needed. Throws FileError,
 /// or InvalidInput for an unknown CRS.
