@@ -71,6 +71,13 @@ std::uint64_t mix(std::uint64_t x) {
 }
 double unit(std::uint64_t h) { return static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0); }
 
+/// ⌊x⌋ as an int for grid indices (|x| < 2³¹). std::floor is a library call on baseline
+/// x86-64 (no SSE4.1 round instruction), and a ray takes about ten of them.
+inline int floorInt(double x) {
+  const int i = static_cast<int>(x);
+  return i - (x < static_cast<double>(i));
+}
+
 /// Unit vectors of a frame whose "along" axis is at `heading` clockwise from North (+y).
 Vec3 along(double heading) { return {std::sin(heading), std::cos(heading), 0.0}; }
 Vec3 across(double heading) { return {std::cos(heading), -std::sin(heading), 0.0}; }
@@ -92,16 +99,24 @@ struct Scene::Impl {
   double grid_x0 = 0, grid_y0 = 0, cell = 8.0;
   int grid_nx = 0, grid_ny = 0;
   std::vector<std::vector<int>> cell_markings, cell_trees;
+  std::vector<char> cell_has_triangles;  // a triangle's plan box overlaps the cell
   double max_crown_top = -1e300;
+  double max_triangle_z = -1e300;
 
   int cellIndex(double x, double y) const {
-    const int i = static_cast<int>(std::floor((x - grid_x0) / cell)), j = static_cast<int>(std::floor((y - grid_y0) / cell));
+    const int i = floorInt((x - grid_x0) / cell), j = floorInt((y - grid_y0) / cell);
     if (i < 0 || j < 0 || i >= grid_nx || j >= grid_ny) return -1;
     return j * grid_nx + i;
   }
   void buildGrid() {
     Box b;
     for (const Marking& m : markings) b.grow(m.box);
+    for (const Triangle& t : tris) {
+      b.grow(Vec3(t.a.x(), t.a.y(), 0));
+      b.grow(Vec3((t.a + t.e1).x(), (t.a + t.e1).y(), 0));
+      b.grow(Vec3((t.a + t.e2).x(), (t.a + t.e2).y(), 0));
+      max_triangle_z = std::max({max_triangle_z, t.a.z(), (t.a + t.e1).z(), (t.a + t.e2).z()});
+    }
     for (const Tree& t : trees) {
       b.grow(Vec3(t.cx - t.r, t.cy - t.r, 0));
       b.grow(Vec3(t.cx + t.r, t.cy + t.r, 0));
@@ -109,7 +124,8 @@ struct Scene::Impl {
     }
     cell_markings.clear();
     cell_trees.clear();
-    if (markings.empty() && trees.empty()) {
+    cell_has_triangles.clear();
+    if (markings.empty() && trees.empty() && tris.empty()) {
       grid_nx = grid_ny = 0;
       return;
     }
@@ -119,9 +135,10 @@ struct Scene::Impl {
     grid_ny = static_cast<int>((b.hi.y() - grid_y0) / cell) + 2;
     cell_markings.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
     cell_trees.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
+    cell_has_triangles.assign(static_cast<std::size_t>(grid_nx) * grid_ny, 0);
     auto fill = [&](std::vector<std::vector<int>>& cells, int id, double x0, double y0, double x1, double y1) {
-      const int i0 = static_cast<int>(std::floor((x0 - grid_x0) / cell)), i1 = static_cast<int>(std::floor((x1 - grid_x0) / cell));
-      const int j0 = static_cast<int>(std::floor((y0 - grid_y0) / cell)), j1 = static_cast<int>(std::floor((y1 - grid_y0) / cell));
+      const int i0 = floorInt((x0 - grid_x0) / cell), i1 = floorInt((x1 - grid_x0) / cell);
+      const int j0 = floorInt((y0 - grid_y0) / cell), j1 = floorInt((y1 - grid_y0) / cell);
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) cells[static_cast<std::size_t>(j * grid_nx + i)].push_back(id);
     };
@@ -133,6 +150,37 @@ struct Scene::Impl {
       const Tree& t = trees[k];
       fill(cell_trees, static_cast<int>(k), t.cx - t.r, t.cy - t.r, t.cx + t.r, t.cy + t.r);
     }
+    for (const Triangle& t : tris) {
+      const Vec3 p1 = t.a + t.e1, p2 = t.a + t.e2;
+      const int i0 = floorInt((std::min({t.a.x(), p1.x(), p2.x()}) - grid_x0) / cell);
+      const int i1 = floorInt((std::max({t.a.x(), p1.x(), p2.x()}) - grid_x0) / cell);
+      const int j0 = floorInt((std::min({t.a.y(), p1.y(), p2.y()}) - grid_y0) / cell);
+      const int j1 = floorInt((std::max({t.a.y(), p1.y(), p2.y()}) - grid_y0) / cell);
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) cell_has_triangles[static_cast<std::size_t>(j * grid_nx + i)] = 1;
+    }
+  }
+
+  /// False only when the ray's part below the highest triangle crosses no cell that holds a
+  /// triangle (exact culling: the BVH is then skipped). `t_end` is where the ray stops.
+  bool mayHitTriangles(const Vec3& o, const Vec3& d, double t_end) const {
+    if (tris.empty()) return false;
+    if (!std::isfinite(t_end) || std::abs(d.z()) < 1e-6) return true;
+    const double t_top = (max_triangle_z - o.z()) / d.z();
+    const Vec3 a = (t_top > 0 && t_top < t_end) ? Vec3(o + t_top * d) : o;
+    const Vec3 b = o + t_end * d;
+    const int i0 = floorInt((std::min(a.x(), b.x()) - grid_x0) / cell);
+    const int i1 = floorInt((std::max(a.x(), b.x()) - grid_x0) / cell);
+    const int j0 = floorInt((std::min(a.y(), b.y()) - grid_y0) / cell);
+    const int j1 = floorInt((std::max(a.y(), b.y()) - grid_y0) / cell);
+    if (i1 - i0 > 4 || j1 - j0 > 4) return true;  // a long path: let the BVH decide
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        if (i < 0 || j < 0 || i >= grid_nx || j >= grid_ny) continue;  // outside the grid: no triangle
+        if (cell_has_triangles[static_cast<std::size_t>(j * grid_nx + i)]) return true;
+      }
+    }
+    return false;
   }
 
   void addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, float intensity, SurfaceKind kind) {
@@ -402,7 +450,7 @@ bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
     }
   }
   int tri = -1;
-  if (s.castTriangles(o, d, &best, &tri)) {
+  if (s.mayHitTriangles(o, d, best) && s.castTriangles(o, d, &best, &tri)) {
     found = true;
     const auto& t = s.tris[static_cast<std::size_t>(tri)];
     hit->kind = t.kind;
@@ -415,10 +463,10 @@ bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
     const Vec3 hit_point = o + best * d;
     const double t_top = (s.max_crown_top - o.z()) / d.z();
     const Vec3 top_point = (t_top > 0 && t_top < best) ? Vec3(o + t_top * d) : o;
-    const int i0 = static_cast<int>(std::floor((std::min(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell));
-    const int i1 = static_cast<int>(std::floor((std::max(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell));
-    const int j0 = static_cast<int>(std::floor((std::min(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell));
-    const int j1 = static_cast<int>(std::floor((std::max(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell));
+    const int i0 = floorInt((std::min(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell);
+    const int i1 = floorInt((std::max(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell);
+    const int j0 = floorInt((std::min(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell);
+    const int j1 = floorInt((std::max(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell);
     const bool narrow = (i1 - i0) <= 2 && (j1 - j0) <= 2;
     int candidates[16];
     int n_cand = 0;

@@ -46,8 +46,8 @@ LineFrame lineFrame(const FlightLine& line, double t0) {
 }
 
 double mirrorAngle(const LineScannerConfig& c, double t) {
-  const double phase = c.scan_rate_hz * t;
-  const double frac = phase - std::floor(phase);
+  const double phase = c.scan_rate_hz * t;  // t ≥ 0 within a line: truncation is the floor
+  const double frac = phase - static_cast<double>(static_cast<long long>(phase));
   switch (c.pattern) {
     case MirrorPattern::kSinusoidal:
       return c.half_fov_rad * std::sin(2.0 * kPi * frac);
