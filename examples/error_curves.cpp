@@ -27,19 +27,8 @@ int main(int argc, char** argv) {
   for (int a = -45; a <= 45; ++a) angles.push_back(deg2rad(a));
   const Vec3 bore = Vec3::Constant(deg2rad(delta_deg));
   const auto samples = boresightErrorCurves(bore, angles, ranges);
-  char delta_text[32];
-  std::snprintf(delta_text, sizeof delta_text, "%g", delta_deg);
   try {
-    io::writeFileAtomically(out + "/fig_errors.csv", errorCurvesCsv(samples));
-    const char* names[3] = {"fig1_x.svg", "fig2_y.svg", "fig3_z.svg"};
-    const char* titles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error",
-                             "Fig. 3 — vertical (z) error"};
-    for (int axis = 0; axis < 3; ++axis) {
-      io::writeFileAtomically(out + "/" + names[axis],
-                              errorCurveSvg(samples, axis, std::string(titles[axis]) +
-                                                               " for ω = φ = κ = " +
-                                                               delta_text + "°"));
-    }
+    writeErrorCurves(out, samples, delta_deg);
   } catch (const Error& e) {
     std::fprintf(stderr, "error_curves: %s\n", e.what());
     return 2;

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mountcal/georeference_model.hpp"
+#include "mountcal/io/atomic_file.hpp"
 #include "mountcal/sensor_model.hpp"
 #include "mountcal/svg_plot.hpp"
 
@@ -79,6 +80,19 @@ std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis
     plot.addSeries(name, std::move(xy.first), std::move(xy.second));
   }
   return plot.render();
+}
+
+void writeErrorCurves(const std::string& dir, const std::vector<ErrorCurveSample>& samples, double boresight_deg) {
+  io::writeFileAtomically(dir + "/fig_errors.csv", errorCurvesCsv(samples));
+  static const char* kNames[3] = {"fig1_x.svg", "fig2_y.svg", "fig3_z.svg"};
+  static const char* kTitles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error",
+                                   "Fig. 3 — vertical (z) error"};
+  char delta[32];
+  std::snprintf(delta, sizeof delta, "%g", boresight_deg);
+  for (int axis = 0; axis < 3; ++axis) {
+    io::writeFileAtomically(dir + "/" + kNames[axis],
+                            errorCurveSvg(samples, axis, std::string(kTitles[axis]) + " for ω = φ = κ = " + delta + "°"));
+  }
 }
 
 }  // namespace mountcal

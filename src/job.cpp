@@ -483,6 +483,23 @@ std::vector<PlaneRegion> loadCheckPlanes(const Job& job, const LoadedJob& loaded
   return regions;
 }
 
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting) {
+  ResultEvaluation ev;
+  CalibrationData check = loaded.data;
+  check.ties = loadCheckPoints(job, loaded);
+  const std::vector<PlaneRegion> planes = loadCheckPlanes(job, loaded);
+  if (!check.ties.empty()) {
+    ev.has_check_points = true;
+    ev.check_points_before = evaluateCheckPoints(check, job.mounting_used, job.options.vtp);
+    ev.check_points_after = evaluateCheckPoints(check, mounting, job.options.vtp);
+  }
+  if (!planes.empty()) {
+    ev.check_planes_before = evaluateCheckPlanes(check, planes, job.mounting_used);
+    ev.check_planes_after = evaluateCheckPlanes(check, planes, mounting);
+  }
+  return ev;
+}
+
 namespace {
 json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }

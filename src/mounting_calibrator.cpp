@@ -255,12 +255,16 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   // Residuals before (seed Table 1): P_ki(M_used) − mean_k (seed eqs. 7–8).
   std::vector<Vec3> P_before(vtps.size());
   for (std::size_t k = 0; k < vtps.size(); ++k) P_before[k] = vtps[k].position(m0.data());
-  for (Tie& tie : ties) {
-    Vec3 mean = Vec3::Zero();
-    for (int k : tie.obs) mean += P_before[static_cast<std::size_t>(k)];
-    mean /= static_cast<double>(tie.obs.size());
-    for (int a = 0; a < 3; ++a) tie.X[a] = mean[a];  // seed eq. (7): initial tie position
+  std::vector<Vec3> tie_mean(ties.size(), Vec3::Zero());  // seed eq. (7), at M_used
+  for (std::size_t q = 0; q < ties.size(); ++q) {
+    for (int k : ties[q].obs) tie_mean[q] += P_before[static_cast<std::size_t>(k)];
+    tie_mean[q] /= static_cast<double>(ties[q].obs.size());
   }
+  auto startTiesAtMeans = [&] {
+    for (std::size_t q = 0; q < ties.size(); ++q)
+      for (int a = 0; a < 3; ++a) ties[q].X[a] = tie_mean[q][a];  // initial tie position
+  };
+  startTiesAtMeans();
 
   // ---- the adjustment (SPEC §3 step 4) ----------------------------------------------------
   const double inv_sigma_xy = 1.0 / o.tie_sigma_xy_m;
@@ -395,12 +399,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     // Re-solve with the undeterminable parameters held at their used values.
     m = m0;
     for (auto& entry : offsets) entry.second = {0.0, 0.0, 0.0};
-    for (Tie& tie : ties) {
-      Vec3 mean = Vec3::Zero();
-      for (int k : tie.obs) mean += P_before[static_cast<std::size_t>(k)];
-      mean /= static_cast<double>(tie.obs.size());
-      for (int a = 0; a < 3; ++a) tie.X[a] = mean[a];
-    }
+    startTiesAtMeans();
     problem = std::make_unique<ceres::Problem>(po);
     S.analysis_time_s += elapsed() - t_mark;
     t_mark = elapsed();
@@ -464,10 +463,9 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   // ---- residuals, RMS, outliers ------------------------------------------------------------
   Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
   std::vector<double> norms;
-  for (const Tie& tie : ties) {
-    Vec3 mean = Vec3::Zero();
-    for (int k : tie.obs) mean += P_before[static_cast<std::size_t>(k)];
-    mean /= static_cast<double>(tie.obs.size());
+  for (std::size_t ti = 0; ti < ties.size(); ++ti) {
+    const Tie& tie = ties[ti];
+    const Vec3& mean = tie_mean[ti];
     for (std::size_t q = 0; q < tie.obs.size(); ++q) {
       const int k = tie.obs[q];
       const VirtualTiePoint& v = vtps[static_cast<std::size_t>(k)];

@@ -37,4 +37,8 @@ std::string errorCurvesCsv(const std::vector<ErrorCurveSample>& samples);
 std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis,
                           const std::string& title);
 
+/// Writes `dir`/fig_errors.csv and the three plots fig1_x.svg, fig2_y.svg, fig3_z.svg, each
+/// through a temporary file. `boresight_deg` labels the titles. Throws FileError.
+void writeErrorCurves(const std::string& dir, const std::vector<ErrorCurveSample>& samples, double boresight_deg);
+
 }  // namespace mountcal

@@ -102,10 +102,15 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
 
 /// Optional evaluation to store with the result.
 struct ResultEvaluation {
+  bool any() const { return has_check_points || !check_planes_after.empty(); }
   bool has_check_points = false;
   CheckPointReport check_points_before, check_points_after;
   std::vector<CheckPlaneResult> check_planes_before, check_planes_after;
 };
+
+/// Check points and check planes named by the job, at `mounting_used` and at `mounting`.
+/// `any()` is false when the job names neither.
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting);
 
 /// The result file of SPEC §4 as JSON text.
 std::string resultJson(const MountingCalibrator::Summary& summary, const ResultEvaluation* evaluation = nullptr);

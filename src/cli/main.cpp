@@ -61,24 +61,8 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   const CalibrationData& data = loaded.data;
   progress("building virtual tie points and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
-  ResultEvaluation ev;
-  bool any_eval = false;
-  const std::vector<TieObservation> checks = loadCheckPoints(job, loaded);
-  const std::vector<PlaneRegion> planes = loadCheckPlanes(job, loaded);
-  if (!checks.empty() || !planes.empty()) {
-    any_eval = true;
-    CalibrationData check = data;
-    check.ties = checks;
-    if (!checks.empty()) {
-      ev.has_check_points = true;
-      ev.check_points_before = evaluateCheckPoints(check, data.mounting_used, job.options.vtp);
-      ev.check_points_after = evaluateCheckPoints(check, S.mounting, job.options.vtp);
-    }
-    if (!planes.empty()) {
-      ev.check_planes_before = evaluateCheckPlanes(check, planes, data.mounting_used);
-      ev.check_planes_after = evaluateCheckPlanes(check, planes, S.mounting);
-    }
-  }
+  const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting);
+  const bool any_eval = ev.any();
   if (!job.result_path.empty()) io::writeFileAtomically(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
   if (!job.report_path.empty()) {
     io::writeFileAtomically(job.report_path, htmlReport(S, any_eval ? &ev : nullptr, "mountcal calibration — " + job_path));
@@ -110,24 +94,19 @@ int runEvaluate(const std::string& job_path, const std::string& result_path) {
   const Job job = readJob(job_path);
   const LoadedJob loaded = loadJob(job);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
-  const auto checks = loadCheckPoints(job, loaded);
-  const auto planes = loadCheckPlanes(job, loaded);
-  if (checks.empty() && planes.empty()) {
+  const ResultEvaluation ev = evaluateJob(job, loaded, m);
+  if (!ev.any()) {
     std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes\n", job_path.c_str());
     return 2;
   }
-  CalibrationData check = loaded.data;
-  check.ties = checks;
-  if (!checks.empty()) {
-    const auto b = evaluateCheckPoints(check, job.mounting_used, job.options.vtp);
-    const auto a = evaluateCheckPoints(check, m, job.options.vtp);
+  if (ev.has_check_points) {
+    const auto &b = ev.check_points_before, &a = ev.check_points_after;
     std::printf("check points: %zu observations (%zu rejected)\n", a.residuals.size(), a.rejected.size());
     std::printf("  RMS before (%.4f, %.4f, %.4f) m\n  RMS after  (%.4f, %.4f, %.4f) m\n", b.rms_m.x(), b.rms_m.y(), b.rms_m.z(),
                 a.rms_m.x(), a.rms_m.y(), a.rms_m.z());
   }
-  if (!planes.empty()) {
-    const auto b = evaluateCheckPlanes(check, planes, job.mounting_used);
-    const auto a = evaluateCheckPlanes(check, planes, m);
+  if (!ev.check_planes_after.empty()) {
+    const auto &b = ev.check_planes_before, &a = ev.check_planes_after;
     std::printf("check planes (RMS = sqrt(sum d^2/(n-3)), seed eq. 13):\n");
     for (std::size_t i = 0; i < a.size(); ++i)
       std::printf("  %-12s %7d points  before %.4f m  after %.4f m\n", a[i].plane_id.c_str(), a[i].points, b[i].rms_m, a[i].rms_m);
@@ -189,10 +168,7 @@ int runCurves(const std::string& out, double delta_deg) {
     std::printf("%s", errorCurvesCsv(samples).c_str());
     return 0;
   }
-  io::writeFileAtomically(out + "/fig_errors.csv", errorCurvesCsv(samples));
-  const char* names[3] = {"fig1_x.svg", "fig2_y.svg", "fig3_z.svg"};
-  const char* titles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error", "Fig. 3 — vertical (z) error"};
-  for (int axis = 0; axis < 3; ++axis) io::writeFileAtomically(out + "/" + names[axis], errorCurveSvg(samples, axis, titles[axis]));
+  writeErrorCurves(out, samples, delta_deg);
   std::printf("wrote %s/fig_errors.csv, fig1_x.svg, fig2_y.svg, fig3_z.svg\n", out.c_str());
   return 0;
 }

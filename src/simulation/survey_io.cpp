@@ -10,6 +10,7 @@
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/sbet.hpp"
+#include "mountcal/job.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/simulation/survey.hpp"
 
@@ -29,15 +30,8 @@ std::array<double, 3> nominalDeg(const MountingParameters& m) {
   return {rad2deg(rph.x()), rad2deg(rph.y()), rad2deg(rph.z())};
 }
 
-/// Local (simulated ENU) → output coordinates: identity, or through WGS84 into a CRS.
-struct OutputFrame {
-  std::unique_ptr<io::CrsTransform> crs;
-  std::unique_ptr<LocalTangentFrame> tangent;
-  Vec3 operator()(const Vec3& x_m) const { return crs ? crs->fromGeodetic(tangent->toGeodetic(x_m)) : x_m; }
-};
-
 void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip,
-                   int source_id, const OutputFrame& frame) {
+                   int source_id, const JobFrame& frame) {
   io::LasHeader h;
   h.version_minor = 4;
   h.point_format = 6;
@@ -48,7 +42,7 @@ void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const
   h.system_identifier = survey.config.name;
   std::vector<Vec3> out_points;
   out_points.reserve(strip.points_m.size());
-  for (const Vec3& p : strip.points_m) out_points.push_back(frame(p));
+  for (const Vec3& p : strip.points_m) out_points.push_back(frame.fromLocal(p));
   Vec3 lo = Vec3::Constant(1e300);
   for (const Vec3& p : out_points) lo = lo.cwiseMin(p);
   if (out_points.empty()) lo.setZero();
@@ -84,7 +78,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   std::filesystem::create_directories(dir, ec);
   if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
   const SurveyConfig& c = survey.config;
-  OutputFrame frame;
+  JobFrame frame;  // simulated ENU → output coordinates: identity, or through WGS84 into the CRS
   nlohmann::json trajectory_json;
   // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
   // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
@@ -114,8 +108,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
     trajectory_json = {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}};
   } else {
-    frame.crs = std::make_unique<io::CrsTransform>(options.crs);
-    frame.tangent = std::make_unique<LocalTangentFrame>(tangent.origin());
+    frame = JobFrame(options.crs, tangent.origin());
     trajectory_json = {{"path", "trajectory.sbet"}, {"format", "sbet"}, {"time_offset_s", 0.0}};
   }
   nlohmann::json strips = nlohmann::json::array();
@@ -128,7 +121,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;
     for (const TiePick& p : picks) {
-      const Vec3 x = frame(Vec3(p.x_m, p.y_m, p.apparent_m.z()));
+      const Vec3 x = frame.fromLocal(Vec3(p.x_m, p.y_m, p.apparent_m.z()));
       out.push_back({p.tie_id, p.strip_id, x.x(), x.y(), 0});
     }
     return out;
@@ -138,14 +131,14 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   std::vector<io::PlaneRegion> planes;
   for (const PlanePatch& p : survey.check_planes) {
     // Corners inset by 1 m so that the box stays inside the patch after the CRS's rotation.
-    const Vec3 a = frame(Vec3(p.xmin + 1, p.ymin + 1, 0)), b = frame(Vec3(p.xmax - 1, p.ymax - 1, 0));
-    planes.push_back(frame.crs ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
+    const Vec3 a = frame.fromLocal(Vec3(p.xmin + 1, p.ymin + 1, 0)), b = frame.fromLocal(Vec3(p.xmax - 1, p.ymax - 1, 0));
+    planes.push_back(!frame.isLocal() ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
                                : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
   }
   io::writePlanesCsv(dir + "/check_planes.csv", planes);
   std::vector<io::GroundControlPoint> gcps;
   for (const FeaturePoint& f : survey.gcps) {
-    const Vec3 x = frame(f.x_m);
+    const Vec3 x = frame.fromLocal(f.x_m);
     gcps.push_back({f.id, x.x(), x.y(), x.z(), 0.02, 0.02});
   }
   io::writeGcpCsv(dir + "/gcps.csv", gcps);
