@@ -5,6 +5,7 @@
 #include <map>
 
 #include "mountcal/error.hpp"
+#include "mountcal/detail/vtp_strip.hpp"
 #include "mountcal/georeference_model.hpp"
 
 namespace mountcal {

@@ -1,4 +1,4 @@
-#include "mountcal/virtual_tie_point.hpp"
+#include "mountcal/detail/vtp_strip.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>

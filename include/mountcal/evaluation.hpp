@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/mounting_calibrator.hpp"
+#include "mountcal/methods/vtpm/tie_observations.hpp"
 
 namespace mountcal {
 

@@ -2,6 +2,8 @@
 /// \file mountcal.hpp
 /// Umbrella header: the whole public API of mountcal.
 
+#include "mountcal/adjustment/mounting_adjustment.hpp"
+#include "mountcal/data.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/error_curves.hpp"
 #include "mountcal/evaluation.hpp"
@@ -14,6 +16,9 @@
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/job.hpp"
 #include "mountcal/mounting.hpp"
+#include "mountcal/methods/correspondence/correspondences.hpp"
+#include "mountcal/methods/planes/plane_observations.hpp"
+#include "mountcal/methods/vtpm/tie_observations.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/observations.hpp"
 #include "mountcal/report.hpp"

@@ -18,20 +18,12 @@
 #include <string>
 #include <vector>
 
+#include "mountcal/data.hpp"
 #include "mountcal/mounting.hpp"
 #include "mountcal/observations.hpp"
 #include "mountcal/trajectory.hpp"
 
 namespace mountcal {
-
-/// A strip as the calibrators need it: per point the emission time, the raw laser vector and
-/// (optionally) the position georeferenced with the reference mounting.
-struct StripData {
-  std::string id;
-  std::vector<double> time_s;  ///< [s]
-  std::vector<Vec3> r_s;       ///< laser vectors in the scanner frame [m]
-  std::vector<Vec3> x_m;       ///< georeferenced with the reference mounting [m]; filled if empty
-};
 
 /// A real laser point with what Rule 2 needs to georeference it again.
 struct LaserFootprint {
@@ -99,36 +91,5 @@ double interpolateHeight(const Vec3& p1, const Vec3& p2, const Vec3& p3, double 
 
 /// Least-squares rigid transform (Kabsch) with q ≈ R p + t for three or more point pairs.
 void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t);
-
-/// A strip ready for VTPM construction: its points at the reference mounting in a FLANN k-d
-/// tree over (x, y), and its poses.
-class VtpStrip {
- public:
-  /// Georeferences `strip` with `reference` through `trajectory` when `strip.x_m` is empty.
-  /// Throws InvalidInput for inconsistent sizes, TimeOutOfRange for a point outside the
-  /// trajectory.
-  VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,
-           const MountingParameters& reference);
-  ~VtpStrip();
-  VtpStrip(VtpStrip&&) noexcept;
-  VtpStrip& operator=(VtpStrip&&) noexcept;
-
-  const StripData& data() const { return strip_; }
-  /// Indices of the points within `radius_m` of (x, y) in plan (exact search).
-  std::vector<std::size_t> radiusSearch(double x_m, double y_m, double radius_m) const;
-  /// Mean plan spacing of points around (x, y) [m] (from the 8 nearest neighbours).
-  double localSpacing(double x_m, double y_m) const;
-
-  /// Builds the VTP of a pick; on failure returns false and sets `reason`.
-  bool build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp,
-             std::string* reason) const;
-
- private:
-  struct Index;
-  StripData strip_;
-  std::shared_ptr<const Trajectory> trajectory_;
-  MountingParameters reference_;
-  std::unique_ptr<Index> index_;
-};
 
 }  // namespace mountcal

@@ -5,7 +5,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/numeric_diff_cost_function.h>
 
-#include "mountcal/virtual_tie_point.hpp"
+#include "mountcal/detail/vtp_strip.hpp"
 
 namespace mountcal::detail {
 

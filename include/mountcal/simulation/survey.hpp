@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "mountcal/mounting.hpp"
-#include "mountcal/mounting_calibrator.hpp"
+#include "mountcal/data.hpp"
 #include "mountcal/sensor_model.hpp"
 #include "mountcal/simulation/scene.hpp"
 #include "mountcal/trajectory.hpp"

@@ -1,0 +1,270 @@
+#pragma once
+/// \file adjustment/mounting_adjustment.hpp
+/// The one adjustment every kind of observation plugs into (DESIGN.md, "One adjustment, many
+/// kinds of observation").
+///
+/// A method (virtual tie points, plane patches, automatic correspondences, ground control, …)
+/// is an ObservationSource: at a given mounting it adds residual blocks and the nuisance
+/// parameter blocks they need (tie positions, planes) to an AdjustmentProblem. The adjustment
+/// owns everything else — the mounting block (6 parameters, any subset held, priors), one 3-D
+/// offset per strip as a random effect, the Levenberg–Marquardt solve, re-matching for the
+/// methods that match, the observability analysis by eliminating every nuisance block
+/// (Schur complement), `ceres::Covariance`, correlations and σ₀². It never knows what a tie
+/// or a plane is: it sees parameter blocks, residual blocks, which blocks are nuisance, and
+/// the kind of each residual block for the summary.
+
+#include <ceres/cost_function.h>
+#include <ceres/manifold.h>
+
+#include <array>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mountcal/mounting.hpp"
+
+namespace ceres {
+class Problem;
+}
+
+namespace mountcal {
+
+/// How an adjustment ended (after Ceres' TerminationType).
+enum class TerminationType {
+  kConvergence,     ///< a tolerance was met: the solution is usable
+  kNoConvergence,   ///< iteration or time limit reached first: not usable
+  kFailure,         ///< the solver failed (numerical trouble)
+  kInvalidInput,    ///< options or data invalid; see Summary::message
+};
+const char* toString(TerminationType t);
+
+/// Robust loss applied to the observations (never to priors).
+enum class LossType { kTrivial, kHuber, kCauchy };
+
+/// The mounting block: which parameters are estimated and their priors.
+struct MountingBlockOptions {
+  /// Which of the six parameters to estimate, in MountingIndex order. Default: all but the
+  /// vertical lever arm, which flat ground and level flight cannot determine without GCPs.
+  std::array<bool, 6> estimate{true, true, false, true, true, true};
+  /// Optional priors on the mounting (MountingIndex order); a prior with sigma ≤ 0 or NaN is
+  /// off. Values [m, rad]; sigmas [m, rad].
+  std::array<double, 6> prior_value{0, 0, 0, 0, 0, 0};
+  std::array<double, 6> prior_sigma{0, 0, 0, 0, 0, 0};
+  bool IsValid(std::string* error) const;
+};
+
+/// The stochastic model shared by every kind of observation.
+struct StochasticOptions {
+  /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
+  /// one 3-D offset per strip, a random effect with this prior standard deviation per axis
+  /// [m]. They are estimated with the mounting, so its covariance carries their uncertainty.
+  /// 0 switches them off (strips then trusted exactly).
+  double strip_offset_sigma_m = 0.02;
+  LossType loss = LossType::kTrivial;
+  double loss_scale_m = 0.5;  ///< where the robust loss starts to bend [m]
+  bool IsValid(std::string* error) const;
+};
+
+/// Levenberg–Marquardt and the re-matching loop of the matching methods.
+struct SolverOptions {
+  /// The paper's termination (seed step 8) is a cost change or a parameter change below a
+  /// tolerance: function_tolerance and parameter_tolerance.
+  int max_iterations = 100;
+  double function_tolerance = 1e-10;   ///< relative cost change [-]
+  double parameter_tolerance = 1e-10;  ///< relative parameter change [-]
+  double gradient_tolerance = 1e-12;   ///< [-]
+  double max_solver_time_s = 60.0;     ///< per solve [s]
+  int num_threads = 1;
+  /// Central-difference step, relative (Ceres NumericDiffOptions) [-].
+  double numeric_diff_relative_step = 1e-6;
+  /// Matching methods are re-matched at the new mounting and solved again until the mounting
+  /// changes by less than these between two rounds, or this many rounds [-, m, rad].
+  int max_rematch_rounds = 8;
+  double rematch_tolerance_m = 1e-4;
+  double rematch_tolerance_rad = 2e-7;
+  bool IsValid(std::string* error) const;
+};
+
+/// What is computed after the solve.
+struct AnalysisOptions {
+  /// A direction of the mounting that keeps less than this fraction of its information once
+  /// every nuisance block is eliminated cannot be determined by the data [-].
+  double observability_threshold = 1e-3;
+  /// Scale the covariance by the a-posteriori variance factor σ₀². Off by default: the
+  /// covariance then follows the stated a-priori sigmas, and variance_factor tells how well
+  /// they match the residuals (≈ 1 when they do).
+  bool scale_covariance_by_variance_factor = false;
+  /// An observation whose residual exceeds this many times the robust residual scale of its
+  /// kind is flagged as an outlier [-].
+  double outlier_factor = 4.0;
+  bool IsValid(std::string* error) const;
+};
+
+/// What a method sees while it adds its observations. Everything added is owned here.
+class AdjustmentProblem {
+ public:
+  AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss,
+                    double loss_scale_m, double numeric_diff_relative_step);
+  ~AdjustmentProblem();
+  AdjustmentProblem(const AdjustmentProblem&) = delete;
+  AdjustmentProblem& operator=(const AdjustmentProblem&) = delete;
+
+  /// The mounting block: (a_x, a_y, a_z [m], ω, φ, κ [rad]), MountingIndex order.
+  double* mounting() { return mounting_.data(); }
+  const std::array<double, 6>& mountingValues() const { return mounting_; }
+  /// The 3-D offset block of a strip [m] (a random effect with the stochastic model's prior, or
+  /// held at zero when that prior is off). Created on first use.
+  double* stripOffset(const std::string& strip_id);
+  /// A nuisance parameter block of `size` values starting at `initial`: estimated with the
+  /// mounting, eliminated in the observability analysis. `manifold` (owned; may be null) for
+  /// blocks such as unit normals. `schur_eliminable`: no residual block holds two such blocks.
+  double* addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold = nullptr,
+                           bool schur_eliminable = true);
+  /// Adds a residual block over `blocks` (the mounting, strip offsets and nuisance blocks of
+  /// this problem) and takes ownership of `cost`. `loss_sigma_m` > 0 is the standard
+  /// deviation [m] the residuals were divided by: the robust loss applies with scale
+  /// loss_scale_m / loss_sigma_m. 0: never robust (priors). Returns the block's index.
+  int addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks);
+  /// Central-difference step for the methods' numeric-diff cost functions [-].
+  double numericDiffRelativeStep() const { return numeric_diff_relative_step_; }
+
+  /// Residual vector of block `index` at the current parameter values (unweighted by loss).
+  Eigen::VectorXd residual(int index) const;
+  int residualBlockCount() const { return static_cast<int>(records_.size()); }
+  /// Current values of a strip offset (zero when the strip has none) [m].
+  Vec3 stripOffsetValue(const std::string& strip_id) const;
+
+  // ---- used by MountingAdjustment -------------------------------------------------------
+  struct Record {
+    ceres::CostFunction* cost = nullptr;
+    std::vector<double*> blocks;
+    int source = -1;
+    double loss_sigma_m = 0.0;
+  };
+  struct Block {
+    double* values = nullptr;
+    int size = 0;
+    ceres::Manifold* manifold = nullptr;
+    bool eliminable = true;
+    bool constant = false;
+  };
+  void setSource(int source) { source_ = source; }
+  const std::vector<Record>& records() const { return records_; }
+  const std::vector<Block>& nuisanceBlocks() const { return nuisance_; }
+  const std::map<std::string, std::array<double, 3>>& stripOffsets() const { return offsets_; }
+  ceres::Problem& ceresProblem() { return *problem_; }
+  double stripOffsetSigma() const { return offset_sigma_m_; }
+
+ private:
+  std::unique_ptr<ceres::Problem> problem_;
+  std::array<double, 6> mounting_{};
+  std::map<std::string, std::array<double, 3>> offsets_;
+  std::deque<std::vector<double>> storage_;
+  std::vector<Block> nuisance_;
+  std::vector<Record> records_;
+  double offset_sigma_m_;
+  LossType loss_;
+  double loss_scale_m_;
+  double numeric_diff_relative_step_;
+  int source_ = -1;
+};
+
+/// A kind of observation of the mounting (a method). A source never solves: it adds blocks.
+class ObservationSource {
+ public:
+  virtual ~ObservationSource() = default;
+  /// The kind's name in summaries ("ties", "planes", "correspondences", "control").
+  virtual std::string kind() const = 0;
+  /// Adds the residual blocks (and their nuisance blocks) at `mounting` (MountingIndex order
+  /// [m, rad]). Called once per solve, each time with a fresh problem; a matching source
+  /// re-matches here.
+  virtual void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) = 0;
+  /// True for sources whose blocks depend on the mounting they are built at (re-matched
+  /// between solves until the mounting stops changing).
+  virtual bool rematches() const { return false; }
+  /// After the last solve, while `problem` holds the estimates: compute the kind's residual
+  /// section (before at `mounting_used`, after at `mounting`).
+  virtual void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
+                      const AdjustmentProblem& problem, const AnalysisOptions& analysis) {
+    (void)mounting_used, (void)mounting, (void)problem, (void)analysis;
+  }
+};
+
+/// The method-independent part of a calibration's result.
+struct AdjustmentSummary {
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  TerminationType termination = TerminationType::kInvalidInput;
+  std::string message;
+  int iterations = 0;
+  int rematch_rounds = 0;       ///< solves of the last estimation (1 when nothing re-matches)
+  double initial_cost = 0.0;    ///< ½ Σ r², r normalised by σ [-]
+  double final_cost = 0.0;
+  double time_s = 0.0;          ///< wall time of the whole calibration [s]
+  double construction_time_s = 0.0;  ///< of which: building the observations [s]
+  double solve_time_s = 0.0;         ///< of which: Levenberg–Marquardt (all solves, matching included) [s]
+  double analysis_time_s = 0.0;      ///< of which: observability and covariance [s]
+
+  MountingParameters mounting_used;
+  MountingParameters mounting;  ///< the complete mounting to use from now on
+  std::array<bool, 6> estimated{};       ///< estimated (not fixed, not unobservable)
+  std::array<double, 6> sigma{};         ///< std. deviation [m, rad]; NaN if not estimated
+  Mat6 correlation = Mat6::Constant(std::nan(""));
+  Mat6 covariance = Mat6::Constant(std::nan(""));  ///< of the estimated parameters [m, rad]
+  /// "ceres::Covariance", or "reduced normal matrix" when Ceres could not compute it.
+  std::string covariance_source;
+  /// Normal matrix of the full mounting block once every nuisance block (tie positions,
+  /// planes, strip offsets) is eliminated (Schur complement), at the estimate; unscaled.
+  Mat6 reduced_normal_matrix = Mat6::Zero();
+  double variance_factor = 1.0;          ///< σ₀² = 2·final_cost / degrees_of_freedom
+  int degrees_of_freedom = 0;
+
+  /// Parameters that were asked for but that the data cannot determine, and why.
+  std::vector<std::string> unobservable;
+  std::string observability_report;
+  double condition_number = 0.0;  ///< of the reduced normal matrix of the estimated block
+
+  /// Residual blocks and residuals per kind of observation, in the order of the sources.
+  struct KindCount {
+    std::string kind;
+    int blocks = 0;
+    int residuals = 0;
+  };
+  std::vector<KindCount> kinds;
+  std::vector<std::pair<std::string, Vec3>> strip_offsets_m;  ///< estimated o_i [m]
+
+  bool IsSolutionUsable() const { return termination == TerminationType::kConvergence; }
+};
+
+/// The adjustment: Ceres' Levenberg–Marquardt over the mounting, the strip offsets and every
+/// source's blocks.
+class MountingAdjustment {
+ public:
+  struct Options : MountingBlockOptions, StochasticOptions, SolverOptions, AnalysisOptions {
+    /// False (with a message naming the group and field) when a value is out of range.
+    bool IsValid(std::string* error) const;
+  };
+  using Summary = AdjustmentSummary;
+
+  MountingAdjustment() = default;
+  explicit MountingAdjustment(Options options) : options_(std::move(options)) {}
+  const Options& options() const { return options_; }
+
+  /// Solves from `mounting_used`. Undeterminable parameters are named, held at their used
+  /// values and the problem solved again. Numerical outcomes are in the summary (invalid
+  /// options or no observation at all: kInvalidInput with a message). `sources` must outlive
+  /// the call; each one's finish() is called before returning.
+  Summary solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources) const;
+
+ private:
+  Options options_;
+};
+
+/// Robust scale of residual norms of one kind: 1.4826 · median / √(E χ²-median factor) — the
+/// σ per axis of `dims`-dimensional Gaussian residuals whose norms have this median [-].
+double robustScaleFromNorms(std::vector<double> norms, int dims);
+
+}  // namespace mountcal

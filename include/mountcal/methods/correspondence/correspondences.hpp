@@ -1,0 +1,127 @@
+#pragma once
+/// \file methods/correspondence/correspondences.hpp
+/// Automatic point-to-plane correspondences between overlapping strips, as in OPALS
+/// StripAdjust (Glira, Pfeifer, Briese, Ressl 2015): no user input, re-matched between solves.
+///
+/// For every pair of strips (A, B) whose coarse voxel hulls overlap, points of A are sampled
+/// uniformly in the overlap (spacing ≈ 2r); each sample's neighbours in B are fitted by a plane
+/// (≥ 8 points in radius r). A candidate is rejected when B's plane is rough (σ > 0.2 r), when
+/// the sample is far from it (> 3 r in the first round), when A's own local normal differs by
+/// more than 10°, or when its distance lies beyond 3 σ_MAD of all distances; then normal-space
+/// thinning keeps a budget spread over normal directions. Each correspondence is one residual
+///
+///   r = n_B · ( (x_A(M) + o_A) − (x̄_B(M) + o_B) ) / σ
+///
+/// with x̄_B the centroid of B's neighbours, every point georeferenced with SPEC §2 eq. 1 (in
+/// its exact form relative to the mounting used), n_B held within a round, as a
+/// `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 3, 3>`.
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mountcal/adjustment/mounting_adjustment.hpp"
+#include "mountcal/data.hpp"
+
+namespace mountcal {
+
+namespace detail {
+class Matcher;
+}
+
+/// Settings of the correspondence search. Every length has a default derived from the point
+/// spacing and the a-priori misalignment when left at 0 [m, deg].
+struct CorrespondenceOptions {
+  /// The largest strip-to-strip discrepancy expected before calibration [m] (first-round
+  /// distance gate: max(3 r, 2 × this)).
+  double apriori_misalignment_m = 1.0;
+  double radius_m = 0.0;           ///< r, the plane-fit radius; 0: 2.5 × the point spacing [m]
+  double sample_spacing_m = 0.0;   ///< 0: 2 r [m]
+  int min_neighbours = 8;          ///< in radius r [-]
+  double max_roughness_factor = 0.2;  ///< plane σ > this × r: rough [-]
+  double max_distance_factor = 3.0;   ///< |distance| > this × r: far [-]
+  double max_normal_angle_deg = 10.0; ///< [deg]
+  double mad_factor = 3.0;            ///< beyond this × σ_MAD of the distances: rejected [-]
+  int budget = 3000;               ///< correspondences kept over all pairs [-]
+  double voxel_size_m = 0.0;       ///< coarse hull voxel; 0: 4 r, at least 2 m [m]
+  /// A-priori σ of a correspondence distance [m]; 0: from the neighbourhoods' plane fits.
+  double sigma_m = 0.0;
+  int max_neighbours = 16;         ///< neighbours used for B's plane [-]
+  bool IsValid(std::string* error) const;
+};
+
+/// One correspondence: a sample of strip A and the local plane of strip B.
+struct Correspondence {
+  int strip_a = 0, strip_b = 0;    ///< indices into CalibrationData::strips
+  std::size_t point_a = 0;         ///< the sample in A
+  std::vector<std::size_t> points_b;  ///< B's neighbours (the plane)
+  Vec3 normal = Vec3::UnitZ();     ///< B's plane normal at the matching mounting [-]
+  double distance_m = 0.0;         ///< signed point-to-plane distance at the matching mounting [m]
+  double roughness_m = 0.0;        ///< σ of B's plane fit [m]
+};
+
+/// Statistics of one strip pair.
+struct CorrespondencePairStats {
+  std::string strip_a, strip_b;
+  int samples = 0;   ///< samples of A in the overlap
+  int kept = 0;      ///< after every rejection and the budget
+  int rejected_sparse = 0, rejected_rough = 0, rejected_far = 0, rejected_normal = 0, rejected_mad = 0,
+      rejected_budget = 0;
+  double median_before_m = 0, rms_before_m = 0;  ///< |distance| at M_used [m]
+  double median_after_m = 0, rms_after_m = 0;    ///< at M̂ with the strip offsets [m]
+};
+
+/// What findCorrespondences returns.
+struct CorrespondenceSet {
+  std::vector<Correspondence> correspondences;
+  std::vector<CorrespondencePairStats> pairs;  ///< every pair whose hulls overlap
+  double radius_m = 0.0;        ///< r used [m]
+  double spacing_m = 0.0;       ///< point spacing measured [m]
+  double sigma_m = 0.0;         ///< σ of a distance [m]
+  double max_distance_m = 0.0;  ///< distance gate used [m]
+  double seconds = 0.0;         ///< wall time [s]
+  std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
+};
+
+/// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
+/// [m, rad]); `max_distance_m` > 0 overrides the first-round gate. Throws InvalidInput for
+/// invalid options or strips.
+CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
+                                      const CorrespondenceOptions& options, double max_distance_m = 0.0);
+
+/// The residual section of the correspondences.
+struct CorrespondenceSection {
+  int used = 0;
+  int rounds = 0;  ///< matchings
+  double radius_m = 0.0, sigma_m = 0.0, spacing_m = 0.0;
+  std::vector<CorrespondencePairStats> pairs;
+  double median_before_m = 0, rms_before_m = 0, median_after_m = 0, rms_after_m = 0;  ///< |distance| [m]
+  double search_time_s = 0;  ///< all matchings [s]
+  std::size_t points_searched = 0;
+};
+
+class CorrespondenceObservations final : public ObservationSource {
+ public:
+  /// Throws InvalidInput for invalid options or inconsistent strips.
+  CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options);
+  ~CorrespondenceObservations() override;
+
+  std::string kind() const override { return "correspondences"; }
+  bool rematches() const override { return true; }
+  void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
+              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  const CorrespondenceSection& section() const { return section_; }
+  const CorrespondenceSet& lastMatching() const { return set_; }
+
+ private:
+  const CalibrationData& data_;
+  CorrespondenceOptions options_;
+  CorrespondenceSet set_;
+  std::vector<int> blocks_;
+  std::unique_ptr<detail::Matcher> matcher_;
+  CorrespondenceSection section_;
+};
+
+}  // namespace mountcal

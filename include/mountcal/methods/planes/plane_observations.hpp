@@ -1,0 +1,132 @@
+#pragma once
+/// \file methods/planes/plane_observations.hpp
+/// Plane-based calibration (the principle of Leica Attune, after Skaloud & Lichti 2006, that
+/// the first paper compares VTPM with): planar patches seen by two or more strips, one unknown
+/// plane per patch, and a point-to-plane residual per strip point used.
+///
+/// Each patch's plane is a nuisance block (unit normal on the sphere + offset, relative to the
+/// patch's centre), eliminated in the observability analysis like tie positions. Each strip
+/// point j of strip i in the patch gives
+///
+///   r = ( n̂ · (x_j(M) + o_i − c) − d ) / σ,   x_j(M) = p_m(t_j) + R_mb(t_j) (R_bs(M) r_s + a_b)
+///
+/// (SPEC §2 eq. 1, evaluated relative to the point's position at the mounting used, which is
+/// exact) as a `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 4, 3>`.
+
+#include <string>
+#include <vector>
+
+#include "mountcal/adjustment/mounting_adjustment.hpp"
+#include "mountcal/data.hpp"
+
+namespace mountcal {
+
+/// Settings of the plane method. Lengths [m], angles [deg].
+struct PlaneOptions {
+  /// Find the patches in the overlaps automatically (job: `"planes": "auto"`) instead of
+  /// taking CalibrationData::plane_regions.
+  bool automatic = false;
+  /// A-priori standard deviation of a point-to-plane distance [m]; 0: pooled from the patches'
+  /// own plane fits (robust median of their σ).
+  double sigma_m = 0.0;
+  /// RANSAC inlier distance when a strip's points in a region are fitted by a plane [m].
+  double ransac_threshold_m = 0.10;
+  int ransac_iterations = 200;
+  int min_points_per_strip = 10;   ///< fewer inliers: the strip does not see the patch
+  int max_points_per_strip = 24;   ///< inliers used per patch and strip, evenly thinned
+  /// A strip's plane that differs from the other strips' by more than this is another surface.
+  double max_normal_angle_deg = 10.0;
+  // ---- automatic patches ----------------------------------------------------------------
+  /// Plan grid cell of the search [m]; 0: 5 × the point spacing, at least 1.5 m.
+  double cell_size_m = 0.0;
+  /// A cell is planar on a strip when its points' plane fit σ is below this [m].
+  double max_roughness_m = 0.05;
+  /// Region growing joins cells whose normals differ by less than this [deg].
+  double growing_angle_deg = 5.0;
+  double max_patch_size_m = 10.0;  ///< a patch's plan extent is capped (flat ground splits) [m]
+  int max_patches = 120;           ///< kept, spread over normal directions (normal-space)
+  bool IsValid(std::string* error) const;
+};
+
+/// One patch in the adjustment: its plane and how well the strips agree on it.
+struct PatchResidual {
+  std::string patch_id;
+  Vec3 centre_m = Vec3::Zero();   ///< [m]
+  Vec3 normal = Vec3::UnitZ();    ///< unit normal, upwards [-]
+  int points = 0;                 ///< point-to-plane residuals
+  int strips = 0;                 ///< strips that see it
+  double rms_before_m = 0.0;      ///< all strips' points at M_used about their best-fit plane, seed eq. (13) [m]
+  double rms_after_m = 0.0;       ///< residual distances to the estimated plane at M̂ [m]
+  bool outlier = false;           ///< RMS after far beyond the other patches'
+};
+
+/// A patch (or one strip's part of it) left out, and why.
+struct RejectedPatch {
+  std::string patch_id, strip_id;  ///< strip_id empty when the whole patch is rejected
+  std::string reason;
+};
+
+/// The residual section of the planes.
+struct PlaneSection {
+  bool automatic = false;
+  int patches_used = 0;
+  int points_used = 0;
+  double sigma_m = 0.0;  ///< σ of a point-to-plane distance used [m]
+  std::vector<PatchResidual> patches;
+  std::vector<RejectedPatch> rejected;
+  double rms_before_m = 0.0, rms_after_m = 0.0;  ///< over all points [m]
+};
+
+/// A planar patch found in the overlaps (findPlanarPatches).
+struct PlanarPatch {
+  PlaneRegion region;            ///< plan bounding box of the patch [m]
+  Vec3 normal = Vec3::UnitZ();   ///< [-]
+  int cells = 0;                 ///< grid cells grown into it
+};
+
+/// Finds planar patches seen by two or more strips (region growing over a plan grid of
+/// per-strip plane fits, then RANSAC per strip), keeping at most `max_patches` spread over
+/// normal directions so that roofs of every aspect survive beside flat ground.
+std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& options);
+
+class PlaneObservations final : public ObservationSource {
+ public:
+  /// Selects every patch's points (regions from `data.plane_regions`, or found automatically)
+  /// at `data.mounting_used`. Throws InvalidInput for invalid options or inconsistent strips.
+  PlaneObservations(const CalibrationData& data, const PlaneOptions& options);
+  ~PlaneObservations() override;
+
+  std::string kind() const override { return "planes"; }
+  void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
+              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+
+  int observationCount() const { return section_.points_used; }
+  const PlaneSection& section() const { return section_; }
+
+  /// One point of a patch with what re-georeferencing it needs.
+  struct PatchPoint {
+    std::string strip_id;
+    Vec3 x0_rel = Vec3::Zero();  ///< position at M_used minus the patch centre [m]
+    Mat3 R_mb = Mat3::Identity();
+    Vec3 r_s = Vec3::Zero();
+  };
+  struct Patch {
+    std::string id;
+    Vec3 centre_m = Vec3::Zero();
+    Eigen::Vector4d plane0 = Eigen::Vector4d(0, 0, 1, 0);  ///< (n, d) at M_used
+    std::vector<PatchPoint> points;
+    int strips = 0;
+    double* block = nullptr;  ///< the plane block of the current problem
+  };
+  const std::vector<Patch>& patches() const { return patches_; }
+
+ private:
+  PlaneOptions options_;
+  MountingParameters used_;
+  std::vector<Patch> patches_;
+  std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
+  PlaneSection section_;
+};
+
+}  // namespace mountcal

@@ -1,0 +1,535 @@
+#include "mountcal/adjustment/mounting_adjustment.hpp"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+namespace mountcal {
+
+const char* toString(TerminationType t) {
+  switch (t) {
+    case TerminationType::kConvergence: return "CONVERGENCE";
+    case TerminationType::kNoConvergence: return "NO_CONVERGENCE";
+    case TerminationType::kFailure: return "FAILURE";
+    case TerminationType::kInvalidInput: return "INVALID_INPUT";
+  }
+  return "UNKNOWN";
+}
+
+namespace {
+bool failWith(std::string* error, const std::string& m) {
+  if (error) *error = m;
+  return false;
+}
+}  // namespace
+
+bool MountingBlockOptions::IsValid(std::string* error) const {
+  for (int j = 0; j < 6; ++j) {
+    if (!std::isfinite(prior_value[j])) return failWith(error, "prior_value[" + std::to_string(j) + "] is not finite");
+  }
+  return true;
+}
+
+bool StochasticOptions::IsValid(std::string* error) const {
+  if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m)) return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
+  if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
+  return true;
+}
+
+bool SolverOptions::IsValid(std::string* error) const {
+  if (max_iterations < 1) return failWith(error, "max_iterations must be at least 1");
+  if (!(function_tolerance >= 0) || !(parameter_tolerance >= 0) || !(gradient_tolerance >= 0)) return failWith(error, "tolerances must be non-negative");
+  if (!(max_solver_time_s > 0)) return failWith(error, "max_solver_time_s must be positive");
+  if (num_threads < 1) return failWith(error, "num_threads must be at least 1");
+  if (!(numeric_diff_relative_step > 0) || numeric_diff_relative_step > 1e-2) return failWith(error, "numeric_diff_relative_step must be in (0, 0.01]");
+  if (max_rematch_rounds < 1) return failWith(error, "max_rematch_rounds must be at least 1");
+  if (!(rematch_tolerance_m > 0) || !(rematch_tolerance_rad > 0)) return failWith(error, "rematch tolerances must be positive");
+  return true;
+}
+
+bool AnalysisOptions::IsValid(std::string* error) const {
+  if (!(observability_threshold > 0) || observability_threshold >= 1) return failWith(error, "observability_threshold must be in (0, 1)");
+  if (!(outlier_factor > 0)) return failWith(error, "outlier_factor must be positive");
+  return true;
+}
+
+bool MountingAdjustment::Options::IsValid(std::string* error) const {
+  return MountingBlockOptions::IsValid(error) && StochasticOptions::IsValid(error) && SolverOptions::IsValid(error) &&
+         AnalysisOptions::IsValid(error);
+}
+
+double robustScaleFromNorms(std::vector<double> norms, int dims) {
+  if (norms.empty()) return 0.0;
+  std::nth_element(norms.begin(), norms.begin() + static_cast<long>(norms.size() / 2), norms.end());
+  const double med = norms[norms.size() / 2];
+  // Median of a chi distribution with `dims` degrees of freedom for unit σ: 0.674 (1), 1.177
+  // (2), 1.538 (3); the 3-D value with 1.4826 is what the VTPM flags always used.
+  if (dims == 1) return 1.4826 * med;
+  if (dims == 2) return med / 1.177;
+  return 1.4826 * med / 1.54;
+}
+
+// ---- AdjustmentProblem ----------------------------------------------------------------------
+
+AdjustmentProblem::AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss,
+                                     double loss_scale_m, double numeric_diff_relative_step)
+    : mounting_(mounting), offset_sigma_m_(strip_offset_sigma_m), loss_(loss), loss_scale_m_(loss_scale_m),
+      numeric_diff_relative_step_(numeric_diff_relative_step) {
+  ceres::Problem::Options po;  // owns cost functions, losses and manifolds
+  problem_ = std::make_unique<ceres::Problem>(po);
+}
+
+AdjustmentProblem::~AdjustmentProblem() = default;
+
+namespace {
+
+/// A prior (x − x0)/σ on a block, analytic Jacobian.
+class BlockPrior final : public ceres::CostFunction {
+ public:
+  BlockPrior(int size, std::vector<double> x0, std::vector<double> inv_sigma) : x0_(std::move(x0)), w_(std::move(inv_sigma)) {
+    set_num_residuals(size);
+    mutable_parameter_block_sizes()->push_back(size);
+  }
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    const int n = static_cast<int>(x0_.size());
+    for (int a = 0; a < n; ++a) r[a] = (p[0][a] - x0_[a]) * w_[a];
+    if (J && J[0]) {
+      std::fill(J[0], J[0] + n * n, 0.0);
+      for (int a = 0; a < n; ++a) J[0][a * n + a] = w_[a];
+    }
+    return true;
+  }
+ private:
+  std::vector<double> x0_, w_;
+};
+
+/// A prior on one mounting parameter.
+class MountingPrior final : public ceres::SizedCostFunction<1, 6> {
+ public:
+  MountingPrior(int j, double value, double sigma) : j_(j), v_(value), w_(1.0 / sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    r[0] = (p[0][j_] - v_) * w_;
+    if (J && J[0]) {
+      std::fill(J[0], J[0] + 6, 0.0);
+      J[0][j_] = w_;
+    }
+    return true;
+  }
+ private:
+  int j_;
+  double v_, w_;
+};
+
+}  // namespace
+
+double* AdjustmentProblem::stripOffset(const std::string& strip_id) {
+  auto it = offsets_.find(strip_id);
+  if (it != offsets_.end()) return it->second.data();
+  double* block = offsets_.emplace(strip_id, std::array<double, 3>{0.0, 0.0, 0.0}).first->second.data();
+  problem_->AddParameterBlock(block, 3);
+  if (offset_sigma_m_ > 0) {
+    const double w = 1.0 / offset_sigma_m_;
+    const int src = source_;
+    source_ = -1;  // the prior belongs to no source
+    addResidualBlock(new BlockPrior(3, {0, 0, 0}, {w, w, w}), 0.0, {block});
+    source_ = src;
+  } else {
+    problem_->SetParameterBlockConstant(block);
+  }
+  return block;
+}
+
+Vec3 AdjustmentProblem::stripOffsetValue(const std::string& strip_id) const {
+  auto it = offsets_.find(strip_id);
+  if (it == offsets_.end()) return Vec3::Zero();
+  return Vec3(it->second[0], it->second[1], it->second[2]);
+}
+
+double* AdjustmentProblem::addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold, bool schur_eliminable) {
+  storage_.emplace_back(initial, initial + size);
+  double* values = storage_.back().data();
+  if (manifold) problem_->AddParameterBlock(values, size, manifold);
+  else problem_->AddParameterBlock(values, size);
+  nuisance_.push_back({values, size, manifold, schur_eliminable, false});
+  return values;
+}
+
+int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks) {
+  ceres::LossFunction* loss = nullptr;
+  if (loss_sigma_m > 0 && loss_ != LossType::kTrivial) {
+    const double scale = loss_scale_m_ / loss_sigma_m;
+    if (loss_ == LossType::kHuber) loss = new ceres::HuberLoss(scale);
+    else loss = new ceres::CauchyLoss(scale);
+  }
+  problem_->AddResidualBlock(cost, loss, blocks);
+  records_.push_back({cost, blocks, source_, loss_sigma_m});
+  return static_cast<int>(records_.size()) - 1;
+}
+
+Eigen::VectorXd AdjustmentProblem::residual(int index) const {
+  const Record& rec = records_.at(static_cast<std::size_t>(index));
+  Eigen::VectorXd r(rec.cost->num_residuals());
+  std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
+  rec.cost->Evaluate(params.data(), r.data(), nullptr);
+  return r;
+}
+
+// ---- MountingAdjustment ---------------------------------------------------------------------
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+bool priorOn(const MountingBlockOptions& o, int j) { return o.prior_sigma[j] > 0 && std::isfinite(o.prior_sigma[j]); }
+
+/// Reduced normal matrix of the full mounting block — every nuisance block (the sources'
+/// blocks and the strip offsets) eliminated by a Schur complement — and the unreduced
+/// diagonal, from the Jacobians of every residual block at the current values (SPEC §3 step 5:
+/// rank and condition). Nuisance blocks on a manifold enter in their tangent space.
+void reducedNormalMatrix(AdjustmentProblem& P, Mat6* N_red, Vec6* diag) {
+  // Columns: 0..5 mounting, then the tangent coordinates of every variable nuisance block.
+  std::map<const double*, std::pair<int, int>> col;  // block → (first column, tangent size)
+  std::map<const double*, const AdjustmentProblem::Block*> info;
+  int n = 6;
+  for (const auto& b : P.nuisanceBlocks()) {
+    const int t = b.manifold ? b.manifold->TangentSize() : b.size;
+    col[b.values] = {n, t};
+    info[b.values] = &b;
+    n += t;
+  }
+  if (P.stripOffsetSigma() > 0) {
+    for (const auto& entry : P.stripOffsets()) {
+      col[entry.second.data()] = {n, 3};
+      n += 3;
+    }
+  }
+  std::vector<Eigen::Triplet<double>> trip;
+  int row = 0;
+  const double* m = P.mounting();
+  for (const auto& rec : P.records()) {
+    const int nr = rec.cost->num_residuals();
+    const auto& sizes = rec.cost->parameter_block_sizes();
+    std::vector<RowMat> J(rec.blocks.size());
+    std::vector<double*> jac(rec.blocks.size());
+    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+      J[b].resize(nr, sizes[b]);
+      jac[b] = J[b].data();
+    }
+    std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
+    Eigen::VectorXd r(nr);
+    rec.cost->Evaluate(params.data(), r.data(), jac.data());
+    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+      const double* blk = rec.blocks[b];
+      if (blk == m) {
+        for (int i = 0; i < nr; ++i)
+          for (int c = 0; c < 6; ++c)
+            if (J[b](i, c) != 0.0) trip.emplace_back(row + i, c, J[b](i, c));
+        continue;
+      }
+      auto it = col.find(blk);
+      if (it == col.end()) continue;  // a constant block
+      RowMat Jt = J[b];
+      auto inf = info.find(blk);
+      if (inf != info.end() && inf->second->manifold) {
+        const ceres::Manifold* man = inf->second->manifold;
+        RowMat plus(man->AmbientSize(), man->TangentSize());
+        man->PlusJacobian(blk, plus.data());
+        Jt = J[b] * plus;
+      }
+      for (int i = 0; i < nr; ++i)
+        for (int c = 0; c < Jt.cols(); ++c)
+          if (Jt(i, c) != 0.0) trip.emplace_back(row + i, it->second.first + c, Jt(i, c));
+    }
+    row += nr;
+  }
+  Eigen::SparseMatrix<double> Js(row, n);
+  Js.setFromTriplets(trip.begin(), trip.end());
+  const Eigen::SparseMatrix<double> N = (Js.transpose() * Js).pruned();
+  const Eigen::MatrixXd Nmm = Eigen::MatrixXd(N.topLeftCorner(6, 6));
+  *diag = Nmm.diagonal();
+  if (n == 6) {
+    *N_red = Nmm;
+    return;
+  }
+  const Eigen::SparseMatrix<double> Nnn = N.bottomRightCorner(n - 6, n - 6);
+  const Eigen::MatrixXd Nnm = Eigen::MatrixXd(N.bottomLeftCorner(n - 6, 6));
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Nnn);
+  Eigen::MatrixXd X;
+  if (ldlt.info() == Eigen::Success) X = ldlt.solve(Nnm);
+  if (ldlt.info() != Eigen::Success || !X.allFinite()) {
+    // A nuisance direction the data leave free (it cannot couple to the mounting): regularise.
+    Eigen::SparseMatrix<double> R = Nnn;
+    const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(Nnn.diagonal()).cwiseAbs().maxCoeff());
+    for (int i = 0; i < n - 6; ++i) R.coeffRef(i, i) += eps;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> reg(R);
+    X = reg.solve(Nnm);
+  }
+  *N_red = Nmm - Nnm.transpose() * X;
+  *N_red = 0.5 * (*N_red + N_red->transpose());
+}
+
+std::string fmtParam(int j, double v) {
+  char buf[64];
+  if (j < 3) std::snprintf(buf, sizeof buf, "%+.4f m", v);
+  else std::snprintf(buf, sizeof buf, "%+.5f°", rad2deg(v));
+  return buf;
+}
+
+}  // namespace
+
+AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used,
+                                            const std::vector<ObservationSource*>& sources) const {
+  const auto t_start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
+  const Options& o = options_;
+  Summary S;
+  S.mounting_used = mounting_used;
+  S.mounting = mounting_used;
+  S.sigma.fill(std::nan(""));
+  std::string why;
+  if (!o.IsValid(&why)) {
+    S.message = "invalid options: " + why;
+    return S;
+  }
+  const std::array<double, 6> m0 = mounting_used.toArray();
+  bool any_rematch = false;
+  for (ObservationSource* s : sources) any_rematch |= s->rematches();
+
+  // One estimation: build the problem at the current mounting, solve, and — for matching
+  // sources — re-match and solve again until the mounting stops changing.
+  std::unique_ptr<AdjustmentProblem> P;
+  ceres::Solver::Summary cs;
+  int iterations = 0;
+  bool first = true;
+  auto estimate = [&](const std::array<bool, 6>& est, std::array<double, 6> m) {
+    S.rematch_rounds = 0;
+    for (int round = 0; round < o.max_rematch_rounds; ++round) {
+      double t_mark = elapsed();
+      P = std::make_unique<AdjustmentProblem>(m, o.strip_offset_sigma_m, o.loss, o.loss_scale_m, o.numeric_diff_relative_step);
+      for (std::size_t k = 0; k < sources.size(); ++k) {
+        P->setSource(static_cast<int>(k));
+        sources[k]->addBlocks(m, P.get());
+      }
+      P->setSource(-1);
+      S.construction_time_s += elapsed() - t_mark;
+      t_mark = elapsed();
+      int observations = 0;
+      for (const auto& r : P->records()) observations += r.source >= 0;
+      if (observations == 0) return false;
+      ceres::Problem& problem = P->ceresProblem();
+      if (!problem.HasParameterBlock(P->mounting())) problem.AddParameterBlock(P->mounting(), 6);
+      for (int j = 0; j < 6; ++j)
+        if (est[j] && priorOn(o, j)) P->addResidualBlock(new MountingPrior(j, o.prior_value[j], o.prior_sigma[j]), 0.0, {P->mounting()});
+      std::vector<int> fixed;
+      for (int j = 0; j < 6; ++j)
+        if (!est[j]) fixed.push_back(j);
+      if (fixed.size() == 6) problem.SetParameterBlockConstant(P->mounting());
+      else if (!fixed.empty()) problem.SetManifold(P->mounting(), new ceres::SubsetManifold(6, fixed));
+      ceres::Solver::Options so;
+      so.minimizer_type = ceres::TRUST_REGION;
+      so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+      bool any_e = false;
+      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (const auto& b : P->nuisanceBlocks()) {
+        if (b.eliminable) {
+          ordering->AddElementToGroup(b.values, 0);  // eliminated first
+          any_e = true;
+        } else {
+          ordering->AddElementToGroup(b.values, 1);
+        }
+      }
+      for (auto& entry : P->stripOffsets()) ordering->AddElementToGroup(const_cast<double*>(entry.second.data()), 1);
+      ordering->AddElementToGroup(P->mounting(), 1);
+      if (any_e) {
+        so.linear_solver_type = ceres::DENSE_SCHUR;
+        so.linear_solver_ordering = ordering;
+      } else {
+        so.linear_solver_type = ceres::DENSE_QR;
+      }
+      so.max_num_iterations = o.max_iterations;
+      so.function_tolerance = o.function_tolerance;
+      so.parameter_tolerance = o.parameter_tolerance;
+      so.gradient_tolerance = o.gradient_tolerance;
+      so.max_solver_time_in_seconds = o.max_solver_time_s;
+      so.num_threads = o.num_threads;
+      so.logging_type = ceres::SILENT;
+      so.minimizer_progress_to_stdout = false;
+      ceres::Solve(so, &problem, &cs);
+      S.solve_time_s += elapsed() - t_mark;
+      if (first) {
+        S.initial_cost = cs.initial_cost;
+        first = false;
+      }
+      iterations += static_cast<int>(cs.iterations.size()) - 1;
+      ++S.rematch_rounds;
+      const std::array<double, 6>& m_new = P->mountingValues();
+      double change = 0;
+      for (int j = 0; j < 6; ++j) {
+        const double tol = j < 3 ? o.rematch_tolerance_m : o.rematch_tolerance_rad;
+        change = std::max(change, std::abs(m_new[j] - m[j]) / tol);
+      }
+      m = m_new;
+      if (!any_rematch || change < 1.0) break;
+    }
+    return true;
+  };
+
+  std::array<bool, 6> est = o.estimate;
+  if (!estimate(est, m0)) {
+    S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
+    S.time_s = elapsed();
+    return S;
+  }
+  double t_mark = elapsed();
+
+  // ---- observability: reduced normal matrix of the mounting block (SPEC §3 step 5) ----------
+  Mat6 N_red;
+  Vec6 diag;
+  reducedNormalMatrix(*P, &N_red, &diag);
+  std::ostringstream obs_report;
+  const auto& names = mountingParameterNames();
+  bool refixed = false;
+  for (int pass = 0; pass < 6; ++pass) {
+    std::vector<int> idx;
+    for (int j = 0; j < 6; ++j)
+      if (est[j]) idx.push_back(j);
+    if (idx.empty()) break;
+    const int n = static_cast<int>(idx.size());
+    Eigen::MatrixXd Sn(n, n);
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b)
+        Sn(a, b) = N_red(idx[a], idx[b]) / std::sqrt(std::max(diag[idx[a]], 1e-300) * std::max(diag[idx[b]], 1e-300));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Sn);
+    const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(n - 1);
+    S.condition_number = lmin > 0 ? lmax / lmin : std::numeric_limits<double>::infinity();
+    if (lmin >= o.observability_threshold) break;
+    // The weakest direction: which parameters take part in it?
+    const Eigen::VectorXd v = eig.eigenvectors().col(0);
+    std::vector<int> group;
+    for (int a = 0; a < n; ++a)
+      if (std::abs(v[a]) > 0.3) group.push_back(idx[a]);
+    // Hold a lever-arm component first (it can be taped; a boresight cannot), else the largest.
+    int pick = -1;
+    double best = 0;
+    for (int a = 0; a < n; ++a) {
+      const double w = std::abs(v[a]) + (idx[a] < 3 ? 1.0 : 0.0);
+      if (std::abs(v[a]) > 0.3 && w > best) {
+        best = w;
+        pick = idx[a];
+      }
+    }
+    if (pick < 0) {
+      int a_max = 0;
+      v.cwiseAbs().maxCoeff(&a_max);
+      pick = idx[a_max];
+    }
+    est[pick] = false;
+    refixed = true;
+    S.unobservable.push_back(names[pick]);
+    obs_report << names[pick] << " cannot be determined from these observations (it keeps " << std::max(lmin, 0.0) * 100
+               << " % of its information once the tie positions, planes and strip offsets are eliminated)";
+    if (group.size() > 1) {
+      obs_report << "; it cannot be separated from";
+      for (int g : group)
+        if (g != pick) obs_report << " " << names[g];
+    }
+    obs_report << "; held at its used value " << fmtParam(pick, m0[pick]) << ".\n";
+  }
+  if (refixed) {
+    // Re-solve with the undeterminable parameters held at their used values.
+    S.analysis_time_s += elapsed() - t_mark;
+    if (!estimate(est, m0)) {
+      S.message = "no usable observation";
+      S.time_s = elapsed();
+      return S;
+    }
+    t_mark = elapsed();
+    reducedNormalMatrix(*P, &N_red, &diag);
+  }
+  S.reduced_normal_matrix = N_red;
+  S.observability_report = obs_report.str();
+  S.estimated = est;
+  S.iterations = iterations;
+  S.final_cost = cs.final_cost;
+  const std::array<double, 6> m = P->mountingValues();
+  S.mounting = mounting_used.withArray(m.data());
+  switch (cs.termination_type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: S.termination = TerminationType::kConvergence; break;
+    case ceres::NO_CONVERGENCE: S.termination = TerminationType::kNoConvergence; break;
+    default: S.termination = TerminationType::kFailure; break;
+  }
+  S.message = cs.message;
+
+  // ---- degrees of freedom, σ₀², covariance (ceres::Covariance) -------------------------------
+  int n_res = 0, n_unknowns = 0;
+  for (const auto& r : P->records()) n_res += r.cost->num_residuals();
+  for (int j = 0; j < 6; ++j) n_unknowns += est[j];
+  for (const auto& b : P->nuisanceBlocks()) n_unknowns += b.manifold ? b.manifold->TangentSize() : b.size;
+  if (P->stripOffsetSigma() > 0) n_unknowns += 3 * static_cast<int>(P->stripOffsets().size());
+  S.degrees_of_freedom = n_res - n_unknowns;
+  S.variance_factor = S.degrees_of_freedom > 0 ? 2.0 * cs.final_cost / S.degrees_of_freedom : 1.0;
+  const double scale = o.scale_covariance_by_variance_factor && S.degrees_of_freedom > 0 ? S.variance_factor : 1.0;
+  Mat6 cov = Mat6::Constant(std::nan(""));
+  int n_est_final = 0;
+  for (bool e : est) n_est_final += e;
+  if (n_est_final > 0) {
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::SPARSE_QR;
+    co.num_threads = o.num_threads;
+    ceres::Covariance covariance(co);
+    double* mb = P->mounting();
+    const std::vector<std::pair<const double*, const double*>> blocks{{mb, mb}};
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+    if (covariance.Compute(blocks, &P->ceresProblem()) && covariance.GetCovarianceBlock(mb, mb, c.data())) {
+      cov = c * scale;
+      S.covariance_source = "ceres::Covariance";
+    } else {
+      // Fall back on the reduced normal matrix (same marginal covariance in exact arithmetic).
+      std::vector<int> idx;
+      for (int j = 0; j < 6; ++j)
+        if (est[j]) idx.push_back(j);
+      Eigen::MatrixXd Nn(idx.size(), idx.size());
+      for (std::size_t a = 0; a < idx.size(); ++a)
+        for (std::size_t b = 0; b < idx.size(); ++b) Nn(a, b) = N_red(idx[a], idx[b]);
+      const Eigen::MatrixXd inv = Nn.completeOrthogonalDecomposition().pseudoInverse();
+      for (std::size_t a = 0; a < idx.size(); ++a)
+        for (std::size_t b = 0; b < idx.size(); ++b) cov(idx[a], idx[b]) = inv(a, b) * scale;
+      S.covariance_source = "reduced normal matrix";
+    }
+  }
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b) S.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
+  for (int j = 0; j < 6; ++j) S.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b)
+      S.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S.sigma[a] * S.sigma[b]) : std::nan("");
+
+  // ---- per kind, strip offsets, the sources' residual sections -----------------------------
+  for (std::size_t k = 0; k < sources.size(); ++k) S.kinds.push_back({sources[k]->kind(), 0, 0});
+  for (const auto& r : P->records()) {
+    if (r.source < 0) continue;
+    auto& kc = S.kinds[static_cast<std::size_t>(r.source)];
+    ++kc.blocks;
+    kc.residuals += r.cost->num_residuals();
+  }
+  for (const auto& [id, o3] : P->stripOffsets()) S.strip_offsets_m.emplace_back(id, Vec3(o3[0], o3[1], o3[2]));
+  for (ObservationSource* s : sources) s->finish(m0, m, *P, o);
+  S.analysis_time_s += elapsed() - t_mark;
+  S.time_s = elapsed();
+  return S;
+}
+
+}  // namespace mountcal

@@ -1,0 +1,436 @@
+#include "mountcal/methods/correspondence/correspondences.hpp"
+
+#include <ceres/ceres.h>
+#include <flann/flann.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <set>
+#include <unordered_set>
+
+#include "../common/strip_geometry.hpp"
+#include "mountcal/error.hpp"
+
+namespace mountcal {
+
+bool CorrespondenceOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  auto nonneg = [](double v) { return v >= 0 && std::isfinite(v); };
+  if (!nonneg(apriori_misalignment_m) || apriori_misalignment_m > 1000) return fail("apriori_misalignment_m must be in [0, 1000]");
+  if (!nonneg(radius_m) || radius_m > 1000) return fail("radius_m must be in [0, 1000] (0: from the point spacing)");
+  if (!nonneg(sample_spacing_m) || sample_spacing_m > 10000) return fail("sample_spacing_m must be in [0, 10000]");
+  if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
+  if (max_neighbours < min_neighbours || max_neighbours > 1000) return fail("max_neighbours must be in [min_neighbours, 1000]");
+  if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0)) return fail("roughness, distance and MAD factors must be positive");
+  if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
+  if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
+  if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
+  if (!nonneg(sigma_m)) return fail("sigma_m must be finite and non-negative");
+  return true;
+}
+
+namespace detail {
+
+/// The matching machinery: reference points, coarse voxel hulls and their overlaps, the
+/// samples — computed once — and the k-d trees at the mounting of each round.
+class Matcher {
+ public:
+  Matcher(const CalibrationData& data, const CorrespondenceOptions& o) : data_(data), o_(o) {
+    std::string why;
+    if (!o.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
+    if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+    const std::size_t n_strips = data.strips.size();
+    x0_.resize(n_strips);
+    double spacing = 0;
+    for (std::size_t s = 0; s < n_strips; ++s) {
+      const StripData& st = data.strips[s];
+      if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
+        throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
+      }
+      x0_[s] = referencePoints(st, *data.trajectory, data.mounting_used);
+      spacing = std::max(spacing, planSpacing(x0_[s]));  // the coarser strip sets the scale
+    }
+    spacing_ = spacing;
+    r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing);
+    const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * r_;
+    const double voxel = o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r_);
+    // Coarse voxel hulls at the mounting used; a pair overlaps where the hulls meet (dilated by
+    // one voxel for the misalignment).
+    auto vkey = [voxel](const Vec3& p) {
+      const auto q = [voxel](double v) { return static_cast<std::int64_t>(std::floor(v / voxel)) & 0x1fffff; };
+      return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
+    };
+    std::vector<std::unordered_set<std::int64_t>> hull(n_strips);
+    for (std::size_t s = 0; s < n_strips; ++s)
+      for (const Vec3& p : x0_[s]) hull[s].insert(vkey(p));
+    auto dilated = [&](std::size_t s, const Vec3& p) {
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz)
+            if (hull[s].count(vkey(p + Vec3(dx, dy, dz) * voxel))) return true;
+      return false;
+    };
+    active_.resize(n_strips);
+    std::vector<std::vector<char>> in_overlap(n_strips);
+    for (std::size_t s = 0; s < n_strips; ++s) in_overlap[s].assign(x0_[s].size(), 0);
+    for (std::size_t a = 0; a < n_strips; ++a) {
+      for (std::size_t b = a + 1; b < n_strips; ++b) {
+        Pair pr;
+        pr.a = static_cast<int>(a);
+        pr.b = static_cast<int>(b);
+        // Samples of A in the overlap: one per sample cell (the point nearest its centre).
+        std::map<std::int64_t, std::pair<double, std::size_t>> cells;
+        bool any = false;
+        for (std::size_t i = 0; i < x0_[a].size(); ++i) {
+          const Vec3& p = x0_[a][i];
+          if (!dilated(b, p)) continue;
+          any = true;
+          in_overlap[a][i] = 1;
+          const Vec3 q = p / sample;
+          const Vec3 f(std::floor(q.x()), std::floor(q.y()), std::floor(q.z()));
+          const std::int64_t k = ((static_cast<std::int64_t>(f.x()) & 0x1fffff) << 42) | ((static_cast<std::int64_t>(f.y()) & 0x1fffff) << 21) |
+                                 (static_cast<std::int64_t>(f.z()) & 0x1fffff);
+          const double d = (q - f - Vec3::Constant(0.5)).squaredNorm();
+          auto it = cells.find(k);
+          if (it == cells.end() || d < it->second.first) cells[k] = {d, i};
+        }
+        if (!any) continue;
+        for (std::size_t i = 0; i < x0_[b].size(); ++i)
+          if (!in_overlap[b][i] && dilated(a, x0_[b][i])) in_overlap[b][i] = 1;
+        for (const auto& c : cells) pr.samples.push_back(c.second.second);
+        std::sort(pr.samples.begin(), pr.samples.end());
+        pairs_.push_back(std::move(pr));
+      }
+    }
+    for (std::size_t s = 0; s < n_strips; ++s) {
+      for (std::size_t i = 0; i < x0_[s].size(); ++i)
+        if (in_overlap[s][i]) active_[s].push_back(i);
+      // Poses of the active points, once (the trajectory does not change between rounds).
+      R_mb_.emplace_back(active_[s].size());
+      std::size_t cursor = 0;
+      for (std::size_t k = 0; k < active_[s].size(); ++k) R_mb_[s][k] = data.trajectory->pose(data.strips[s].time_s[active_[s][k]], &cursor).R_mb;
+      local_.emplace_back();
+      for (std::size_t k = 0; k < active_[s].size(); ++k) local_[s][active_[s][k]] = k;
+    }
+  }
+
+  double radius() const { return r_; }
+  double spacing() const { return spacing_; }
+  const std::vector<Vec3>& x0(int s) const { return x0_[static_cast<std::size_t>(s)]; }
+  const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][local_[static_cast<std::size_t>(s)].at(i)]; }
+
+  /// One matching at mounting m with distance gate `gate_m`.
+  CorrespondenceSet match(const std::array<double, 6>& m, double gate_m) {
+    const auto t0 = std::chrono::steady_clock::now();
+    CorrespondenceSet out;
+    out.radius_m = r_;
+    out.spacing_m = spacing_;
+    out.max_distance_m = gate_m;
+    const MountingParameters& used = data_.mounting_used;
+    const MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m.data());
+    const std::size_t n_strips = x0_.size();
+    // Active points at m and their k-d trees (3-D).
+    std::vector<std::vector<double>> xyz(n_strips);
+    std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree(n_strips);
+    for (std::size_t s = 0; s < n_strips; ++s) {
+      const auto& act = active_[s];
+      xyz[s].resize(3 * act.size());
+      for (std::size_t k = 0; k < act.size(); ++k) {
+        const Vec3 x = x0_[s][act[k]] + motion.displacement(R_mb_[s][k], data_.strips[s].r_s[act[k]]);
+        for (int c = 0; c < 3; ++c) xyz[s][3 * k + static_cast<std::size_t>(c)] = x[c];
+      }
+      out.points_searched += act.size();
+      if (act.size() < 3) continue;
+      flann::Matrix<double> mat(xyz[s].data(), act.size(), 3);
+      tree[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
+      tree[s]->buildIndex();
+    }
+    auto point = [&](std::size_t s, std::size_t k) { return Vec3(xyz[s][3 * k], xyz[s][3 * k + 1], xyz[s][3 * k + 2]); };
+    const double search_r = std::max(r_, gate_m);
+    const auto knn = static_cast<std::size_t>(o_.max_neighbours);
+    auto neighbours = [&](std::size_t s, const Vec3& p, double radius, std::vector<std::size_t>* idx) {
+      idx->clear();
+      if (!tree[s]) return;
+      double q[3] = {p.x(), p.y(), p.z()};
+      flann::Matrix<double> query(q, 1, 3);
+      std::vector<std::vector<std::size_t>> I;
+      std::vector<std::vector<double>> D;
+      tree[s]->knnSearch(query, I, D, std::min(knn, active_[s].size()), flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+      for (std::size_t j = 0; j < I[0].size(); ++j)
+        if (D[0][j] <= radius * radius) idx->push_back(I[0][j]);
+    };
+    struct Candidate {
+      Correspondence c;
+      int pair;
+    };
+    std::vector<Candidate> cand;
+    out.pairs.resize(pairs_.size());
+    std::vector<std::size_t> nb, na;
+    for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
+      const Pair& pr = pairs_[pi];
+      CorrespondencePairStats& st = out.pairs[pi];
+      st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
+      st.strip_b = data_.strips[static_cast<std::size_t>(pr.b)].id;
+      st.samples = static_cast<int>(pr.samples.size());
+      const auto a = static_cast<std::size_t>(pr.a), b = static_cast<std::size_t>(pr.b);
+      for (std::size_t ia : pr.samples) {
+        const Vec3 p = point(a, local_[a].at(ia));
+        neighbours(b, p, search_r, &nb);
+        if (static_cast<int>(nb.size()) < o_.min_neighbours) {
+          ++st.rejected_sparse;
+          continue;
+        }
+        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
+        if (fb.sigma_m > o_.max_roughness_factor * r_) {
+          ++st.rejected_rough;
+          continue;
+        }
+        const double d = fb.normal.dot(p - fb.centroid);
+        if (std::abs(d) > gate_m) {
+          ++st.rejected_far;
+          continue;
+        }
+        neighbours(a, p, r_, &na);
+        if (static_cast<int>(na.size()) < o_.min_neighbours) {
+          ++st.rejected_sparse;
+          continue;
+        }
+        const PlaneFit fa = fitPlane(na.size(), [&](std::size_t k) { return point(a, na[k]); });
+        if (angleDeg(fa.normal, fb.normal) > o_.max_normal_angle_deg) {
+          ++st.rejected_normal;
+          continue;
+        }
+        Candidate c;
+        c.pair = static_cast<int>(pi);
+        c.c.strip_a = pr.a;
+        c.c.strip_b = pr.b;
+        c.c.point_a = ia;
+        for (std::size_t k : nb) c.c.points_b.push_back(active_[b][k]);
+        c.c.normal = fb.normal;
+        c.c.distance_m = d;
+        c.c.roughness_m = fb.sigma_m;
+        cand.push_back(std::move(c));
+      }
+    }
+    // σ of a distance: stated, or from the planes' roughness (median, both sides' noise).
+    std::vector<double> rough;
+    for (const auto& c : cand) rough.push_back(c.c.roughness_m);
+    double sigma = o_.sigma_m;
+    if (!(sigma > 0)) {
+      sigma = 0.002;
+      if (!rough.empty()) {
+        std::nth_element(rough.begin(), rough.begin() + static_cast<long>(rough.size() / 2), rough.end());
+        sigma = std::max(0.002, rough[rough.size() / 2] * std::sqrt(1.0 + 1.0 / o_.max_neighbours));
+      }
+    }
+    out.sigma_m = sigma;
+    // Beyond mad_factor × σ_MAD of the distances (never tighter than 3σ): rejected.
+    if (!cand.empty()) {
+      std::vector<double> d;
+      for (const auto& c : cand) d.push_back(c.c.distance_m);
+      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+      const double med = d[d.size() / 2];
+      for (double& v : d) v = std::abs(v - med);
+      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+      const double limit = std::max(o_.mad_factor * 1.4826 * d[d.size() / 2], 3.0 * sigma);
+      std::vector<Candidate> kept;
+      for (auto& c : cand) {
+        if (std::abs(c.c.distance_m - med) > limit) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_mad;
+        else kept.push_back(std::move(c));
+      }
+      cand.swap(kept);
+    }
+    // Normal-space thinning to the budget: round robin over orientation bins (level, sloped
+    // and steep by aspect octant), evenly spread within each bin.
+    std::map<int, std::vector<std::size_t>> bins;
+    for (std::size_t i = 0; i < cand.size(); ++i) {
+      const Vec3& n = cand[i].c.normal;
+      const double tilt = rad2deg(std::acos(std::min(1.0, std::abs(n.z()))));
+      const int oct = static_cast<int>(std::fmod(rad2deg(std::atan2(n.x(), n.y())) + 360.0, 360.0) / 45.0) % 8;
+      bins[tilt < 10 ? 0 : (tilt < 60 ? 1 : 9) + oct].push_back(i);
+    }
+    std::vector<char> take(cand.size(), 0);
+    std::size_t budget = static_cast<std::size_t>(o_.budget);
+    if (cand.size() <= budget) {
+      std::fill(take.begin(), take.end(), 1);
+    } else {
+      // Water-filling: each bin gets an equal share, unused shares go to the larger bins.
+      std::map<int, std::size_t> quota;
+      std::size_t left = budget;
+      std::vector<std::pair<std::size_t, int>> sizes;
+      for (const auto& [b, list] : bins) sizes.push_back({list.size(), b});
+      std::sort(sizes.begin(), sizes.end());
+      for (std::size_t k = 0; k < sizes.size(); ++k) {
+        const std::size_t share = left / (sizes.size() - k);
+        quota[sizes[k].second] = std::min(sizes[k].first, share);
+        left -= quota[sizes[k].second];
+      }
+      for (const auto& [b, list] : bins) {
+        const std::size_t q = quota[b];
+        for (std::size_t k = 0; k < q; ++k) take[list[k * list.size() / q]] = 1;
+      }
+    }
+    for (std::size_t i = 0; i < cand.size(); ++i) {
+      CorrespondencePairStats& st = out.pairs[static_cast<std::size_t>(cand[i].pair)];
+      if (take[i]) {
+        ++st.kept;
+        out.correspondences.push_back(std::move(cand[i].c));
+      } else {
+        ++st.rejected_budget;
+      }
+    }
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+  double firstGate() const { return std::max(laterGate(), 2.0 * o_.apriori_misalignment_m); }
+  double laterGate() const { return o_.max_distance_factor * r_; }
+
+ private:
+  struct Pair {
+    int a = 0, b = 0;
+    std::vector<std::size_t> samples;  // indices into strip a
+  };
+  const CalibrationData& data_;
+  CorrespondenceOptions o_;
+  std::vector<std::vector<Vec3>> x0_;
+  std::vector<std::vector<std::size_t>> active_;
+  std::vector<std::vector<Mat3>> R_mb_;
+  std::vector<std::unordered_map<std::size_t, std::size_t>> local_;
+  std::vector<Pair> pairs_;
+  double spacing_ = 0, r_ = 0;
+};
+
+}  // namespace detail
+
+CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
+                                      const CorrespondenceOptions& options, double max_distance_m) {
+  detail::Matcher matcher(data, options);
+  return matcher.match(mounting, max_distance_m > 0 ? max_distance_m : matcher.firstGate());
+}
+
+namespace {
+
+/// One correspondence: r = n·((x_A(M) + o_A) − (x̄_B(M) + o_B))/σ, every point moved from its
+/// position at the mounting used by SPEC §2 eq. (1) differenced (detail::MountingMotion, exact).
+struct CorrespondenceResidual {
+  struct Point {
+    Mat3 R_mb;
+    Vec3 r_s;
+  };
+  Vec3 a_rel;  // x_A at M_used minus the centroid of B's neighbours at M_used [m]
+  Point a;
+  std::vector<Point> b;
+  Vec3 n;
+  const MountingParameters* used;
+  Mat3 R_bs_used;
+  double inv_sigma;
+  bool operator()(const double* m, const double* oa, const double* ob, double* r) const {
+    const detail::MountingMotion motion(used->R_nom, R_bs_used, used->a_b, m);
+    const Vec3 xa = a_rel + motion.displacement(a.R_mb, a.r_s);
+    Vec3 xb = Vec3::Zero();
+    for (const Point& p : b) xb += motion.displacement(p.R_mb, p.r_s);
+    xb /= static_cast<double>(b.size());
+    r[0] = n.dot(xa + Vec3(oa[0], oa[1], oa[2]) - xb - Vec3(ob[0], ob[1], ob[2])) * inv_sigma;
+    return true;
+  }
+};
+
+}  // namespace
+
+CorrespondenceObservations::~CorrespondenceObservations() = default;
+
+CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options)
+    : data_(data), options_(options) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
+}
+
+void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+  if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_);
+  detail::Matcher& matcher = *matcher_;
+  // The first round of an estimation starts at the mounting used: the a-priori gate
+  // max(3 r, 2 × misalignment); later rounds: 3 r.
+  const bool restart = mounting == data_.mounting_used.toArray();
+  const double gate = restart ? matcher.firstGate() : matcher.laterGate();
+  set_ = matcher.match(mounting, gate);
+  ++section_.rounds;
+  section_.search_time_s += set_.seconds;
+  section_.points_searched += set_.points_searched;
+  const MountingParameters& used = data_.mounting_used;
+  const Mat3 R_bs_used = used.R_bs();
+  const double inv_sigma = 1.0 / set_.sigma_m;
+  ceres::NumericDiffOptions nd;
+  nd.relative_step_size = P->numericDiffRelativeStep();
+  blocks_.clear();
+  for (const Correspondence& c : set_.correspondences) {
+    auto* f = new CorrespondenceResidual;
+    Vec3 cb = Vec3::Zero();
+    for (std::size_t j : c.points_b) {
+      cb += matcher.x0(c.strip_b)[j];
+      f->b.push_back({matcher.R_mb(c.strip_b, j), data_.strips[static_cast<std::size_t>(c.strip_b)].r_s[j]});
+    }
+    cb /= static_cast<double>(c.points_b.size());
+    f->a_rel = matcher.x0(c.strip_a)[c.point_a] - cb;
+    f->a = {matcher.R_mb(c.strip_a, c.point_a), data_.strips[static_cast<std::size_t>(c.strip_a)].r_s[c.point_a]};
+    f->n = c.normal;
+    f->used = &data_.mounting_used;
+    f->R_bs_used = R_bs_used;
+    f->inv_sigma = inv_sigma;
+    auto* cost = new ceres::NumericDiffCostFunction<CorrespondenceResidual, ceres::CENTRAL, 1, 6, 3, 3>(f, ceres::TAKE_OWNERSHIP, 1, nd);
+    blocks_.push_back(P->addResidualBlock(cost, set_.sigma_m,
+                                          {P->mounting(), P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
+                                           P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)}));
+  }
+}
+
+void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+                                        const AnalysisOptions& /*analysis*/) {
+  detail::Matcher& matcher = *matcher_;
+  section_.used = static_cast<int>(set_.correspondences.size());
+  section_.radius_m = set_.radius_m;
+  section_.sigma_m = set_.sigma_m;
+  section_.spacing_m = set_.spacing_m;
+  section_.pairs = set_.pairs;
+  (void)m0;
+  std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> dist;
+  std::vector<double> all_b, all_a;
+  for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
+    const Correspondence& c = set_.correspondences[k];
+    Vec3 cb = Vec3::Zero();
+    for (std::size_t j : c.points_b) cb += matcher.x0(c.strip_b)[j];
+    cb /= static_cast<double>(c.points_b.size());
+    const double d_before = std::abs(c.normal.dot(matcher.x0(c.strip_a)[c.point_a] - cb));
+    const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
+    dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
+    dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
+    all_b.push_back(d_before);
+    all_a.push_back(d_after);
+  }
+  auto stats = [](std::vector<double> v, double* median, double* rms) {
+    if (v.empty()) return;
+    double ss = 0;
+    for (double x : v) ss += x * x;
+    *rms = std::sqrt(ss / static_cast<double>(v.size()));
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    *median = v[v.size() / 2];
+  };
+  std::map<std::string, int> index;
+  for (std::size_t s = 0; s < data_.strips.size(); ++s) index[data_.strips[s].id] = static_cast<int>(s);
+  for (CorrespondencePairStats& p : section_.pairs) {
+    auto it = dist.find({index[p.strip_a], index[p.strip_b]});
+    if (it == dist.end()) continue;
+    stats(it->second.first, &p.median_before_m, &p.rms_before_m);
+    stats(it->second.second, &p.median_after_m, &p.rms_after_m);
+  }
+  stats(all_b, &section_.median_before_m, &section_.rms_before_m);
+  stats(all_a, &section_.median_after_m, &section_.rms_after_m);
+  (void)m;
+}
+
+}  // namespace mountcal

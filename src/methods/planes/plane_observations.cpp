@@ -1,0 +1,398 @@
+#include "mountcal/methods/planes/plane_observations.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/product_manifold.h>
+#include <ceres/sphere_manifold.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "../common/strip_geometry.hpp"
+#include "mountcal/error.hpp"
+
+namespace mountcal {
+
+bool PlaneOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(sigma_m >= 0) || !std::isfinite(sigma_m)) return fail("sigma_m must be finite and non-negative");
+  if (!(ransac_threshold_m > 0) || !std::isfinite(ransac_threshold_m)) return fail("ransac_threshold_m must be positive");
+  if (ransac_iterations < 1 || ransac_iterations > 100000) return fail("ransac_iterations must be in [1, 100000]");
+  if (min_points_per_strip < 3) return fail("min_points_per_strip must be at least 3");
+  if (max_points_per_strip < min_points_per_strip) return fail("max_points_per_strip must be at least min_points_per_strip");
+  if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
+  if (!(cell_size_m >= 0) || cell_size_m > 1000) return fail("cell_size_m must be in [0, 1000]");
+  if (!(max_roughness_m > 0) || !std::isfinite(max_roughness_m)) return fail("max_roughness_m must be positive");
+  if (!(growing_angle_deg > 0 && growing_angle_deg < 90)) return fail("growing_angle_deg must be in (0, 90)");
+  if (!(max_patch_size_m > 0) || max_patch_size_m > 10000) return fail("max_patch_size_m must be in (0, 10000]");
+  if (max_patches < 1 || max_patches > 100000) return fail("max_patches must be in [1, 100000]");
+  return true;
+}
+
+namespace {
+
+struct StripCloud {
+  const StripData* strip = nullptr;
+  std::vector<Vec3> x0;
+  std::unique_ptr<detail::PlanGrid> grid;
+};
+
+std::vector<StripCloud> makeClouds(const CalibrationData& data, double cell_m) {
+  if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  std::vector<StripCloud> clouds;
+  for (const StripData& s : data.strips) {
+    if (s.r_s.size() != s.time_s.size() || (!s.x_m.empty() && s.x_m.size() != s.time_s.size())) {
+      throw InvalidInput("strip '" + s.id + "': time, r_s and x_m must have the same length");
+    }
+    StripCloud c;
+    c.strip = &s;
+    c.x0 = detail::referencePoints(s, *data.trajectory, data.mounting_used);
+    c.grid = std::make_unique<detail::PlanGrid>(c.x0, cell_m);
+    clouds.push_back(std::move(c));
+  }
+  return clouds;
+}
+
+/// Orientation bin of a normal: 0 level (tilt < 10°), 1–8 sloped by aspect octant, 9–16 steep.
+int normalBin(const Vec3& n) {
+  const double tilt = rad2deg(std::acos(std::min(1.0, std::abs(n.z()))));
+  if (tilt < 10.0) return 0;
+  const double aspect = std::fmod(rad2deg(std::atan2(n.x(), n.y())) + 360.0, 360.0);
+  const int octant = static_cast<int>(aspect / 45.0) % 8;
+  return (tilt < 60.0 ? 1 : 9) + octant;
+}
+
+/// RANSAC plane of a strip's points, refined by least squares; the inliers.
+std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::vector<std::uint32_t>& idx, double threshold,
+                                       int iterations, std::uint32_t seed, detail::PlaneFit* fit) {
+  std::vector<std::uint32_t> best;
+  if (idx.size() < 3) return best;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, idx.size() - 1);
+  for (int it = 0; it < iterations; ++it) {
+    const Vec3 &a = X[idx[pick(rng)]], &b = X[idx[pick(rng)]], &c = X[idx[pick(rng)]];
+    const Vec3 nrm = (b - a).cross(c - a);
+    if (nrm.norm() < 1e-9) continue;
+    const Vec3 n = nrm.normalized();
+    std::size_t count = 0;
+    for (std::uint32_t i : idx) count += std::abs(n.dot(X[i] - a)) <= threshold;
+    if (count > best.size()) {
+      best.clear();
+      for (std::uint32_t i : idx)
+        if (std::abs(n.dot(X[i] - a)) <= threshold) best.push_back(i);
+    }
+  }
+  if (best.size() < 3) return {};
+  *fit = detail::fitPlane(best.size(), [&](std::size_t k) { return X[best[k]]; });
+  std::vector<std::uint32_t> in;
+  for (std::uint32_t i : idx)
+    if (std::abs(fit->normal.dot(X[i] - fit->centroid)) <= threshold) in.push_back(i);
+  *fit = detail::fitPlane(in.size(), [&](std::size_t k) { return X[in[k]]; });
+  return in;
+}
+
+/// One point of a patch: r = (n̂·(x(M) + o − c) − d)/σ, x(M) by SPEC §2 eq. (1) relative to
+/// the point's position at the mounting used (detail::MountingMotion, exact).
+struct PlanePointResidual {
+  const PlaneObservations::PatchPoint* p;
+  const MountingParameters* used;
+  Mat3 R_bs_used;
+  double inv_sigma;
+  bool operator()(const double* m, const double* plane, const double* o, double* r) const {
+    const detail::MountingMotion motion(used->R_nom, R_bs_used, used->a_b, m);
+    const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + Vec3(o[0], o[1], o[2]);
+    const Vec3 n(plane[0], plane[1], plane[2]);
+    r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
+    return true;
+  }
+};
+
+}  // namespace
+
+std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidInput("plane options: " + why);
+  std::vector<StripCloud> probe = makeClouds(data, 2.0);
+  double spacing = 1e300;
+  for (const auto& c : probe) spacing = std::min(spacing, detail::planSpacing(c.x0));
+  const double cell = o.cell_size_m > 0 ? o.cell_size_m : std::max(1.5, 5.0 * spacing);
+  std::vector<StripCloud> clouds = makeClouds(data, cell);
+  probe.clear();
+  // Per cell, the plane of every strip that sees it (planar ones only).
+  struct CellPlane {
+    int strip;
+    detail::PlaneFit fit;
+  };
+  struct Cell {
+    std::int64_t ix, iy;
+    Vec3 normal;
+    std::vector<CellPlane> planes;
+  };
+  std::map<std::pair<std::int64_t, std::int64_t>, Cell> cells;
+  const int min_pts = 6;
+  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<CellPlane>> per_cell;
+  for (int s = 0; s < static_cast<int>(clouds.size()); ++s) {
+    for (const auto& [key, idx] : clouds[s].grid->cells()) {
+      if (static_cast<int>(idx.size()) < min_pts) continue;
+      const detail::PlaneFit f = detail::fitPlane(idx.size(), [&](std::size_t k) { return clouds[s].x0[idx[k]]; });
+      if (f.sigma_m > o.max_roughness_m) continue;
+      const Vec3& c = f.centroid;
+      per_cell[{clouds[s].grid->cellIndex(c.x()), clouds[s].grid->cellIndex(c.y())}].push_back({s, f});
+      (void)key;
+    }
+  }
+  for (auto& [k, planes] : per_cell) {
+    if (planes.size() < 2) continue;
+    std::sort(planes.begin(), planes.end(), [](const CellPlane& a, const CellPlane& b) { return a.fit.n > b.fit.n; });
+    const Vec3 n0 = planes[0].fit.normal;
+    std::vector<CellPlane> agree;
+    Vec3 nsum = Vec3::Zero();
+    for (const auto& p : planes)
+      if (detail::angleDeg(p.fit.normal, n0) <= o.max_normal_angle_deg) {
+        agree.push_back(p);
+        nsum += p.fit.normal.dot(n0) < 0 ? -p.fit.normal : p.fit.normal;
+      }
+    if (agree.size() < 2) continue;
+    cells[k] = Cell{k.first, k.second, nsum.normalized(), agree};
+  }
+  // Region growing over 8-neighbour cells: similar normal, coplanar on a strip both see.
+  std::set<std::pair<std::int64_t, std::int64_t>> used;
+  struct Region {
+    Vec3 normal;
+    std::vector<std::pair<std::int64_t, std::int64_t>> members;
+  };
+  std::vector<Region> regions;
+  const int half = std::max(0, static_cast<int>(std::floor(0.5 * o.max_patch_size_m / cell)));
+  for (const auto& [k, seed] : cells) {
+    if (used.count(k)) continue;
+    Region reg{seed.normal, {k}};
+    used.insert(k);
+    std::vector<std::pair<std::int64_t, std::int64_t>> queue{k};
+    while (!queue.empty()) {
+      const auto cur = queue.back();
+      queue.pop_back();
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy) {
+          const std::pair<std::int64_t, std::int64_t> nb{cur.first + dx, cur.second + dy};
+          if (used.count(nb) || std::abs(nb.first - k.first) > half || std::abs(nb.second - k.second) > half) continue;
+          auto it = cells.find(nb);
+          if (it == cells.end() || detail::angleDeg(it->second.normal, seed.normal) > o.growing_angle_deg) continue;
+          bool coplanar = false, common = false;
+          for (const auto& a : seed.planes)
+            for (const auto& b : it->second.planes)
+              if (a.strip == b.strip) {
+                common = true;
+                coplanar |= std::abs(a.fit.normal.dot(b.fit.centroid - a.fit.centroid)) < std::max(0.1, 3 * o.max_roughness_m);
+              }
+          if (!common || !coplanar) continue;
+          used.insert(nb);
+          reg.members.push_back(nb);
+          queue.push_back(nb);
+        }
+    }
+    regions.push_back(reg);
+  }
+  // Normal-space selection: round robin over orientation bins, largest regions first.
+  std::map<int, std::vector<const Region*>> bins;
+  for (const Region& r : regions) bins[normalBin(r.normal)].push_back(&r);
+  for (auto& [b, list] : bins)
+    std::stable_sort(list.begin(), list.end(), [](const Region* a, const Region* c) { return a->members.size() > c->members.size(); });
+  std::vector<PlanarPatch> out;
+  for (std::size_t round = 0; static_cast<int>(out.size()) < o.max_patches; ++round) {
+    bool any = false;
+    for (auto& [b, list] : bins) {
+      if (round >= list.size() || static_cast<int>(out.size()) >= o.max_patches) continue;
+      any = true;
+      const Region& r = *list[round];
+      std::int64_t x0 = r.members[0].first, x1 = x0, y0 = r.members[0].second, y1 = y0;
+      for (const auto& m : r.members) {
+        x0 = std::min(x0, m.first);
+        x1 = std::max(x1, m.first);
+        y0 = std::min(y0, m.second);
+        y1 = std::max(y1, m.second);
+      }
+      PlanarPatch p;
+      p.region = {"auto_" + std::to_string(out.size() + 1), static_cast<double>(x0) * cell, static_cast<double>(y0) * cell,
+                  static_cast<double>(x1 + 1) * cell, static_cast<double>(y1 + 1) * cell};
+      p.normal = r.normal;
+      p.cells = static_cast<int>(r.members.size());
+      out.push_back(p);
+    }
+    if (!any) break;
+  }
+  return out;
+}
+
+PlaneObservations::~PlaneObservations() = default;
+
+PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOptions& options)
+    : options_(options), used_(data.mounting_used) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw InvalidInput("plane options: " + why);
+  section_.automatic = options_.automatic;
+  std::vector<PlaneRegion> regions = data.plane_regions;
+  if (options_.automatic) {
+    regions.clear();
+    for (const PlanarPatch& p : findPlanarPatches(data, options_)) regions.push_back(p.region);
+  }
+  std::vector<StripCloud> clouds = makeClouds(data, 4.0);
+  std::vector<double> fit_sigmas;
+  for (const PlaneRegion& reg : regions) {
+    struct Seen {
+      int strip;
+      std::vector<std::uint32_t> inliers;
+      detail::PlaneFit fit;
+    };
+    std::vector<Seen> seen;
+    for (int s = 0; s < static_cast<int>(clouds.size()); ++s) {
+      const std::vector<std::uint32_t> idx = clouds[s].grid->box(clouds[s].x0, reg.xmin, reg.ymin, reg.xmax, reg.ymax);
+      if (idx.empty()) continue;  // the strip does not cover the region
+      const std::string& sid = clouds[s].strip->id;
+      if (static_cast<int>(idx.size()) < options_.min_points_per_strip) {
+        section_.rejected.push_back({reg.id, sid, "too few points: " + std::to_string(idx.size()) + " in the region (need " +
+                                                      std::to_string(options_.min_points_per_strip) + ")"});
+        continue;
+      }
+      detail::PlaneFit fit;
+      const auto seed = static_cast<std::uint32_t>(std::hash<std::string>{}(reg.id + "/" + sid));
+      std::vector<std::uint32_t> in = ransacPlane(clouds[s].x0, idx, options_.ransac_threshold_m, options_.ransac_iterations, seed, &fit);
+      if (static_cast<int>(in.size()) < options_.min_points_per_strip) {
+        section_.rejected.push_back({reg.id, sid, "no plane: " + std::to_string(in.size()) + " of " + std::to_string(idx.size()) +
+                                                      " points within " + std::to_string(options_.ransac_threshold_m).substr(0, 5) +
+                                                      " m of one plane"});
+        continue;
+      }
+      seen.push_back({s, std::move(in), fit});
+    }
+    if (seen.empty()) {
+      section_.rejected.push_back({reg.id, "", "no strip has points in the region"});
+      continue;
+    }
+    // The surface most strips agree on (the best-supported strip's plane as reference).
+    std::sort(seen.begin(), seen.end(), [](const Seen& a, const Seen& b) { return a.inliers.size() > b.inliers.size(); });
+    const Vec3 n_ref = seen[0].fit.normal;
+    std::vector<Seen> agree;
+    for (auto& sn : seen) {
+      if (detail::angleDeg(sn.fit.normal, n_ref) > options_.max_normal_angle_deg) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "another surface: its plane differs by %.1f° from the patch's", detail::angleDeg(sn.fit.normal, n_ref));
+        section_.rejected.push_back({reg.id, clouds[sn.strip].strip->id, buf});
+      } else {
+        agree.push_back(std::move(sn));
+      }
+    }
+    if (agree.size() < 2) {
+      section_.rejected.push_back({reg.id, "", "seen by fewer than two strips"});
+      continue;
+    }
+    Patch patch;
+    patch.id = reg.id;
+    patch.strips = static_cast<int>(agree.size());
+    std::vector<Vec3> pts0;
+    for (const Seen& sn : agree) {
+      const StripCloud& c = clouds[sn.strip];
+      fit_sigmas.push_back(sn.fit.sigma_m);
+      // Evenly thinned inliers, in time order.
+      std::vector<std::uint32_t> in = sn.inliers;
+      std::sort(in.begin(), in.end());
+      const std::size_t keep = std::min<std::size_t>(in.size(), static_cast<std::size_t>(options_.max_points_per_strip));
+      for (std::size_t k = 0; k < keep; ++k) {
+        const std::uint32_t i = in[k * in.size() / keep];
+        PatchPoint pp;
+        pp.strip_id = c.strip->id;
+        pp.x0_rel = c.x0[i];  // made relative below
+        pp.r_s = c.strip->r_s[i];
+        pp.R_mb = data.trajectory->pose(c.strip->time_s[i]).R_mb;
+        patch.points.push_back(pp);
+        pts0.push_back(c.x0[i]);
+      }
+    }
+    Vec3 centre = Vec3::Zero();
+    for (const Vec3& p : pts0) centre += p;
+    centre /= static_cast<double>(pts0.size());
+    for (PatchPoint& pp : patch.points) pp.x0_rel -= centre;
+    patch.centre_m = centre;
+    const detail::PlaneFit all = detail::fitPlane(patch.points.size(), [&](std::size_t k) { return patch.points[k].x0_rel; });
+    patch.plane0 = Eigen::Vector4d(all.normal.x(), all.normal.y(), all.normal.z(), all.normal.dot(all.centroid));
+    patches_.push_back(std::move(patch));
+  }
+  // σ of a point-to-plane distance: stated, or pooled from the strips' own plane fits.
+  if (options_.sigma_m > 0) {
+    section_.sigma_m = options_.sigma_m;
+  } else if (!fit_sigmas.empty()) {
+    std::nth_element(fit_sigmas.begin(), fit_sigmas.begin() + static_cast<long>(fit_sigmas.size() / 2), fit_sigmas.end());
+    section_.sigma_m = std::max(0.002, fit_sigmas[fit_sigmas.size() / 2]);
+  } else {
+    section_.sigma_m = 0.02;
+  }
+  section_.patches_used = static_cast<int>(patches_.size());
+  for (const Patch& p : patches_) section_.points_used += static_cast<int>(p.points.size());
+}
+
+void PlaneObservations::addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* P) {
+  const Mat3 R_bs_used = used_.R_bs();
+  const double inv_sigma = 1.0 / section_.sigma_m;
+  ceres::NumericDiffOptions nd;
+  nd.relative_step_size = P->numericDiffRelativeStep();
+  blocks_.assign(patches_.size(), {});
+  for (std::size_t q = 0; q < patches_.size(); ++q) {
+    Patch& patch = patches_[q];
+    // One plane per patch: unit normal on the sphere × offset (a nuisance block).
+    auto* manifold = new ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>>();
+    patch.block = P->addNuisanceBlock(4, patch.plane0.data(), manifold);
+    for (const PatchPoint& pp : patch.points) {
+      auto* cost = new ceres::NumericDiffCostFunction<PlanePointResidual, ceres::CENTRAL, 1, 6, 4, 3>(
+          new PlanePointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
+      blocks_[q].push_back(P->addResidualBlock(cost, section_.sigma_m, {P->mounting(), patch.block, P->stripOffset(pp.strip_id)}));
+    }
+  }
+}
+
+void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+                               const AnalysisOptions& analysis) {
+  section_.patches.clear();
+  double ss_before = 0, ss_after = 0;
+  int n_all = 0;
+  std::vector<double> rms;
+  for (std::size_t q = 0; q < patches_.size(); ++q) {
+    const Patch& patch = patches_[q];
+    PatchResidual pr;
+    pr.patch_id = patch.id;
+    pr.centre_m = patch.centre_m;
+    Vec3 n(patch.block[0], patch.block[1], patch.block[2]);
+    n.normalize();
+    pr.normal = n.z() < 0 ? Vec3(-n) : n;
+    pr.points = static_cast<int>(patch.points.size());
+    pr.strips = patch.strips;
+    // Before: every strip's points at M_used about their one best-fit plane (seed eq. 13).
+    const detail::PlaneFit before = detail::fitPlane(patch.points.size(), [&](std::size_t k) { return patch.points[k].x0_rel; });
+    double sb = 0;
+    for (const PatchPoint& pp : patch.points) sb += std::pow(before.normal.dot(pp.x0_rel - before.centroid), 2);
+    ss_before += sb;
+    pr.rms_before_m = std::sqrt(sb / std::max<double>(1.0, static_cast<double>(patch.points.size()) - 3.0));
+    double sa = 0;
+    for (int b : blocks_[q]) {
+      const double d = P.residual(b)[0] * section_.sigma_m;
+      sa += d * d;
+    }
+    ss_after += sa;
+    n_all += pr.points;
+    pr.rms_after_m = std::sqrt(sa / std::max(1, pr.points));
+    rms.push_back(pr.rms_after_m);
+    section_.patches.push_back(pr);
+  }
+  if (n_all > 0) {
+    section_.rms_before_m = std::sqrt(ss_before / n_all);
+    section_.rms_after_m = std::sqrt(ss_after / n_all);
+  }
+  const double scale = robustScaleFromNorms(rms, 1);
+  for (PatchResidual& pr : section_.patches)
+    pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
+}
+
+}  // namespace mountcal

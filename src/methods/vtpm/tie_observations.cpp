@@ -1,0 +1,157 @@
+#include "mountcal/methods/vtpm/tie_observations.hpp"
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <set>
+
+#include "mountcal/detail/vtp_cost.hpp"
+#include "mountcal/error.hpp"
+
+namespace mountcal {
+
+bool TieObservationOptions::IsValid(std::string* error) const {
+  if (!(tie_sigma_xy_m > 0) || !(tie_sigma_z_m > 0) || !std::isfinite(tie_sigma_xy_m) || !std::isfinite(tie_sigma_z_m)) {
+    if (error) *error = "tie_sigma_xy_m and tie_sigma_z_m must be positive and finite";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+/// A GCP prior on a tie position: (X_k − X_gcp) / σ, analytic Jacobian.
+class GcpPrior final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  GcpPrior(const Vec3& x, const Vec3& inv_sigma) : x_(x), w_(inv_sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    for (int a = 0; a < 3; ++a) r[a] = (p[0][a] - x_[a]) * w_[a];
+    if (J && J[0]) {
+      std::fill(J[0], J[0] + 9, 0.0);
+      for (int a = 0; a < 3; ++a) J[0][4 * a] = w_[a];
+    }
+    return true;
+  }
+ private:
+  Vec3 x_, w_;
+};
+
+}  // namespace
+
+TieObservations::~TieObservations() = default;
+
+TieObservations::TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
+                                 const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
+                                 const VtpOptions& vtp, std::string kind)
+    : kind_(std::move(kind)), options_(options), gcps_(gcps) {
+  if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  const bool control = kind_ == "control";
+  // ---- virtual tie points (SPEC §3 steps 1–3) -------------------------------------------
+  std::map<std::string, std::size_t> strip_index;
+  for (std::size_t i = 0; i < data.strips.size(); ++i) {
+    if (!strip_index.emplace(data.strips[i].id, i).second) throw InvalidInput("calibrate: strip id '" + data.strips[i].id + "' appears twice");
+  }
+  std::set<std::string> needed;
+  for (const TieObservation& t : picks) {
+    if (!strip_index.count(t.strip_id)) {
+      throw InvalidInput("tie '" + t.tie_id + "'" + (t.line ? " (line " + std::to_string(t.line) + ")" : std::string()) +
+                         " names strip '" + t.strip_id + "', which is not in the job");
+    }
+    needed.insert(t.strip_id);
+  }
+  std::map<std::string, VtpStrip> vtp_strips;
+  for (const std::string& id : needed) {
+    vtp_strips.emplace(id, VtpStrip(data.strips[strip_index[id]], data.trajectory, data.mounting_used));
+  }
+  vtps_.reserve(picks.size());
+  std::map<std::string, std::vector<int>> by_tie;
+  for (const TieObservation& t : picks) {
+    VirtualTiePoint v;
+    std::string reason;
+    if (vtp_strips.at(t.strip_id).build(t, vtp, &v, &reason)) {
+      by_tie[t.tie_id].push_back(static_cast<int>(vtps_.size()));
+      vtps_.push_back(std::move(v));
+    } else if (!(control && reason.rfind("too few points", 0) == 0)) {  // control: a strip not covering it
+      section_.rejected.push_back({t.tie_id, t.strip_id, reason});
+    }
+  }
+  std::map<std::string, const GroundControlPoint*> gcp_by_id;
+  for (const GroundControlPoint& g : gcps_) gcp_by_id[g.id] = &g;
+  for (auto& [id, obs] : by_tie) {
+    Tie tie;
+    tie.id = id;
+    tie.obs = obs;
+    auto g = gcp_by_id.find(id);
+    if (g != gcp_by_id.end()) tie.gcp = g->second;
+    if (obs.size() < 2 && !tie.gcp) {
+      for (int k : obs) section_.rejected.push_back({id, vtps_[static_cast<std::size_t>(k)].stripId(), "the tie has a usable observation on only one strip"});
+      continue;
+    }
+    // seed eq. (7): the tie's mean at M_used, its initial position.
+    for (int k : tie.obs) tie.mean_m += vtps_[static_cast<std::size_t>(k)].position(data.mounting_used);
+    tie.mean_m /= static_cast<double>(tie.obs.size());
+    ties_.push_back(tie);
+  }
+  int n_obs = 0;
+  for (const Tie& t : ties_) n_obs += static_cast<int>(t.obs.size());
+  section_.ties_used = static_cast<int>(ties_.size());
+  section_.observations_used = n_obs;
+}
+
+std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData& data,
+                                                          const std::vector<GroundControlPoint>& gcps,
+                                                          const TieObservationOptions& options, const VtpOptions& vtp) {
+  std::vector<TieObservation> picks;
+  for (const GroundControlPoint& g : gcps)
+    for (const StripData& s : data.strips) picks.push_back({g.id, s.id, g.x_m, g.y_m, 0});
+  return std::make_unique<TieObservations>(data, picks, gcps, options, vtp, "control");
+}
+
+void TieObservations::addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* P) {
+  // SPEC §3 step 4. The blocks do not depend on the mounting they are built at (Rule 2 is a
+  // pure function of M), so ties start at their means at M_used every time.
+  const Vec3 sigma(options_.tie_sigma_xy_m, options_.tie_sigma_xy_m, options_.tie_sigma_z_m);
+  blocks_.clear();
+  for (Tie& tie : ties_) {
+    tie.X = P->addNuisanceBlock(3, tie.mean_m.data());
+    for (int k : tie.obs) {
+      const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
+      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, sigma, P->numericDiffRelativeStep());  // seed eq. (10)
+      blocks_.push_back(P->addResidualBlock(cost, options_.tie_sigma_xy_m, {P->mounting(), tie.X, P->stripOffset(v.stripId())}));
+    }
+    if (tie.gcp) {
+      const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
+      P->addResidualBlock(new GcpPrior(x, Vec3(1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_z_m)), 0.0, {tie.X});
+    }
+  }
+}
+
+void TieObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+                             const AnalysisOptions& analysis) {
+  section_.residuals.clear();
+  Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
+  std::vector<double> norms;
+  for (const Tie& tie : ties_) {
+    for (int k : tie.obs) {
+      const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
+      TieResidual r;
+      r.tie_id = tie.id;
+      r.strip_id = v.stripId();
+      r.before_m = v.position(m0.data()) - tie.mean_m;  // seed eq. (8)
+      r.after_m = v.position(m.data()) + P.stripOffsetValue(v.stripId()) - Eigen::Map<const Vec3>(tie.X);
+      ss_before += r.before_m.cwiseAbs2();
+      ss_after += r.after_m.cwiseAbs2();
+      norms.push_back(r.after_m.norm());
+      section_.residuals.push_back(r);
+    }
+  }
+  const int n = section_.observations_used;
+  if (n == 0) return;
+  section_.rms_before_m = (ss_before / n).cwiseSqrt();
+  section_.rms_after_m = (ss_after / n).cwiseSqrt();
+  const double robust_sigma = robustScaleFromNorms(norms, 3);  // per axis, from the median norm
+  const double threshold = std::max(analysis.outlier_factor * robust_sigma, 3.0 * std::min(options_.tie_sigma_xy_m, options_.tie_sigma_z_m));
+  for (std::size_t i = 0; i < section_.residuals.size(); ++i) section_.residuals[i].outlier = norms[i] > threshold;
+}
+
+}  // namespace mountcal
