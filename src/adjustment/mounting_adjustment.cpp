@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 
@@ -60,6 +61,7 @@ bool SolverOptions::IsValid(std::string* error) const {
 bool AnalysisOptions::IsValid(std::string* error) const {
   if (!(observability_threshold > 0) || observability_threshold >= 1) return failWith(error, "observability_threshold must be in (0, 1)");
   if (!(outlier_factor > 0)) return failWith(error, "outlier_factor must be positive");
+  if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0)) return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
   return true;
 }
 
@@ -381,6 +383,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
         change = std::max(change, std::abs(m_new[j] - m[j]) / tol);
       }
       m = m_new;
+      if (std::getenv("MOUNTCAL_DEBUG_ROUNDS")) std::fprintf(stderr, "round %d: %d obs, cost %.4g -> %.4g, m = %.4f %.4f %.4f %.5f %.5f %.5f\n", round, observations, cs.initial_cost, cs.final_cost, m[0], m[1], m[2], rad2deg(m[3]), rad2deg(m[4]), rad2deg(m[5]));
       if (!any_rematch || change < 1.0) break;
     }
     return true;
@@ -418,8 +421,14 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
     // The weakest direction: which parameters take part in it?
     const Eigen::VectorXd v = eig.eigenvectors().col(0);
     std::vector<int> group;
-    for (int a = 0; a < n; ++a)
-      if (std::abs(v[a]) > 0.3) group.push_back(idx[a]);
+    bool absolutely_fixed = true;  // every member's σ along the direction below the limits
+    for (int a = 0; a < n; ++a) {
+      if (std::abs(v[a]) <= 0.3) continue;
+      group.push_back(idx[a]);
+      const double sigma_dir = std::abs(v[a]) / std::sqrt(std::max(lmin, 1e-300) * std::max(diag[idx[a]], 1e-300));
+      absolutely_fixed &= idx[a] < 3 ? sigma_dir <= o.undeterminable_sigma_m : sigma_dir <= deg2rad(o.undeterminable_sigma_deg);
+    }
+    if (absolutely_fixed) break;
     // Hold a lever-arm component first (it can be taped; a boresight cannot), else the largest.
     int pick = -1;
     double best = 0;

@@ -82,6 +82,13 @@ inline int floorInt(double x) {
 Vec3 along(double heading) { return {std::sin(heading), std::cos(heading), 0.0}; }
 Vec3 across(double heading) { return {std::cos(heading), -std::sin(heading), 0.0}; }
 
+/// The largest axis-aligned square centred at `c` inside the rectangle of half sizes (hu, hv)
+/// along the unit plan directions u and v, less a margin [m].
+PlanePatch insetBox(const std::string& id, const Vec3& c, const Vec3& u, double hu, const Vec3& v, double hv, double margin) {
+  const double h = std::min(hu / (std::abs(u.x()) + std::abs(u.y())), hv / (std::abs(v.x()) + std::abs(v.y()))) - margin;
+  return {id, c.x() - h, c.y() - h, c.x() + h, c.y() + h};
+}
+
 }  // namespace
 
 struct Scene::Impl {
@@ -370,6 +377,7 @@ void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, dou
     const Vec3 p = c + sgn[k][0] * iu * ui + sgn[k][1] * iv * vi;
     addFeature({id + "_r" + std::to_string(k), at(p, zr), SurfaceKind::kRoof, 2.0});
   }
+  plane_regions_.push_back(insetBox(id + "_roof", c, ui, 0.5 * length_m, vi, 0.5 * width_m, 1.0));
 }
 
 void Scene::addGableHouse(const std::string& id, double cx, double cy, double length_m,
@@ -398,6 +406,9 @@ void Scene::addGableHouse(const std::string& id, double cx, double cy, double le
   const double clearance = std::min(0.25 * length_m, 0.25 * std::hypot(0.5 * width_m, zr - ze));
   addFeature({id + "_s0", at(m0, zm), SurfaceKind::kRoof, clearance});
   addFeature({id + "_s1", at(m1, zm), SurfaceKind::kRoof, clearance});
+  const Vec3 un = u.normalized(), vn = v.normalized();
+  plane_regions_.push_back(insetBox(id + "_face0", m0, un, 0.5 * length_m, vn, 0.25 * width_m, 0.3));
+  plane_regions_.push_back(insetBox(id + "_face1", m1, un, 0.5 * length_m, vn, 0.25 * width_m, 0.3));
 }
 
 void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad,

@@ -375,6 +375,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
   for (const FeaturePoint* fp : features)
     if (tie_ids.count(fp->id)) out.gcps.push_back(*fp);
   out.check_planes = scene.checkPlanes();
+  out.plane_regions = scene.planeRegions();
   return out;
 }
 
@@ -397,6 +398,7 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
   for (const TiePick& p : use_check_points ? survey.check_points : survey.ties) {
     d.ties.push_back({p.tie_id, p.strip_id, p.x_m, p.y_m, 0});
   }
+  for (const PlanePatch& p : survey.plane_regions) d.plane_regions.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
   return d;
 }
 

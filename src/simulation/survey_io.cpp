@@ -128,14 +128,18 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   };
   io::writeTiesCsv(dir + "/ties.csv", toObs(survey.ties));
   io::writeTiesCsv(dir + "/check_points.csv", toObs(survey.check_points));
-  std::vector<io::PlaneRegion> planes;
-  for (const PlanePatch& p : survey.check_planes) {
-    // Corners inset by 1 m so that the box stays inside the patch after the CRS's rotation.
-    const Vec3 a = frame.fromLocal(Vec3(p.xmin + 1, p.ymin + 1, 0)), b = frame.fromLocal(Vec3(p.xmax - 1, p.ymax - 1, 0));
-    planes.push_back(!frame.isLocal() ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
-                               : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
-  }
-  io::writePlanesCsv(dir + "/check_planes.csv", planes);
+  auto toRegions = [&](const std::vector<PlanePatch>& patches, double inset_m) {
+    std::vector<io::PlaneRegion> planes;
+    for (const PlanePatch& p : patches) {
+      // Corners inset so that the box stays inside the patch after the CRS's rotation.
+      const Vec3 a = frame.fromLocal(Vec3(p.xmin + inset_m, p.ymin + inset_m, 0)), b = frame.fromLocal(Vec3(p.xmax - inset_m, p.ymax - inset_m, 0));
+      planes.push_back(!frame.isLocal() ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
+                                 : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+    }
+    return planes;
+  };
+  io::writePlanesCsv(dir + "/check_planes.csv", toRegions(survey.check_planes, 1.0));
+  io::writePlanesCsv(dir + "/planes.csv", toRegions(survey.plane_regions, 0.2));
   std::vector<io::GroundControlPoint> gcps;
   for (const FeaturePoint& f : survey.gcps) {
     const Vec3 x = frame.fromLocal(f.x_m);
@@ -159,6 +163,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
       {"ties", "ties.csv"},
       {"check_points", "check_points.csv"},
       {"check_planes", "check_planes.csv"},
+      {"planes", "planes.csv"},
       {"method", "vtpm"},
       {"estimate", {{"lever_arm", {true, true, false}}, {"boresight", {true, true, true}}}},
       {"vtpm", {{"radius_m", 1.0}, {"ransac_threshold_m", 0.05}}},

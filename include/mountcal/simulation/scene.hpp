@@ -82,9 +82,13 @@ class Scene {
   /// A check plane: bare ground patch.
   void addCheckPlane(const std::string& id, double xmin, double ymin, double xmax, double ymax);
   void addFeature(const FeaturePoint& f) { features_.push_back(f); }
+  /// A calibration patch for the plane method: an axis-aligned region holding one planar face.
+  /// Flat roofs and each face of a gable roof add theirs (the largest box inside the face).
+  void addPlaneRegion(const PlanePatch& region) { plane_regions_.push_back(region); }
 
   const std::vector<FeaturePoint>& features() const { return features_; }
   const std::vector<PlanePatch>& checkPlanes() const { return check_planes_; }
+  const std::vector<PlanePatch>& planeRegions() const { return plane_regions_; }
   std::size_t triangleCount() const;
 
   /// Builds the acceleration structure; call after adding geometry (cast() calls it if needed).
@@ -104,6 +108,7 @@ class Scene {
   std::unique_ptr<Impl> impl_;
   std::vector<FeaturePoint> features_;
   std::vector<PlanePatch> check_planes_;
+  std::vector<PlanePatch> plane_regions_;
 };
 
 }  // namespace mountcal::simulation

@@ -130,6 +130,7 @@ struct SimulatedSurvey {
   std::vector<TiePick> ties;
   std::vector<TiePick> check_points;
   std::vector<PlanePatch> check_planes;
+  std::vector<PlanePatch> plane_regions;  ///< calibration patches (roof faces) for the plane method
   std::vector<FeaturePoint> gcps;  ///< true positions of the tie features (for GCP tests)
 };
 
@@ -138,7 +139,8 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
 
 /// The survey as a calibrator sees it: the measured trajectory, the nominal mounting, every
 /// strip's raw vectors and georeferenced points, and the ties (or the check points when
-/// `use_check_points`). No file round trip, so no LAS quantisation.
+/// `use_check_points`), and the scene's plane regions. No file round trip, so no LAS
+/// quantisation.
 CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_points = false);
 
 /// The names of the built-in presets (SPEC §4): "paper-calibration-field",
@@ -169,7 +171,7 @@ struct SurveyWriteOptions {
 /// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
 /// trajectory.sbet (a local job's ENU frame placed under UTM 11 N's (500000, 4000000)),
 /// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,
-/// check_points.csv, check_planes.csv, gcps.csv. Creates `dir` if needed. Throws FileError,
+/// check_points.csv, check_planes.csv, planes.csv (the roof faces, for the plane method), gcps.csv. Creates `dir` if needed. Throws FileError,
 /// or InvalidInput for an unknown CRS.
 void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options = {});
 

@@ -26,6 +26,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!nonneg(sample_spacing_m) || sample_spacing_m > 10000) return fail("sample_spacing_m must be in [0, 10000]");
   if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
   if (max_neighbours < min_neighbours || max_neighbours > 1000) return fail("max_neighbours must be in [min_neighbours, 1000]");
+  if (!(max_roughness_relative >= 1) || !std::isfinite(max_roughness_relative)) return fail("max_roughness_relative must be at least 1");
   if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0)) return fail("roughness, distance and MAD factors must be positive");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
@@ -46,18 +47,21 @@ class Matcher {
     if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
     const std::size_t n_strips = data.strips.size();
     x0_.resize(n_strips);
-    double spacing = 0;
+    std::vector<double> spacing(n_strips, 0.0);
     for (std::size_t s = 0; s < n_strips; ++s) {
       const StripData& st = data.strips[s];
       if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
         throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
       }
       x0_[s] = referencePoints(st, *data.trajectory, data.mounting_used);
-      spacing = std::max(spacing, planSpacing(x0_[s]));  // the coarser strip sets the scale
+      spacing[s] = planSpacing(x0_[s]);
+      spacing_ = std::max(spacing_, spacing[s]);
     }
-    spacing_ = spacing;
-    r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing);
-    const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * r_;
+    // The radius of a pair: from the coarser strip of the two.
+    auto radiusOf = [&](std::size_t a, std::size_t b) {
+      return o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * std::max(spacing[a], spacing[b]));
+    };
+    r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing_);
     const double voxel = o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r_);
     // Coarse voxel hulls at the mounting used; a pair overlaps where the hulls meet (dilated by
     // one voxel for the misalignment).
@@ -83,6 +87,8 @@ class Matcher {
         Pair pr;
         pr.a = static_cast<int>(a);
         pr.b = static_cast<int>(b);
+        pr.r = radiusOf(a, b);
+        const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * pr.r;
         // Samples of A in the overlap: one per sample cell (the point nearest its centre).
         std::map<std::int64_t, std::pair<double, std::size_t>> cells;
         bool any = false;
@@ -95,7 +101,9 @@ class Matcher {
           const Vec3 f(std::floor(q.x()), std::floor(q.y()), std::floor(q.z()));
           const std::int64_t k = ((static_cast<std::int64_t>(f.x()) & 0x1fffff) << 42) | ((static_cast<std::int64_t>(f.y()) & 0x1fffff) << 21) |
                                  (static_cast<std::int64_t>(f.z()) & 0x1fffff);
-          const double d = (q - f - Vec3::Constant(0.5)).squaredNorm();
+          // Nearest the cell's centre in plan: a choice by height would pick the points with
+          // the largest upward noise (the cell's centre is rarely at ground level).
+          const double d = (q - f - Vec3::Constant(0.5)).head<2>().squaredNorm();
           auto it = cells.find(k);
           if (it == cells.end() || d < it->second.first) cells[k] = {d, i};
         }
@@ -124,13 +132,16 @@ class Matcher {
   const std::vector<Vec3>& x0(int s) const { return x0_[static_cast<std::size_t>(s)]; }
   const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][local_[static_cast<std::size_t>(s)].at(i)]; }
 
-  /// One matching at mounting m with distance gate `gate_m`.
-  CorrespondenceSet match(const std::array<double, 6>& m, double gate_m) {
+  /// One matching at mounting m. The first round of an estimation (at the mounting used)
+  /// gates distances at max(3 r, 2 × the a-priori misalignment) and applies no MAD rejection
+  /// (the discrepancies are still systematic: the largest are the sloped surfaces that carry
+  /// the horizontal information); later rounds gate at 3 r and reject beyond 3 σ_MAD.
+  CorrespondenceSet match(const std::array<double, 6>& m, bool first_round) {
     const auto t0 = std::chrono::steady_clock::now();
     CorrespondenceSet out;
     out.radius_m = r_;
     out.spacing_m = spacing_;
-    out.max_distance_m = gate_m;
+    out.max_distance_m = 0;
     const MountingParameters& used = data_.mounting_used;
     const MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m.data());
     const std::size_t n_strips = x0_.size();
@@ -151,7 +162,6 @@ class Matcher {
       tree[s]->buildIndex();
     }
     auto point = [&](std::size_t s, std::size_t k) { return Vec3(xyz[s][3 * k], xyz[s][3 * k + 1], xyz[s][3 * k + 2]); };
-    const double search_r = std::max(r_, gate_m);
     const auto knn = static_cast<std::size_t>(o_.max_neighbours);
     auto neighbours = [&](std::size_t s, const Vec3& p, double radius, std::vector<std::size_t>* idx) {
       idx->clear();
@@ -178,6 +188,10 @@ class Matcher {
       st.strip_b = data_.strips[static_cast<std::size_t>(pr.b)].id;
       st.samples = static_cast<int>(pr.samples.size());
       const auto a = static_cast<std::size_t>(pr.a), b = static_cast<std::size_t>(pr.b);
+      const double gate_m = first_round ? std::max(o_.max_distance_factor * pr.r, 2.0 * o_.apriori_misalignment_m)
+                                        : o_.max_distance_factor * pr.r;
+      out.max_distance_m = std::max(out.max_distance_m, gate_m);
+      const double search_r = std::max(pr.r, gate_m);
       for (std::size_t ia : pr.samples) {
         const Vec3 p = point(a, local_[a].at(ia));
         neighbours(b, p, search_r, &nb);
@@ -186,7 +200,7 @@ class Matcher {
           continue;
         }
         const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
-        if (fb.sigma_m > o_.max_roughness_factor * r_) {
+        if (fb.sigma_m > o_.max_roughness_factor * pr.r) {
           ++st.rejected_rough;
           continue;
         }
@@ -195,7 +209,7 @@ class Matcher {
           ++st.rejected_far;
           continue;
         }
-        neighbours(a, p, r_, &na);
+        neighbours(a, p, pr.r, &na);
         if (static_cast<int>(na.size()) < o_.min_neighbours) {
           ++st.rejected_sparse;
           continue;
@@ -217,30 +231,68 @@ class Matcher {
         cand.push_back(std::move(c));
       }
     }
-    // σ of a distance: stated, or from the planes' roughness (median, both sides' noise).
+    // Rough relative to the typical plane: neighbourhoods across a ridge, an eave or a wall
+    // edge fit a plane with a σ well above the noise (and a distance biased by the edge).
     std::vector<double> rough;
     for (const auto& c : cand) rough.push_back(c.c.roughness_m);
+    if (!rough.empty()) {
+      std::nth_element(rough.begin(), rough.begin() + static_cast<long>(rough.size() / 2), rough.end());
+      const double limit = std::max(o_.max_roughness_relative * rough[rough.size() / 2], 0.005);
+      std::vector<Candidate> kept;
+      for (auto& c : cand) {
+        if (c.c.roughness_m > limit) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_rough;
+        else kept.push_back(std::move(c));
+      }
+      cand.swap(kept);
+      rough.clear();
+      for (const auto& c : cand) rough.push_back(c.c.roughness_m);
+    }
+    // σ of a distance: stated, or from the planes' roughness (median, both sides' noise).
     double sigma = o_.sigma_m;
     if (!(sigma > 0)) {
       sigma = 0.002;
       if (!rough.empty()) {
         std::nth_element(rough.begin(), rough.begin() + static_cast<long>(rough.size() / 2), rough.end());
-        sigma = std::max(0.002, rough[rough.size() / 2] * std::sqrt(1.0 + 1.0 / o_.max_neighbours));
+        // A plane fit of k points leaves k − 3 degrees of freedom: σ_point = σ_fit √(k/(k−3));
+        // the distance holds the sample's noise and the centroid's (σ²/k).
+        const double k = o_.max_neighbours;
+        sigma = std::max(0.002, rough[rough.size() / 2] * std::sqrt(k / (k - 3.0)) * std::sqrt(1.0 + 1.0 / k));
       }
     }
     out.sigma_m = sigma;
-    // Beyond mad_factor × σ_MAD of the distances (never tighter than 3σ): rejected.
-    if (!cand.empty()) {
-      std::vector<double> d;
-      for (const auto& c : cand) d.push_back(c.c.distance_m);
-      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-      const double med = d[d.size() / 2];
-      for (double& v : d) v = std::abs(v - med);
-      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-      const double limit = std::max(o_.mad_factor * 1.4826 * d[d.size() / 2], 3.0 * sigma);
+    // Beyond mad_factor × σ_MAD of the distances (never tighter than 3σ): rejected — per
+    // class of surface (level, sloped, steep), since a sloped surface shows what is left of a
+    // horizontal misalignment and level ground does not: gated by the ground's spread, the
+    // roofs that still disagree would go, and with them what pulls the mounting back.
+    if (!cand.empty() && !first_round) {
+      auto tiltClass = [](const Vec3& n) {
+        const double tilt = rad2deg(std::acos(std::min(1.0, std::abs(n.z()))));
+        return tilt < 10 ? 0 : (tilt < 60 ? 1 : 2);
+      };
+      auto medianAndLimit = [&](std::vector<double> d, double* med, double* limit) {
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        *med = d[d.size() / 2];
+        for (double& v : d) v = std::abs(v - *med);
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        *limit = std::max(o_.mad_factor * 1.4826 * d[d.size() / 2], 3.0 * sigma);
+      };
+      std::vector<double> all;
+      std::array<std::vector<double>, 3> per;
+      for (const auto& c : cand) {
+        all.push_back(c.c.distance_m);
+        per[static_cast<std::size_t>(tiltClass(c.c.normal))].push_back(c.c.distance_m);
+      }
+      double med_all = 0, lim_all = 0;
+      medianAndLimit(all, &med_all, &lim_all);
+      std::array<double, 3> med{}, lim{};
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (per[k].size() >= 10) medianAndLimit(per[k], &med[k], &lim[k]);
+        else med[k] = med_all, lim[k] = lim_all;
+      }
       std::vector<Candidate> kept;
       for (auto& c : cand) {
-        if (std::abs(c.c.distance_m - med) > limit) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_mad;
+        const auto k = static_cast<std::size_t>(tiltClass(c.c.normal));
+        if (std::abs(c.c.distance_m - med[k]) > lim[k]) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_mad;
         else kept.push_back(std::move(c));
       }
       cand.swap(kept);
@@ -288,12 +340,11 @@ class Matcher {
     return out;
   }
 
-  double firstGate() const { return std::max(laterGate(), 2.0 * o_.apriori_misalignment_m); }
-  double laterGate() const { return o_.max_distance_factor * r_; }
 
  private:
   struct Pair {
     int a = 0, b = 0;
+    double r = 0;                      // plane-fit radius of the pair [m]
     std::vector<std::size_t> samples;  // indices into strip a
   };
   const CalibrationData& data_;
@@ -309,9 +360,9 @@ class Matcher {
 }  // namespace detail
 
 CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
-                                      const CorrespondenceOptions& options, double max_distance_m) {
+                                      const CorrespondenceOptions& options, bool first_round) {
   detail::Matcher matcher(data, options);
-  return matcher.match(mounting, max_distance_m > 0 ? max_distance_m : matcher.firstGate());
+  return matcher.match(mounting, first_round);
 }
 
 namespace {
@@ -354,11 +405,7 @@ CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& da
 void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
   if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_);
   detail::Matcher& matcher = *matcher_;
-  // The first round of an estimation starts at the mounting used: the a-priori gate
-  // max(3 r, 2 × misalignment); later rounds: 3 r.
-  const bool restart = mounting == data_.mounting_used.toArray();
-  const double gate = restart ? matcher.firstGate() : matcher.laterGate();
-  set_ = matcher.match(mounting, gate);
+  set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray());
   ++section_.rounds;
   section_.search_time_s += set_.seconds;
   section_.points_searched += set_.points_searched;

@@ -29,6 +29,8 @@ bool PlaneOptions::IsValid(std::string* error) const {
   if (!(cell_size_m >= 0) || cell_size_m > 1000) return fail("cell_size_m must be in [0, 1000]");
   if (!(max_roughness_m > 0) || !std::isfinite(max_roughness_m)) return fail("max_roughness_m must be positive");
   if (!(growing_angle_deg > 0 && growing_angle_deg < 90)) return fail("growing_angle_deg must be in (0, 90)");
+  if (!(search_margin_m >= 0) || search_margin_m > 100) return fail("search_margin_m must be in [0, 100]");
+  if (!(edge_margin_m >= 0) || edge_margin_m > 1000) return fail("edge_margin_m must be in [0, 1000]");
   if (!(max_patch_size_m > 0) || max_patch_size_m > 10000) return fail("max_patch_size_m must be in (0, 10000]");
   if (max_patches < 1 || max_patches > 100000) return fail("max_patches must be in [1, 100000]");
   return true;
@@ -89,10 +91,21 @@ std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::ve
   }
   if (best.size() < 3) return {};
   *fit = detail::fitPlane(best.size(), [&](std::size_t k) { return X[best[k]]; });
+  // Refine: inliers within 3 robust σ of the least-squares plane (never wider than the RANSAC
+  // threshold, never tighter than 5 mm), so that a neighbouring surface's points near a shared
+  // edge do not enter the patch.
+  std::vector<double> dist;
+  for (std::uint32_t i : best) dist.push_back(std::abs(fit->normal.dot(X[i] - fit->centroid)));
+  std::nth_element(dist.begin(), dist.begin() + static_cast<long>(dist.size() / 2), dist.end());
+  const double limit = std::clamp(3.0 * 1.4826 * dist[dist.size() / 2], 0.005, threshold);
   std::vector<std::uint32_t> in;
-  for (std::uint32_t i : idx)
-    if (std::abs(fit->normal.dot(X[i] - fit->centroid)) <= threshold) in.push_back(i);
-  *fit = detail::fitPlane(in.size(), [&](std::size_t k) { return X[in[k]]; });
+  for (int pass = 0; pass < 2; ++pass) {
+    in.clear();
+    for (std::uint32_t i : idx)
+      if (std::abs(fit->normal.dot(X[i] - fit->centroid)) <= limit) in.push_back(i);
+    if (in.size() < 3) return {};
+    *fit = detail::fitPlane(in.size(), [&](std::size_t k) { return X[in[k]]; });
+  }
   return in;
 }
 
@@ -216,9 +229,13 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
         y0 = std::min(y0, m.second);
         y1 = std::max(y1, m.second);
       }
+      // The cells' box, less a margin: edge cells may reach the next surface on a strip that is
+      // still misaligned.
+      const double mx = std::min(o.edge_margin_m, 0.25 * static_cast<double>(x1 - x0 + 1) * cell);
+      const double my = std::min(o.edge_margin_m, 0.25 * static_cast<double>(y1 - y0 + 1) * cell);
       PlanarPatch p;
-      p.region = {"auto_" + std::to_string(out.size() + 1), static_cast<double>(x0) * cell, static_cast<double>(y0) * cell,
-                  static_cast<double>(x1 + 1) * cell, static_cast<double>(y1 + 1) * cell};
+      p.region = {"auto_" + std::to_string(out.size() + 1), static_cast<double>(x0) * cell + mx, static_cast<double>(y0) * cell + my,
+                  static_cast<double>(x1 + 1) * cell - mx, static_cast<double>(y1 + 1) * cell - my};
       p.normal = r.normal;
       p.cells = static_cast<int>(r.members.size());
       out.push_back(p);
@@ -241,18 +258,57 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
     for (const PlanarPatch& p : findPlanarPatches(data, options_)) regions.push_back(p.region);
   }
   std::vector<StripCloud> clouds = makeClouds(data, 4.0);
-  std::vector<double> fit_sigmas;
+  // Candidates: every strip point within the region grown by the search margin (points move
+  // in and out of a region as the mounting changes; select() picks the inliers each round).
+  const double g = options_.search_margin_m;
   for (const PlaneRegion& reg : regions) {
+    Region region;
+    region.box = reg;
+    for (const StripCloud& c : clouds) {
+      for (std::uint32_t i : c.grid->box(c.x0, reg.xmin - g, reg.ymin - g, reg.xmax + g, reg.ymax + g)) {
+        Candidate cand;
+        cand.strip_id = c.strip->id;
+        cand.x0 = c.x0[i];
+        cand.r_s = c.strip->r_s[i];
+        cand.R_mb = data.trajectory->pose(c.strip->time_s[i]).R_mb;
+        region.candidates.push_back(cand);
+      }
+    }
+    regions_.push_back(std::move(region));
+  }
+  strip_order_.clear();
+  for (const StripData& s : data.strips) strip_order_.push_back(s.id);
+  selected_at_ = used_.toArray();
+  select(selected_at_);
+}
+
+void PlaneObservations::select(const std::array<double, 6>& m) {
+  patches_.clear();
+  section_.rejected.clear();
+  const detail::MountingMotion motion(used_.R_nom, used_.R_bs(), used_.a_b, m.data());
+  std::vector<double> fit_sigmas;
+  for (const Region& region : regions_) {
+    const PlaneRegion& reg = region.box;
+    // The candidates inside the region at mounting m, per strip.
+    std::map<std::string, std::vector<std::uint32_t>> by_strip;
+    std::vector<Vec3> X(region.candidates.size());
+    for (std::size_t k = 0; k < region.candidates.size(); ++k) {
+      const Candidate& c = region.candidates[k];
+      X[k] = c.x0 + motion.displacement(c.R_mb, c.r_s);
+      if (X[k].x() >= reg.xmin && X[k].x() <= reg.xmax && X[k].y() >= reg.ymin && X[k].y() <= reg.ymax) {
+        by_strip[c.strip_id].push_back(static_cast<std::uint32_t>(k));
+      }
+    }
     struct Seen {
-      int strip;
+      std::string strip;
       std::vector<std::uint32_t> inliers;
       detail::PlaneFit fit;
     };
     std::vector<Seen> seen;
-    for (int s = 0; s < static_cast<int>(clouds.size()); ++s) {
-      const std::vector<std::uint32_t> idx = clouds[s].grid->box(clouds[s].x0, reg.xmin, reg.ymin, reg.xmax, reg.ymax);
-      if (idx.empty()) continue;  // the strip does not cover the region
-      const std::string& sid = clouds[s].strip->id;
+    for (const std::string& sid : strip_order_) {
+      auto it = by_strip.find(sid);
+      if (it == by_strip.end()) continue;  // the strip does not cover the region
+      const std::vector<std::uint32_t>& idx = it->second;
       if (static_cast<int>(idx.size()) < options_.min_points_per_strip) {
         section_.rejected.push_back({reg.id, sid, "too few points: " + std::to_string(idx.size()) + " in the region (need " +
                                                       std::to_string(options_.min_points_per_strip) + ")"});
@@ -260,28 +316,28 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
       }
       detail::PlaneFit fit;
       const auto seed = static_cast<std::uint32_t>(std::hash<std::string>{}(reg.id + "/" + sid));
-      std::vector<std::uint32_t> in = ransacPlane(clouds[s].x0, idx, options_.ransac_threshold_m, options_.ransac_iterations, seed, &fit);
+      std::vector<std::uint32_t> in = ransacPlane(X, idx, options_.ransac_threshold_m, options_.ransac_iterations, seed, &fit);
       if (static_cast<int>(in.size()) < options_.min_points_per_strip) {
         section_.rejected.push_back({reg.id, sid, "no plane: " + std::to_string(in.size()) + " of " + std::to_string(idx.size()) +
                                                       " points within " + std::to_string(options_.ransac_threshold_m).substr(0, 5) +
                                                       " m of one plane"});
         continue;
       }
-      seen.push_back({s, std::move(in), fit});
+      seen.push_back({sid, std::move(in), fit});
     }
     if (seen.empty()) {
       section_.rejected.push_back({reg.id, "", "no strip has points in the region"});
       continue;
     }
     // The surface most strips agree on (the best-supported strip's plane as reference).
-    std::sort(seen.begin(), seen.end(), [](const Seen& a, const Seen& b) { return a.inliers.size() > b.inliers.size(); });
+    std::stable_sort(seen.begin(), seen.end(), [](const Seen& a, const Seen& b) { return a.inliers.size() > b.inliers.size(); });
     const Vec3 n_ref = seen[0].fit.normal;
     std::vector<Seen> agree;
     for (auto& sn : seen) {
       if (detail::angleDeg(sn.fit.normal, n_ref) > options_.max_normal_angle_deg) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "another surface: its plane differs by %.1f° from the patch's", detail::angleDeg(sn.fit.normal, n_ref));
-        section_.rejected.push_back({reg.id, clouds[sn.strip].strip->id, buf});
+        section_.rejected.push_back({reg.id, sn.strip, buf});
       } else {
         agree.push_back(std::move(sn));
       }
@@ -293,9 +349,8 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
     Patch patch;
     patch.id = reg.id;
     patch.strips = static_cast<int>(agree.size());
-    std::vector<Vec3> pts0;
+    std::vector<Vec3> now;  // positions at m
     for (const Seen& sn : agree) {
-      const StripCloud& c = clouds[sn.strip];
       fit_sigmas.push_back(sn.fit.sigma_m);
       // Evenly thinned inliers, in time order.
       std::vector<std::uint32_t> in = sn.inliers;
@@ -303,38 +358,46 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
       const std::size_t keep = std::min<std::size_t>(in.size(), static_cast<std::size_t>(options_.max_points_per_strip));
       for (std::size_t k = 0; k < keep; ++k) {
         const std::uint32_t i = in[k * in.size() / keep];
+        const Candidate& c = region.candidates[i];
         PatchPoint pp;
-        pp.strip_id = c.strip->id;
-        pp.x0_rel = c.x0[i];  // made relative below
-        pp.r_s = c.strip->r_s[i];
-        pp.R_mb = data.trajectory->pose(c.strip->time_s[i]).R_mb;
+        pp.strip_id = c.strip_id;
+        pp.x0_rel = c.x0;  // made relative below
+        pp.r_s = c.r_s;
+        pp.R_mb = c.R_mb;
         patch.points.push_back(pp);
-        pts0.push_back(c.x0[i]);
+        now.push_back(X[i]);
       }
     }
     Vec3 centre = Vec3::Zero();
-    for (const Vec3& p : pts0) centre += p;
-    centre /= static_cast<double>(pts0.size());
+    for (const PatchPoint& pp : patch.points) centre += pp.x0_rel;
+    centre /= static_cast<double>(patch.points.size());
     for (PatchPoint& pp : patch.points) pp.x0_rel -= centre;
     patch.centre_m = centre;
-    const detail::PlaneFit all = detail::fitPlane(patch.points.size(), [&](std::size_t k) { return patch.points[k].x0_rel; });
+    // The plane's starting value: the points at m, relative to the centre.
+    const detail::PlaneFit all = detail::fitPlane(now.size(), [&](std::size_t k) { return Vec3(now[k] - centre); });
     patch.plane0 = Eigen::Vector4d(all.normal.x(), all.normal.y(), all.normal.z(), all.normal.dot(all.centroid));
     patches_.push_back(std::move(patch));
   }
-  // σ of a point-to-plane distance: stated, or pooled from the strips' own plane fits.
-  if (options_.sigma_m > 0) {
-    section_.sigma_m = options_.sigma_m;
-  } else if (!fit_sigmas.empty()) {
-    std::nth_element(fit_sigmas.begin(), fit_sigmas.begin() + static_cast<long>(fit_sigmas.size() / 2), fit_sigmas.end());
-    section_.sigma_m = std::max(0.002, fit_sigmas[fit_sigmas.size() / 2]);
-  } else {
-    section_.sigma_m = 0.02;
+  // σ of a point-to-plane distance: stated, or pooled from the strips' own plane fits (fixed
+  // at the first selection, so that every round weighs alike).
+  if (!(section_.sigma_m > 0)) {
+    if (options_.sigma_m > 0) {
+      section_.sigma_m = options_.sigma_m;
+    } else if (!fit_sigmas.empty()) {
+      std::nth_element(fit_sigmas.begin(), fit_sigmas.begin() + static_cast<long>(fit_sigmas.size() / 2), fit_sigmas.end());
+      section_.sigma_m = std::max(0.002, fit_sigmas[fit_sigmas.size() / 2]);
+    } else {
+      section_.sigma_m = 0.02;
+    }
   }
   section_.patches_used = static_cast<int>(patches_.size());
+  section_.points_used = 0;
   for (const Patch& p : patches_) section_.points_used += static_cast<int>(p.points.size());
 }
 
-void PlaneObservations::addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* P) {
+void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+  if (mounting != selected_at_) select(mounting);
+  selected_at_ = mounting;
   const Mat3 R_bs_used = used_.R_bs();
   const double inv_sigma = 1.0 / section_.sigma_m;
   ceres::NumericDiffOptions nd;
@@ -353,7 +416,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& /*mounting*/, Adj
   }
 }
 
-void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+void PlaneObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
                                const AnalysisOptions& analysis) {
   section_.patches.clear();
   double ss_before = 0, ss_after = 0;
@@ -370,6 +433,7 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
     pr.points = static_cast<int>(patch.points.size());
     pr.strips = patch.strips;
     // Before: every strip's points at M_used about their one best-fit plane (seed eq. 13).
+    (void)m0;
     const detail::PlaneFit before = detail::fitPlane(patch.points.size(), [&](std::size_t k) { return patch.points[k].x0_rel; });
     double sb = 0;
     for (const PatchPoint& pp : patch.points) sb += std::pow(before.normal.dot(pp.x0_rel - before.centroid), 2);

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 #include "mountcal/detail/vtp_cost.hpp"
@@ -20,6 +21,9 @@ bool TieObservationOptions::IsValid(std::string* error) const {
 
 namespace {
 
+/// Control: a strip surface farther than this from the control point is another surface [m].
+constexpr double kControlGate_m = 1.0;
+
 /// A GCP prior on a tie position: (X_k − X_gcp) / σ, analytic Jacobian.
 class GcpPrior final : public ceres::SizedCostFunction<3, 3> {
  public:
@@ -35,6 +39,29 @@ class GcpPrior final : public ceres::SizedCostFunction<3, 3> {
  private:
   Vec3 x_, w_;
 };
+
+/// Ground control with a non-VTPM method: the GCP lies on the strip's surface. The surface is
+/// the virtual tie point's triangle moved by Rule 2, so r = n · (P_ki(M) + o_i − X_gcp) / σ
+/// with n the triangle's normal — a point-to-plane distance that holds wherever the strip is
+/// locally planar, whatever its horizontal misalignment (a plan pick on a misaligned strip
+/// lands on another ground point, so only the distance across the surface is an observation).
+struct ControlResidual {
+  const VirtualTiePoint* vtp;
+  Vec3 normal;
+  Vec3 gcp_rel;  // X_gcp − triangle centroid [m]
+  double inv_sigma;
+  bool operator()(const double* mounting, const double* offset, double* r) const {
+    const Vec3 P_rel = vtp->relativePosition(mounting);
+    r[0] = normal.dot(P_rel + Vec3(offset[0], offset[1], offset[2]) - gcp_rel) * inv_sigma;
+    return true;
+  }
+};
+
+Vec3 triangleNormal(const VirtualTiePoint& v) {
+  const auto& V = v.vertices();
+  Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
+  return n.z() < 0 ? Vec3(-n) : n;
+}
 
 }  // namespace
 
@@ -83,6 +110,27 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
     tie.obs = obs;
     auto g = gcp_by_id.find(id);
     if (g != gcp_by_id.end()) tie.gcp = g->second;
+    if (control && tie.gcp) {
+      // A plan pick on a misaligned strip may land on another surface (off a roof): such a
+      // strip surface lies metres from the control point.
+      const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
+      std::vector<int> near;
+      for (int k : tie.obs) {
+        const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
+        const auto& V = v.vertices();
+        Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
+        const double d = std::abs(n.dot(v.position(data.mounting_used) - x));
+        if (d <= kControlGate_m) {
+          near.push_back(k);
+        } else {
+          char buf[160];
+          std::snprintf(buf, sizeof buf, "another surface: the strip's surface is %.2f m from the control point (more than %.1f m)", d, kControlGate_m);
+          section_.rejected.push_back({id, v.stripId(), buf});
+        }
+      }
+      tie.obs = near;
+      if (tie.obs.empty()) continue;
+    }
     if (obs.size() < 2 && !tie.gcp) {
       for (int k : obs) section_.rejected.push_back({id, vtps_[static_cast<std::size_t>(k)].stripId(), "the tie has a usable observation on only one strip"});
       continue;
@@ -112,6 +160,24 @@ void TieObservations::addBlocks(const std::array<double, 6>& /*mounting*/, Adjus
   // pure function of M), so ties start at their means at M_used every time.
   const Vec3 sigma(options_.tie_sigma_xy_m, options_.tie_sigma_xy_m, options_.tie_sigma_z_m);
   blocks_.clear();
+  if (kind_ == "control") {
+    for (Tie& tie : ties_) {
+      const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
+      for (int k : tie.obs) {
+        const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
+        const Vec3 n = triangleNormal(v);
+        // σ across the surface: the GCP's (its normal component) and the strip's (Rule 1).
+        const double s_gcp2 = std::pow(tie.gcp->sigma_xy_m, 2) * n.head<2>().squaredNorm() + std::pow(tie.gcp->sigma_z_m * n.z(), 2);
+        const double sigma = std::sqrt(s_gcp2 + options_.tie_sigma_z_m * options_.tie_sigma_z_m);
+        ceres::NumericDiffOptions nd;
+        nd.relative_step_size = P->numericDiffRelativeStep();
+        auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(
+            new ControlResidual{&v, n, x - v.centroid(), 1.0 / sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
+        blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId())}));
+      }
+    }
+    return;
+  }
   for (Tie& tie : ties_) {
     tie.X = P->addNuisanceBlock(3, tie.mean_m.data());
     for (int k : tie.obs) {
@@ -131,7 +197,29 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
   section_.residuals.clear();
   Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
   std::vector<double> norms;
+  if (kind_ == "control") {
+    // The distances across the surface, as vectors along the triangle's normal.
+    std::size_t b = 0;
+    for (const Tie& tie : ties_) {
+      const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
+      for (int k : tie.obs) {
+        const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
+        const Vec3 n = triangleNormal(v);
+        TieResidual r;
+        r.tie_id = tie.id;
+        r.strip_id = v.stripId();
+        r.before_m = n * n.dot(v.position(m0.data()) - x);
+        r.after_m = n * n.dot(v.position(m.data()) + P.stripOffsetValue(v.stripId()) - x);
+        (void)blocks_[b++];
+        ss_before += r.before_m.cwiseAbs2();
+        ss_after += r.after_m.cwiseAbs2();
+        norms.push_back(r.after_m.norm());
+        section_.residuals.push_back(r);
+      }
+    }
+  }
   for (const Tie& tie : ties_) {
+    if (kind_ == "control") break;
     for (int k : tie.obs) {
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
       TieResidual r;
@@ -149,7 +237,7 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
   if (n == 0) return;
   section_.rms_before_m = (ss_before / n).cwiseSqrt();
   section_.rms_after_m = (ss_after / n).cwiseSqrt();
-  const double robust_sigma = robustScaleFromNorms(norms, 3);  // per axis, from the median norm
+  const double robust_sigma = robustScaleFromNorms(norms, kind_ == "control" ? 1 : 3);  // per axis, from the median norm
   const double threshold = std::max(analysis.outlier_factor * robust_sigma, 3.0 * std::min(options_.tie_sigma_xy_m, options_.tie_sigma_z_m));
   for (std::size_t i = 0; i < section_.residuals.size(); ++i) section_.residuals[i].outlier = norms[i] > threshold;
 }

@@ -40,6 +40,9 @@ struct CorrespondenceOptions {
   double sample_spacing_m = 0.0;   ///< 0: 2 r [m]
   int min_neighbours = 8;          ///< in radius r [-]
   double max_roughness_factor = 0.2;  ///< plane σ > this × r: rough [-]
+  /// …or plane σ > this × the median σ of all candidates (at least 5 mm): rough, as across a
+  /// ridge, an eave or a wall edge [-].
+  double max_roughness_relative = 4.0;
   double max_distance_factor = 3.0;   ///< |distance| > this × r: far [-]
   double max_normal_angle_deg = 10.0; ///< [deg]
   double mad_factor = 3.0;            ///< beyond this × σ_MAD of the distances: rejected [-]
@@ -76,19 +79,20 @@ struct CorrespondencePairStats {
 struct CorrespondenceSet {
   std::vector<Correspondence> correspondences;
   std::vector<CorrespondencePairStats> pairs;  ///< every pair whose hulls overlap
-  double radius_m = 0.0;        ///< r used [m]
+  double radius_m = 0.0;        ///< r used: the largest over the pairs (each pair: 2.5 × its coarser spacing) [m]
   double spacing_m = 0.0;       ///< point spacing measured [m]
   double sigma_m = 0.0;         ///< σ of a distance [m]
-  double max_distance_m = 0.0;  ///< distance gate used [m]
+  double max_distance_m = 0.0;  ///< largest distance gate used [m]
   double seconds = 0.0;         ///< wall time [s]
   std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
 };
 
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
-/// [m, rad]); `max_distance_m` > 0 overrides the first-round gate. Throws InvalidInput for
-/// invalid options or strips.
+/// [m, rad]). `first_round`: the gates of a first matching before calibration (distance gate
+/// max(3 r, 2 × the a-priori misalignment), no MAD rejection); otherwise 3 r and 3 σ_MAD.
+/// Throws InvalidInput for invalid options or strips.
 CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
-                                      const CorrespondenceOptions& options, double max_distance_m = 0.0);
+                                      const CorrespondenceOptions& options, bool first_round = true);
 
 /// The residual section of the correspondences.
 struct CorrespondenceSection {

@@ -43,8 +43,13 @@ struct PlaneOptions {
   double max_roughness_m = 0.05;
   /// Region growing joins cells whose normals differ by less than this [deg].
   double growing_angle_deg = 5.0;
+  /// A found patch's box is shrunk by this on every side (at most a quarter of its size) [m].
+  double edge_margin_m = 1.0;
   double max_patch_size_m = 10.0;  ///< a patch's plan extent is capped (flat ground splits) [m]
   int max_patches = 120;           ///< kept, spread over normal directions (normal-space)
+  /// Points within this of a region are candidates: as the mounting changes, the points in
+  /// each region are selected again (RANSAC at the current mounting) between solves [m].
+  double search_margin_m = 3.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -97,6 +102,8 @@ class PlaneObservations final : public ObservationSource {
   ~PlaneObservations() override;
 
   std::string kind() const override { return "planes"; }
+  /// The points in each region are selected again at each new mounting.
+  bool rematches() const override { return true; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
               const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
@@ -122,8 +129,24 @@ class PlaneObservations final : public ObservationSource {
   const std::vector<Patch>& patches() const { return patches_; }
 
  private:
+  struct Candidate {
+    std::string strip_id;
+    Vec3 x0 = Vec3::Zero();  ///< at M_used [m]
+    Mat3 R_mb = Mat3::Identity();
+    Vec3 r_s = Vec3::Zero();
+  };
+  struct Region {
+    PlaneRegion box;
+    std::vector<Candidate> candidates;
+  };
+  /// Selects every region's points (RANSAC per strip) and builds the patches at mounting m.
+  void select(const std::array<double, 6>& m);
+
   PlaneOptions options_;
   MountingParameters used_;
+  std::vector<Region> regions_;
+  std::vector<std::string> strip_order_;
+  std::array<double, 6> selected_at_{};
   std::vector<Patch> patches_;
   std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
   PlaneSection section_;
