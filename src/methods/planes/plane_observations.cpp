@@ -29,6 +29,7 @@ bool PlaneOptions::IsValid(std::string* error) const {
   if (!(cell_size_m >= 0) || cell_size_m > 1000) return fail("cell_size_m must be in [0, 1000]");
   if (!(max_roughness_m > 0) || !std::isfinite(max_roughness_m)) return fail("max_roughness_m must be positive");
   if (!(growing_angle_deg > 0 && growing_angle_deg < 90)) return fail("growing_angle_deg must be in (0, 90)");
+  if (!(max_plane_offset_m > 0) || !std::isfinite(max_plane_offset_m)) return fail("max_plane_offset_m must be positive");
   if (!(search_margin_m >= 0) || search_margin_m > 100) return fail("search_margin_m must be in [0, 100]");
   if (!(edge_margin_m >= 0) || edge_margin_m > 1000) return fail("edge_margin_m must be in [0, 1000]");
   if (!(max_patch_size_m > 0) || max_patch_size_m > 10000) return fail("max_patch_size_m must be in (0, 10000]");
@@ -333,10 +334,16 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
     std::stable_sort(seen.begin(), seen.end(), [](const Seen& a, const Seen& b) { return a.inliers.size() > b.inliers.size(); });
     const Vec3 n_ref = seen[0].fit.normal;
     std::vector<Seen> agree;
+    const Vec3 c_ref = seen[0].fit.centroid;
     for (auto& sn : seen) {
+      const double apart = std::abs(n_ref.dot(sn.fit.centroid - c_ref));
       if (detail::angleDeg(sn.fit.normal, n_ref) > options_.max_normal_angle_deg) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "another surface: its plane differs by %.1f° from the patch's", detail::angleDeg(sn.fit.normal, n_ref));
+        section_.rejected.push_back({reg.id, sn.strip, buf});
+      } else if (apart > options_.max_plane_offset_m) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "another surface: parallel to the patch's plane but %.2f m from it", apart);
         section_.rejected.push_back({reg.id, sn.strip, buf});
       } else {
         agree.push_back(std::move(sn));

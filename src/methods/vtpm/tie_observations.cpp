@@ -70,9 +70,20 @@ TieObservations::~TieObservations() = default;
 TieObservations::TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
                                  const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
                                  const VtpOptions& vtp, std::string kind)
-    : kind_(std::move(kind)), options_(options), gcps_(gcps) {
+    : kind_(std::move(kind)), options_(options), gcps_(gcps), data_(&data), picks_(picks), vtp_(vtp) {
   if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  built_at_ = data.mounting_used.toArray();
+  build(data.mounting_used);
+}
+
+void TieObservations::build(const MountingParameters& reference) {
+  const CalibrationData& data = *data_;
+  const std::vector<TieObservation>& picks = picks_;
+  const VtpOptions& vtp = vtp_;
   const bool control = kind_ == "control";
+  vtps_.clear();
+  ties_.clear();
+  section_ = TieSection{};
   // ---- virtual tie points (SPEC §3 steps 1–3) -------------------------------------------
   std::map<std::string, std::size_t> strip_index;
   for (std::size_t i = 0; i < data.strips.size(); ++i) {
@@ -88,7 +99,13 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
   }
   std::map<std::string, VtpStrip> vtp_strips;
   for (const std::string& id : needed) {
-    vtp_strips.emplace(id, VtpStrip(data.strips[strip_index[id]], data.trajectory, data.mounting_used));
+    if (reference.toArray() == data.mounting_used.toArray()) {
+      vtp_strips.emplace(id, VtpStrip(data.strips[strip_index[id]], data.trajectory, data.mounting_used));
+    } else {
+      StripData at = data.strips[strip_index[id]];
+      at.x_m.clear();  // georeferenced again at the reference mounting
+      vtp_strips.emplace(id, VtpStrip(std::move(at), data.trajectory, reference));
+    }
   }
   vtps_.reserve(picks.size());
   std::map<std::string, std::vector<int>> by_tie;
@@ -119,7 +136,7 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
         const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
         const auto& V = v.vertices();
         Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
-        const double d = std::abs(n.dot(v.position(data.mounting_used) - x));
+        const double d = std::abs(n.dot(v.referencePosition() - x));
         if (d <= kControlGate_m) {
           near.push_back(k);
         } else {
@@ -136,7 +153,7 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
       continue;
     }
     // seed eq. (7): the tie's mean at M_used, its initial position.
-    for (int k : tie.obs) tie.mean_m += vtps_[static_cast<std::size_t>(k)].position(data.mounting_used);
+    for (int k : tie.obs) tie.mean_m += vtps_[static_cast<std::size_t>(k)].position(reference);
     tie.mean_m /= static_cast<double>(tie.obs.size());
     ties_.push_back(tie);
   }
@@ -155,9 +172,15 @@ std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData&
   return std::make_unique<TieObservations>(data, picks, gcps, options, vtp, "control");
 }
 
-void TieObservations::addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* P) {
-  // SPEC §3 step 4. The blocks do not depend on the mounting they are built at (Rule 2 is a
-  // pure function of M), so ties start at their means at M_used every time.
+void TieObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+  // SPEC §3 step 4. Tie blocks do not depend on the mounting they are built at (Rule 2 is a
+  // pure function of M), so ties start at their means at M_used every time. Control points
+  // are picked again at each new mounting: a plan pick on a strip that is still misaligned
+  // lands beside the control point, on a surface that may not be the control point's.
+  if (kind_ == "control" && mounting != built_at_) {
+    built_at_ = mounting;
+    build(data_->mounting_used.withArray(mounting.data()));
+  }
   const Vec3 sigma(options_.tie_sigma_xy_m, options_.tie_sigma_xy_m, options_.tie_sigma_z_m);
   blocks_.clear();
   if (kind_ == "control") {

@@ -36,6 +36,8 @@ struct PlaneOptions {
   int max_points_per_strip = 24;   ///< inliers used per patch and strip, evenly thinned
   /// A strip's plane that differs from the other strips' by more than this is another surface.
   double max_normal_angle_deg = 10.0;
+  /// …or parallel to it but farther than this (a flat roof and the ground beside it) [m].
+  double max_plane_offset_m = 1.5;
   // ---- automatic patches ----------------------------------------------------------------
   /// Plan grid cell of the search [m]; 0: 5 × the point spacing, at least 1.5 m.
   double cell_size_m = 0.0;

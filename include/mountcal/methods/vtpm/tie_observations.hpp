@@ -72,6 +72,8 @@ class TieObservations final : public ObservationSource {
   ~TieObservations() override;
 
   std::string kind() const override { return kind_; }
+  /// Control points are picked again at each new mounting; ties are not.
+  bool rematches() const override { return kind_ == "control"; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
               const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
@@ -82,6 +84,7 @@ class TieObservations final : public ObservationSource {
   const std::vector<VirtualTiePoint>& virtualTiePoints() const { return vtps_; }
 
  private:
+  void build(const MountingParameters& reference);
   struct Tie {
     std::string id;
     std::vector<int> obs;  // indices into vtps_
@@ -96,7 +99,10 @@ class TieObservations final : public ObservationSource {
   std::vector<Tie> ties_;
   std::vector<int> blocks_;  // residual block of each observation, in ties_ order
   TieSection section_;
-  bool quiet_uncovered_ = false;
+  const CalibrationData* data_ = nullptr;
+  std::vector<TieObservation> picks_;
+  VtpOptions vtp_;
+  std::array<double, 6> built_at_{};
 };
 
 }  // namespace mountcal
