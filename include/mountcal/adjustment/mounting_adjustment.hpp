@@ -97,8 +97,8 @@ struct AnalysisOptions {
   /// …unless the data still fix it absolutely: a weak direction whose parameters all have a
   /// standard deviation along it below these is estimated (weakly determined, e.g. by the
   /// strip offsets' prior), not held [m, deg].
-  double undeterminable_sigma_m = 0.5;
-  double undeterminable_sigma_deg = 0.5;
+  double undeterminable_sigma_m = 0.05;
+  double undeterminable_sigma_deg = 0.01;
   /// Scale the covariance by the a-posteriori variance factor σ₀². Off by default: the
   /// covariance then follows the stated a-priori sigmas, and variance_factor tells how well
   /// they match the residuals (≈ 1 when they do).
