@@ -28,7 +28,7 @@ void progress(const char* what) {
 }
 
 int runSimulate(const std::string& scenario, const std::string& preset, std::uint64_t seed,
-                const std::string& out, bool no_noise, const std::string& crs) {
+                const std::string& out, bool no_noise, const std::string& crs, bool no_ties) {
   using namespace mountcal::simulation;
   SurveyConfig config;
   Scene scene;
@@ -42,6 +42,7 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   const SimulatedSurvey survey = simulate(config, scene);
   SurveyWriteOptions write_options;
   write_options.crs = crs;
+  write_options.ties = !no_ties;
   writeSurvey(survey, out, write_options);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;
@@ -50,6 +51,7 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
               config.name.c_str(), survey.strips.size(), points, survey.ties.size(),
               survey.check_points.size(), secs);
   std::printf("wrote %s/job.json and truth.json; run: mountcal calibrate %s/job.json\n", out.c_str(), out.c_str());
+  (void)no_ties;
   return 0;
 }
 
@@ -59,7 +61,7 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   progress("reading the trajectory and strips");
   const LoadedJob loaded = loadJob(job);
   const CalibrationData& data = loaded.data;
-  progress("building virtual tie points and solving");
+  progress("building the observations and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
   const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting);
   const bool any_eval = ev.any();
@@ -189,6 +191,8 @@ int main(int argc, char** argv) {
   sim->add_option("--seed", seed, "Random seed for the noise")->capture_default_str();
   sim->add_option("--out", out, "Output folder")->required();
   sim->add_flag("--no-noise", no_noise, "Switch every noise source off");
+  bool no_ties = false;
+  sim->add_flag("--no-ties", no_ties, "Write no ties file: the job calibrates automatically (method \"correspondences\")");
   std::string crs;
   sim->add_option("--crs", crs, "Write the survey in this CRS (e.g. EPSG:32611) with an SBET trajectory");
 
@@ -226,7 +230,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "mountcal simulate: give either a SCENARIO file or --preset NAME\n");
         return 2;
       }
-      return runSimulate(scenario, preset, seed, out, no_noise, crs);
+      return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties);
     }
     if (cal->parsed()) return runCalibrate(job_path, quiet);
     if (apply->parsed()) return runApply(job_path, result_path, apply_out);

@@ -79,7 +79,10 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
   const SurveyConfig& c = survey.config;
   JobFrame frame;  // simulated ENU → output coordinates: identity, or through WGS84 into the CRS
-  nlohmann::json trajectory_json;
+  // The job.json, written through the job schema (job/schema.hpp).
+  Job job;
+  job.path = (std::filesystem::path(dir) / "job.json").string();
+  auto at = [&](const std::string& name) { return (std::filesystem::path(dir) / name).lexically_normal().string(); };
   // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
   // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
   const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
@@ -106,17 +109,20 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   io::writeSbet(dir + "/trajectory.sbet", records);
   if (options.crs.empty()) {
     io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
-    trajectory_json = {{"path", "trajectory.csv"}, {"format", "csv"}, {"time_offset_s", 0.0}};
+    job.trajectory_path = at("trajectory.csv");
+    job.trajectory_format = TrajectoryFormat::kCsv;
   } else {
     frame = JobFrame(options.crs, tangent.origin());
-    trajectory_json = {{"path", "trajectory.sbet"}, {"format", "sbet"}, {"time_offset_s", 0.0}};
+    job.frame_type = JobFrameType::kCrs;
+    job.crs = options.crs;
+    job.trajectory_path = at("trajectory.sbet");
+    job.trajectory_format = TrajectoryFormat::kSbet;
   }
-  nlohmann::json strips = nlohmann::json::array();
   for (std::size_t k = 0; k < survey.strips.size(); ++k) {
     const SimulatedStrip& s = survey.strips[k];
     writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1), frame);
     io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
-    strips.push_back({{"id", s.id}, {"path", "strip_" + s.id + ".las"}});
+    job.strips.push_back({s.id, at("strip_" + s.id + ".las"), "las"});
   }
   auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;
@@ -126,7 +132,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     }
     return out;
   };
-  io::writeTiesCsv(dir + "/ties.csv", toObs(survey.ties));
+  if (options.ties) io::writeTiesCsv(dir + "/ties.csv", toObs(survey.ties));
   io::writeTiesCsv(dir + "/check_points.csv", toObs(survey.check_points));
   auto toRegions = [&](const std::vector<PlanePatch>& patches, double inset_m) {
     std::vector<io::PlaneRegion> planes;
@@ -148,29 +154,28 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   io::writeGcpCsv(dir + "/gcps.csv", gcps);
 
   const auto nom = nominalDeg(c.nominal_mounting);
-  nlohmann::json sensor;
+  job.nominal_rotation_deg = Vec3(nom[0], nom[1], nom[2]);
   if (c.sensor == SensorType::kLine) {
-    sensor = {{"type", "line"}, {"nominal_rotation_deg", nom}};
+    job.sensor = SensorModel::lineScanner();
   } else {
-    sensor = {{"type", "multibeam"}, {"model", c.multibeam.model.name()}, {"nominal_rotation_deg", nom}};
+    job.sensor = SensorModel::multiBeam(c.multibeam.model);
+    job.sensor_model = c.multibeam.model.name();
   }
-  nlohmann::json job = {
-      {"frame", options.crs.empty() ? nlohmann::json{{"type", "local"}} : nlohmann::json{{"type", "crs"}, {"crs", options.crs}}},
-      {"trajectory", trajectory_json},
-      {"sensor", sensor},
-      {"mounting_used", mountingJson(c.nominal_mounting)},
-      {"strips", strips},
-      {"ties", "ties.csv"},
-      {"check_points", "check_points.csv"},
-      {"check_planes", "check_planes.csv"},
-      {"planes", "planes.csv"},
-      {"method", "vtpm"},
-      {"estimate", {{"lever_arm", {true, true, false}}, {"boresight", {true, true, true}}}},
-      {"vtpm", {{"radius_m", 1.0}, {"ransac_threshold_m", 0.05}}},
-      {"solver", {{"max_iterations", 100}, {"loss", "trivial"}}},
-      {"output", {{"result", "result.json"}, {"report", "report.html"}}},
-  };
-  io::writeFileAtomically(dir + "/job.json", job.dump(2) + "\n");
+  job.mounting_used = c.nominal_mounting;
+  job.check_points_path = at("check_points.csv");
+  job.check_planes_path = at("check_planes.csv");
+  job.planes_path = at("planes.csv");
+  if (options.ties) {
+    job.ties_path = at("ties.csv");
+    job.options.methods = {CalibrationMethod::kVtpm};
+  } else {
+    // No ties: the job calibrates automatically, by point-to-plane correspondences.
+    job.options.methods = {CalibrationMethod::kCorrespondences};
+  }
+  job.options.estimate = {true, true, false, true, true, true};
+  job.result_path = at("result.json");
+  job.report_path = at("report.html");
+  io::writeFileAtomically(job.path, jobJson(job));
 
   const NoiseModel& n = c.noise;
   nlohmann::json truth = {

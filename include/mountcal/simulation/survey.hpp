@@ -166,6 +166,9 @@ struct SurveyWriteOptions {
   /// trajectory as trajectory.sbet (true heading, zero wander), and job.json says
   /// `"frame": {"type": "crs", ...}` — so the same survey can be calibrated both ways.
   std::string crs;
+  /// Write ties.csv and a VTPM job. False: no ties file, and a job.json that calibrates
+  /// automatically (method "correspondences").
+  bool ties = true;
 };
 
 /// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and

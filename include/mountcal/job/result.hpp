@@ -1,0 +1,35 @@
+#pragma once
+/// \file job/result.hpp
+/// The result file of SPEC §4 (written by `calibrate`, read by `apply` and other programs) and
+/// the check-data evaluation stored with it.
+
+#include <string>
+
+#include "mountcal/evaluation.hpp"
+#include "mountcal/job/load.hpp"
+#include "mountcal/mounting_calibrator.hpp"
+
+namespace mountcal {
+
+/// Optional evaluation to store with the result.
+struct ResultEvaluation {
+  bool any() const { return has_check_points || !check_planes_after.empty(); }
+  bool has_check_points = false;
+  CheckPointReport check_points_before, check_points_after;
+  std::vector<CheckPlaneResult> check_planes_before, check_planes_after;
+};
+
+/// Check points and check planes named by the job, at `mounting_used` and at `mounting`.
+/// `any()` is false when the job names neither.
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting);
+
+/// The result file of SPEC §4 as JSON text: the keys of SPEC §4 for every method (`ties` and
+/// `residuals` hold the tie section, empty without VTPM), `methods`, `kinds`, and one section
+/// per other kind of observation: `planes`, `correspondences`, `control`.
+std::string resultJson(const MountingCalibrator::Summary& summary, const ResultEvaluation* evaluation = nullptr);
+
+/// Reads the "mounting" of a result file (lever arm [m], boresight [deg]); the nominal rotation
+/// must be supplied by the caller (it is a property of the job, not of the result).
+MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom);
+
+}  // namespace mountcal

@@ -1,0 +1,60 @@
+#pragma once
+/// \file job/schema.hpp
+/// The job file of SPEC §4 (`mountcal calibrate JOB.json`) as a typed structure: read with
+/// every field checked, and written back (the simulator writes its job.json through this).
+/// Paths in a job file are relative to the job file; in a Job they are resolved.
+
+#include <string>
+#include <vector>
+
+#include "mountcal/mounting_calibrator.hpp"
+#include "mountcal/sensor_model.hpp"
+
+namespace mountcal {
+
+/// One strip entry of a job.
+struct JobStrip {
+  std::string id;
+  std::string path;             ///< absolute (resolved against the job file)
+  std::string format = "las";   ///< "las" or "raw_csv"
+};
+
+/// How the job's frame is given.
+enum class JobFrameType { kLocal, kCrs };
+/// How the job's trajectory is given.
+enum class TrajectoryFormat { kCsv, kSbet };
+
+/// A parsed job file (SPEC §4).
+struct Job {
+  std::string path;              ///< the job file itself
+  JobFrameType frame_type = JobFrameType::kLocal;
+  std::string crs;               ///< for JobFrameType::kCrs
+  std::string trajectory_path;
+  TrajectoryFormat trajectory_format = TrajectoryFormat::kCsv;
+  double time_offset_s = 0.0;
+  SensorModel sensor;
+  std::string sensor_model;          ///< "VLP-16", "HDL-32E", "custom" (a lasers table) or empty
+  Vec3 nominal_rotation_deg = Vec3::Zero();
+  MountingParameters mounting_used;
+  std::vector<JobStrip> strips;
+  std::string ties_path, gcps_path, check_points_path, check_planes_path;
+  /// Method "planes": the regions CSV, or automatic patches (`"planes": "auto"`).
+  std::string planes_path;
+  bool planes_auto = false;
+  /// The methods of `"method"` (a name or an array). Absent: "vtpm" when the job names a ties
+  /// file, else "correspondences" (a job with no user input calibrates automatically).
+  /// Options::methods holds the same list.
+  MountingCalibrator::Options options;
+  std::string result_path, report_path;  ///< empty when not requested
+};
+
+/// Parses and validates a job file. Throws FileError naming the file and the field for an
+/// unreadable file, invalid JSON, an unknown or missing field, a value of the wrong type or out
+/// of range, or a method without its input (`"vtpm"` without `"ties"`, `"planes"` without
+/// `"planes"`); the second paper's `"features"` is refused as not implemented yet.
+Job readJob(const std::string& path);
+
+/// The job as SPEC §4 JSON, paths relative to `job.path`'s folder where they lie below it.
+std::string jobJson(const Job& job);
+
+}  // namespace mountcal

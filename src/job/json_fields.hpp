@@ -1,0 +1,117 @@
+#pragma once
+// Internal to the job module: strict access to the JSON objects of job and result files, with
+// the field path in every message (FileError names the file and the field).
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+
+#include "mountcal/error.hpp"
+#include "mountcal/rotation.hpp"
+
+namespace mountcal::detail {
+
+using nlohmann::json;
+
+/// Strict access to one JSON object of the job, with field paths in every message.
+class Fields {
+ public:
+  Fields(const std::string& file, const json& j, std::string prefix, std::set<std::string> known)
+      : file_(file), j_(j), prefix_(std::move(prefix)) {
+    if (!j_.is_object()) fail("", "expected a JSON object");
+    for (auto it = j_.begin(); it != j_.end(); ++it) {
+      if (!known.count(it.key())) {
+        std::string list;
+        for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+        fail(it.key(), "unknown field (known here: " + list + ")");
+      }
+    }
+  }
+  [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
+    throw FileError(file_, "field '" + prefix_ + (prefix_.empty() || key.empty() ? "" : ".") + key + "'", msg);
+  }
+  bool has(const std::string& k) const { return j_.contains(k) && !j_[k].is_null(); }
+  const json& at(const std::string& k) const {
+    if (!has(k)) fail(k, "missing");
+    return j_[k];
+  }
+  std::string str(const std::string& k) const {
+    if (!at(k).is_string()) fail(k, "expected a string");
+    return j_[k].get<std::string>();
+  }
+  std::string str(const std::string& k, const std::string& def) const { return has(k) ? str(k) : def; }
+  double num(const std::string& k) const {
+    if (!at(k).is_number()) fail(k, "expected a number");
+    const double v = j_[k].get<double>();
+    if (!std::isfinite(v)) fail(k, "not finite");
+    return v;
+  }
+  double num(const std::string& k, double def) const { return has(k) ? num(k) : def; }
+  /// An integer in [lo, hi]: 2.5 or 1e300 is an error, not a truncation.
+  int integer(const std::string& k, int def, int lo, int hi) const {
+    if (!has(k)) return def;
+    const double v = num(k);
+    if (v != std::floor(v) || v < lo || v > hi) {
+      fail(k, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return static_cast<int>(v);
+  }
+  bool boolean(const std::string& k, bool def) const {
+    if (!has(k)) return def;
+    if (!at(k).is_boolean()) fail(k, "expected true or false");
+    return j_[k].get<bool>();
+  }
+  Vec3 vec3(const std::string& k) const {
+    const json& a = at(k);
+    if (!a.is_array() || a.size() != 3) fail(k, "expected an array of 3 numbers");
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) {
+      if (!a[i].is_number()) fail(k, "expected an array of 3 numbers");
+      v[i] = a[i].get<double>();
+      if (!std::isfinite(v[i])) fail(k, "not finite");
+    }
+    return v;
+  }
+  std::array<bool, 3> bool3(const std::string& k) const {
+    const json& a = at(k);
+    if (!a.is_array() || a.size() != 3) fail(k, "expected an array of 3 booleans");
+    std::array<bool, 3> v{};
+    for (int i = 0; i < 3; ++i) {
+      if (!a[i].is_boolean()) fail(k, "expected an array of 3 booleans");
+      v[i] = a[i].get<bool>();
+    }
+    return v;
+  }
+  Fields sub(const std::string& k, std::set<std::string> known) const {
+    return Fields(file_, at(k), prefix_ + (prefix_.empty() ? "" : ".") + k, std::move(known));
+  }
+
+ private:
+  const std::string& file_;
+  const json& j_;
+  std::string prefix_;
+};
+
+/// A path of a job file, resolved against the job file's folder.
+inline std::string resolvePath(const std::string& job_path, const std::string& p) {
+  namespace fs = std::filesystem;
+  if (p.empty()) return p;
+  const fs::path path(p);
+  if (path.is_absolute()) return p;
+  return (fs::path(job_path).parent_path() / path).lexically_normal().string();
+}
+
+/// A path written into a job file: relative to the job file's folder when it lies below it.
+inline std::string relativePath(const std::string& job_path, const std::string& p) {
+  namespace fs = std::filesystem;
+  if (p.empty()) return p;
+  const fs::path base = fs::path(job_path).parent_path();
+  const fs::path rel = fs::path(p).lexically_relative(base.empty() ? fs::path(".") : base);
+  if (!rel.empty() && *rel.begin() != "..") return rel.string();
+  return p;
+}
+
+}  // namespace mountcal::detail

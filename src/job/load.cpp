@@ -1,0 +1,249 @@
+#include "mountcal/job/load.hpp"
+
+#include <flann/flann.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <set>
+
+#include "mountcal/error.hpp"
+#include "mountcal/georeference_model.hpp"
+#include "mountcal/io/csv.hpp"
+#include "mountcal/io/las.hpp"
+#include "mountcal/io/sbet.hpp"
+
+namespace mountcal {
+
+namespace detail {
+
+/// Every strip point's plan position in the CRS in a FLANN k-d tree, with its height.
+class PlanHeightIndex {
+ public:
+  explicit PlanHeightIndex(std::vector<double> xyz) : xyz_(std::move(xyz)) {
+    const std::size_t n = xyz_.size() / 3;
+    xy_.resize(2 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      xy_[2 * i] = xyz_[3 * i];
+      xy_[2 * i + 1] = xyz_[3 * i + 1];
+    }
+    if (n == 0) return;
+    flann::Matrix<double> data(xy_.data(), n, 2);
+    tree_ = std::make_unique<flann::Index<flann::L2_Simple<double>>>(data, flann::KDTreeSingleIndexParams(12));
+    tree_->buildIndex();
+  }
+  double heightAt(double x, double y) const {
+    if (!tree_) return 0.0;
+    double q[2] = {x, y};
+    flann::Matrix<double> query(q, 1, 2);
+    std::vector<std::vector<std::size_t>> idx;
+    std::vector<std::vector<double>> dist;
+    tree_->knnSearch(query, idx, dist, 1, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+    return xyz_[3 * idx[0][0] + 2];
+  }
+
+ private:
+  std::vector<double> xyz_, xy_;
+  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree_;
+};
+
+}  // namespace detail
+
+JobFrame::JobFrame(const std::string& crs, const Geodetic& origin)
+    : crs_(std::make_shared<io::CrsTransform>(crs)), tangent_(std::make_shared<LocalTangentFrame>(origin)) {}
+
+Vec3 JobFrame::toLocal(const Vec3& x) const { return crs_ ? tangent_->toLocal(crs_->toGeodetic(x)) : x; }
+Vec3 JobFrame::fromLocal(const Vec3& x) const { return crs_ ? crs_->fromGeodetic(tangent_->toGeodetic(x)) : x; }
+
+double LoadedJob::crsHeightAt(double x, double y) const { return crs_heights ? crs_heights->heightAt(x, y) : 0.0; }
+
+namespace {
+
+/// GPS week seconds lie in [0, 604800]; adjusted standard GPS time (GPS seconds − 1e9) of
+/// any date since 2011 is far larger.
+bool looksLikeWeekSeconds(double t) { return t >= -1.0 && t <= 604801.0; }
+
+StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const JobFrame& frame,
+                       std::vector<double>* xyz_crs) {
+  io::LasReader reader(js.path);
+  const io::LasHeader& h = reader.header();
+  if (!h.hasGpsTime()) {
+    throw FileError(js.path, "byte 104", "point format " + std::to_string(h.point_format) +
+                                             " has no GPS time; a calibration needs formats 1, 3 or 6-8");
+  }
+  StripData s;
+  s.id = js.id;
+  s.time_s.reserve(static_cast<std::size_t>(h.point_count));
+  s.x_m.reserve(static_cast<std::size_t>(h.point_count));
+  std::vector<io::LasPoint> chunk;
+  const Trajectory& T = model.trajectory();
+  const bool traj_week = looksLikeWeekSeconds(T.startTime());
+  std::uint64_t record = 0;
+  while (reader.read(&chunk) > 0) {
+    for (const io::LasPoint& p : chunk) {
+      const double t = p.gps_time;
+      if (!std::isfinite(t)) throw FileError(js.path, "record " + std::to_string(record), "GPS time is not finite");
+      if (record == 0 && h.adjustedStandardGpsTime() == traj_week) {
+        throw FileError(js.path, "byte 6",
+                        std::string("time encoding mismatch: the LAS global encoding says ") +
+                            (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") +
+                            " but the trajectory times look like " + (traj_week ? "GPS week seconds" : "adjusted standard GPS time"));
+      }
+      if (t < T.startTime() || t > T.endTime()) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "GPS time %.6f s is outside the trajectory [%.3f, %.3f] s", t, T.startTime(), T.endTime());
+        throw FileError(js.path, "record " + std::to_string(record), buf);
+      }
+      s.time_s.push_back(t);
+      const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
+      if (xyz_crs) xyz_crs->insert(xyz_crs->end(), {x.x(), x.y(), x.z()});
+      s.x_m.push_back(frame.toLocal(x));
+      ++record;
+    }
+  }
+  // Inverse georeferencing (SPEC §2): the raw vectors that, with mounting_used, gave x_m.
+  const std::size_t n = s.time_s.size();
+  std::vector<double> x(3 * n), r(3 * n);
+  for (std::size_t i = 0; i < n; ++i) Eigen::Map<Vec3>{&x[3 * i]} = s.x_m[i];
+  model.inverse(s.time_s.data(), x.data(), r.data(), n);
+  s.r_s.resize(n);
+  for (std::size_t i = 0; i < n; ++i) s.r_s[i] = Eigen::Map<const Vec3>(&r[3 * i]);
+  return s;
+}
+
+StripData loadRawStrip(const JobStrip& js, const SensorModel& sensor, const GeoreferenceModel& model) {
+  const std::vector<RawPulse> pulses = io::readRawCsv(js.path, sensor.type);
+  StripData s;
+  s.id = js.id;
+  s.time_s.reserve(pulses.size());
+  s.r_s.reserve(pulses.size());
+  const Trajectory& T = model.trajectory();
+  for (std::size_t i = 0; i < pulses.size(); ++i) {
+    const RawPulse& p = pulses[i];
+    if (p.time_s < T.startTime() || p.time_s > T.endTime()) {
+      throw FileError(js.path, "line " + std::to_string(i + 2), "time " + std::to_string(p.time_s) + " s is outside the trajectory");
+    }
+    try {
+      s.r_s.push_back(sensor.vector(p));
+    } catch (const InvalidInput& e) {
+      throw FileError(js.path, "line " + std::to_string(i + 2), e.what());
+    }
+    s.time_s.push_back(p.time_s);
+  }
+  s.x_m.resize(s.r_s.size());
+  std::size_t cursor = 0;
+  for (std::size_t i = 0; i < s.r_s.size(); ++i) {
+    s.x_m[i] = georeference(T.pose(s.time_s[i], &cursor), model.mounting().R_bs(), model.mounting().a_b, s.r_s[i]);
+  }
+  return s;
+}
+
+/// Picks are plan positions in the strips' CRS; in the tangent frame a plan position moves with
+/// height, so each is lifted with the height of the nearest strip point before conversion.
+std::vector<TieObservation> liftPicks(std::vector<TieObservation> ties, const LoadedJob& loaded) {
+  if (loaded.frame.isLocal()) return ties;
+  for (TieObservation& t : ties) {
+    const Vec3 x = loaded.frame.toLocal(Vec3(t.x_m, t.y_m, loaded.crsHeightAt(t.x_m, t.y_m)));
+    t.x_m = x.x();
+    t.y_m = x.y();
+  }
+  return ties;
+}
+
+/// A region's bounding box in the computation frame (meridian convergence turns it slightly).
+std::vector<PlaneRegion> liftRegions(std::vector<PlaneRegion> regions, const LoadedJob& loaded) {
+  if (loaded.frame.isLocal()) return regions;
+  for (PlaneRegion& r : regions) {
+    const double z = loaded.crsHeightAt(0.5 * (r.xmin + r.xmax), 0.5 * (r.ymin + r.ymax));
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (double x : {r.xmin, r.xmax}) {
+      for (double y : {r.ymin, r.ymax}) {
+        const Vec3 l = loaded.frame.toLocal(Vec3(x, y, z));
+        x0 = std::min(x0, l.x());
+        y0 = std::min(y0, l.y());
+        x1 = std::max(x1, l.x());
+        y1 = std::max(y1, l.y());
+      }
+    }
+    r = {r.id, x0, y0, x1, y1};
+  }
+  return regions;
+}
+
+}  // namespace
+
+LoadedJob loadJobTrajectory(const Job& job) {
+  LoadedJob out;
+  CalibrationData& d = out.data;
+  if (job.frame_type == JobFrameType::kLocal) {
+    if (job.trajectory_format != TrajectoryFormat::kCsv) {
+      throw FileError(job.path, "field 'trajectory.format'", "a local-frame job needs the local trajectory CSV of SPEC §4; an SBET needs \"frame\": {\"type\": \"crs\"}");
+    }
+    d.trajectory = std::make_shared<const Trajectory>(io::readTrajectoryCsv(job.trajectory_path, job.time_offset_s));
+  } else {
+    const std::vector<io::SbetRecord> records = job.trajectory_format == TrajectoryFormat::kSbet ? io::readSbet(job.trajectory_path)
+                                                                                                 : io::readGeodeticTrajectoryCsv(job.trajectory_path);
+    if (records.empty()) throw FileError(job.trajectory_path, "", "no trajectory records");
+    try {
+      out.frame = JobFrame(job.crs, Geodetic{records.front().lat_rad, records.front().lon_rad, 0.0});
+    } catch (const InvalidInput& e) {
+      throw FileError(job.path, "field 'frame.crs'", e.what());
+    }
+    d.trajectory = std::make_shared<const Trajectory>(
+        io::sbetToTrajectory(job.trajectory_path, records, *out.frame.tangentFrame(), job.time_offset_s));
+  }
+  d.mounting_used = job.mounting_used;
+  return out;
+}
+
+LoadedJob loadJob(const Job& job) {
+  LoadedJob out = loadJobTrajectory(job);
+  CalibrationData& d = out.data;
+  const GeoreferenceModel model(d.trajectory, job.mounting_used);
+  std::vector<double> xyz_crs;
+  for (const JobStrip& js : job.strips) {
+    if (js.format == "las") {
+      d.strips.push_back(loadLasStrip(js, model, out.frame, out.frame.isLocal() ? nullptr : &xyz_crs));
+    } else {
+      if (!out.frame.isLocal()) throw FileError(js.path, "", "raw CSV strips are supported in local-frame jobs only");
+      d.strips.push_back(loadRawStrip(js, job.sensor, model));
+    }
+  }
+  if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
+  std::set<std::string> ids;
+  for (const JobStrip& js : job.strips) ids.insert(js.id);
+  if (!job.ties_path.empty()) {
+    std::vector<TieObservation> ties = io::readTiesCsv(job.ties_path);
+    for (const TieObservation& t : ties) {
+      if (!ids.count(t.strip_id)) {
+        throw FileError(job.ties_path, "line " + std::to_string(t.line), "tie '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
+      }
+    }
+    d.ties = liftPicks(std::move(ties), out);
+  }
+  if (!job.planes_path.empty()) d.plane_regions = liftRegions(io::readPlanesCsv(job.planes_path), out);
+  if (!job.gcps_path.empty()) {
+    d.gcps = io::readGcpCsv(job.gcps_path);
+    for (GroundControlPoint& g : d.gcps) {
+      const Vec3 x = out.frame.toLocal(Vec3(g.x_m, g.y_m, g.z_m));
+      g.x_m = x.x();
+      g.y_m = x.y();
+      g.z_m = x.z();
+    }
+  }
+  return out;
+}
+
+CalibrationData loadJobData(const Job& job) { return loadJob(job).data; }
+
+std::vector<TieObservation> loadCheckPoints(const Job& job, const LoadedJob& loaded) {
+  if (job.check_points_path.empty()) return {};
+  return liftPicks(io::readTiesCsv(job.check_points_path), loaded);
+}
+
+std::vector<PlaneRegion> loadCheckPlanes(const Job& job, const LoadedJob& loaded) {
+  if (job.check_planes_path.empty()) return {};
+  return liftRegions(io::readPlanesCsv(job.check_planes_path), loaded);
+}
+
+}  // namespace mountcal

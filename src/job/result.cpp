@@ -1,0 +1,155 @@
+#include "mountcal/job/result.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "json_fields.hpp"
+#include "mountcal/error.hpp"
+
+namespace mountcal {
+
+using nlohmann::json;
+
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting) {
+  ResultEvaluation ev;
+  CalibrationData check = loaded.data;
+  check.ties = loadCheckPoints(job, loaded);
+  const std::vector<PlaneRegion> planes = loadCheckPlanes(job, loaded);
+  if (!check.ties.empty()) {
+    ev.has_check_points = true;
+    ev.check_points_before = evaluateCheckPoints(check, job.mounting_used, job.options.vtp);
+    ev.check_points_after = evaluateCheckPoints(check, mounting, job.options.vtp);
+  }
+  if (!planes.empty()) {
+    ev.check_planes_before = evaluateCheckPlanes(check, planes, job.mounting_used);
+    ev.check_planes_after = evaluateCheckPlanes(check, planes, mounting);
+  }
+  return ev;
+}
+
+namespace {
+json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+}  // namespace
+
+std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluation* ev) {
+  const Vec3 b = S.mounting.boresightDeg();
+  json j;
+  j["mounting"] = {{"lever_arm_m", vec(S.mounting.a_b)}, {"boresight_deg", vec(b)}};
+  json sl = json::array(), sb = json::array();
+  for (int i = 0; i < 3; ++i) {
+    sl.push_back(numOrNull(S.sigma[i]));
+    sb.push_back(numOrNull(rad2deg(S.sigma[3 + i])));
+  }
+  j["sigma"] = {{"lever_arm_m", sl}, {"boresight_deg", sb}};
+  json corr = json::array();
+  for (int a = 0; a < 6; ++a) {
+    json row = json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(numOrNull(S.correlation(a, c)));
+    corr.push_back(row);
+  }
+  j["correlation"] = corr;
+  j["estimated"] = {{"lever_arm", {S.estimated[0], S.estimated[1], S.estimated[2]}},
+                    {"boresight", {S.estimated[3], S.estimated[4], S.estimated[5]}}};
+  j["unobservable"] = S.unobservable;
+  j["observability_report"] = S.observability_report;
+  json rejected = json::array();
+  for (const RejectedTie& r : S.rejected) rejected.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
+  j["ties"] = {{"used", S.ties_used}, {"observations", S.observations_used}, {"rejected", rejected}};
+  j["rms_before_m"] = vec(S.rms_before_m);
+  j["rms_after_m"] = vec(S.rms_after_m);
+  json res = json::array();
+  for (const TieResidual& r : S.residuals) {
+    res.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}, {"outlier", r.outlier}});
+  }
+  j["residuals"] = res;
+  json offs = json::object();
+  for (const auto& [id, o] : S.strip_offsets_m) offs[id] = vec(o);
+  j["strip_offsets_m"] = offs;
+  j["variance_factor"] = S.variance_factor;
+  j["degrees_of_freedom"] = S.degrees_of_freedom;
+  j["solver"] = {{"termination", toString(S.termination)}, {"message", S.message}, {"iterations", S.iterations},
+                 {"rematch_rounds", S.rematch_rounds}, {"initial_cost", S.initial_cost}, {"final_cost", S.final_cost},
+                 {"time_s", S.time_s}, {"construction_time_s", S.construction_time_s}, {"solve_time_s", S.solve_time_s},
+                 {"analysis_time_s", S.analysis_time_s}};
+  j["methods"] = S.methods;
+  json kinds = json::array();
+  for (const auto& k : S.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
+  j["kinds"] = kinds;
+  j["covariance_source"] = S.covariance_source;
+  j["condition_number"] = numOrNull(S.condition_number);
+  if (S.uses(CalibrationMethod::kPlanes)) {
+    const PlaneSection& p = S.planes;
+    json patches = json::array();
+    for (const PatchResidual& r : p.patches) {
+      patches.push_back({{"patch_id", r.patch_id}, {"centre_m", vec(r.centre_m)}, {"normal", vec(r.normal)}, {"points", r.points},
+                         {"strips", r.strips}, {"rms_before_m", r.rms_before_m}, {"rms_after_m", r.rms_after_m}, {"outlier", r.outlier}});
+    }
+    json rej = json::array();
+    for (const RejectedPatch& r : p.rejected) rej.push_back({{"patch_id", r.patch_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
+    j["planes"] = {{"automatic", p.automatic}, {"patches_used", p.patches_used}, {"points_used", p.points_used}, {"sigma_m", p.sigma_m},
+                   {"rms_before_m", p.rms_before_m}, {"rms_after_m", p.rms_after_m}, {"patches", patches}, {"rejected", rej}};
+  }
+  if (S.uses(CalibrationMethod::kCorrespondences)) {
+    const CorrespondenceSection& c = S.correspondences;
+    json pairs = json::array();
+    for (const CorrespondencePairStats& p : c.pairs) {
+      pairs.push_back({{"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"samples", p.samples}, {"kept", p.kept},
+                       {"rejected", {{"sparse", p.rejected_sparse}, {"rough", p.rejected_rough}, {"far", p.rejected_far},
+                                     {"normal", p.rejected_normal}, {"mad", p.rejected_mad}, {"budget", p.rejected_budget}}},
+                       {"median_before_m", p.median_before_m}, {"rms_before_m", p.rms_before_m},
+                       {"median_after_m", p.median_after_m}, {"rms_after_m", p.rms_after_m}});
+    }
+    j["correspondences"] = {{"used", c.used}, {"matchings", c.rounds}, {"radius_m", c.radius_m}, {"spacing_m", c.spacing_m},
+                            {"sigma_m", c.sigma_m}, {"median_before_m", c.median_before_m}, {"rms_before_m", c.rms_before_m},
+                            {"median_after_m", c.median_after_m}, {"rms_after_m", c.rms_after_m},
+                            {"search_time_s", c.search_time_s}, {"points_searched", c.points_searched}, {"pairs", pairs}};
+  }
+  if (S.control.observations_used > 0 || !S.control.rejected.empty()) {
+    json rej = json::array();
+    for (const RejectedTie& r : S.control.rejected) rej.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
+    json res = json::array();
+    for (const TieResidual& r : S.control.residuals) {
+      res.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}, {"outlier", r.outlier}});
+    }
+    j["control"] = {{"points", S.control.ties_used}, {"observations", S.control.observations_used},
+                    {"rms_before_m", vec(S.control.rms_before_m)}, {"rms_after_m", vec(S.control.rms_after_m)},
+                    {"residuals", res}, {"rejected", rej}};
+  }
+  if (ev) {
+    json e;
+    if (ev->has_check_points) {
+      e["check_points"] = {{"rms_before_m", vec(ev->check_points_before.rms_m)}, {"rms_after_m", vec(ev->check_points_after.rms_m)},
+                           {"observations", ev->check_points_after.residuals.size()}};
+    }
+    json planes = json::array();
+    for (std::size_t i = 0; i < ev->check_planes_after.size(); ++i) {
+      planes.push_back({{"plane_id", ev->check_planes_after[i].plane_id}, {"points", ev->check_planes_after[i].points},
+                        {"rms_before_m", numOrNull(ev->check_planes_before[i].rms_m)}, {"rms_after_m", numOrNull(ev->check_planes_after[i].rms_m)}});
+    }
+    if (!planes.empty()) e["check_planes"] = planes;
+    j["evaluation"] = e;
+  }
+  return j.dump(2) + "\n";
+}
+
+MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "", "cannot open the result file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
+  } catch (const json::exception& e) {
+    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("mounting")) throw FileError(path, "field 'mounting'", "missing");
+  const detail::Fields m(path, j["mounting"], "mounting", {"lever_arm_m", "boresight_deg"});
+  MountingParameters out = MountingParameters::fromDegrees(m.vec3("lever_arm_m"), m.vec3("boresight_deg"));
+  out.R_nom = R_nom;
+  return out;
+}
+
+}  // namespace mountcal

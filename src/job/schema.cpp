@@ -1,0 +1,324 @@
+#include "mountcal/job/schema.hpp"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "json_fields.hpp"
+#include "mountcal/error.hpp"
+
+namespace mountcal {
+
+using detail::Fields;
+using nlohmann::json;
+
+namespace {
+
+const char* lossName(LossType l) {
+  switch (l) {
+    case LossType::kHuber: return "huber";
+    case LossType::kCauchy: return "cauchy";
+    default: return "trivial";
+  }
+}
+
+void readSensor(const std::string& path, const Fields& top, Job* job) {
+  const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m",
+                                           "scan_angle_scale", "scan_angle_offset_deg"});
+  const std::string type = sensor.str("type");
+  job->nominal_rotation_deg = sensor.has("nominal_rotation_deg") ? sensor.vec3("nominal_rotation_deg") : Vec3::Zero();
+  if (type == "line") {
+    LineScannerModel m;
+    m.range_offset_m = sensor.num("range_offset_m", 0.0);
+    m.scan_angle_scale = sensor.num("scan_angle_scale", 1.0);
+    m.scan_angle_offset_rad = deg2rad(sensor.num("scan_angle_offset_deg", 0.0));
+    job->sensor = SensorModel::lineScanner(m);
+  } else if (type == "multibeam") {
+    if (sensor.has("lasers")) {
+      const json& lasers = sensor.at("lasers");
+      if (!lasers.is_array() || lasers.empty()) sensor.fail("lasers", "expected a non-empty array of lasers");
+      std::vector<LaserSpec> specs;
+      for (std::size_t i = 0; i < lasers.size(); ++i) {
+        const Fields l(path, lasers[i], "sensor.lasers[" + std::to_string(i) + "]",
+                       {"elevation_deg", "vertical_offset_m", "azimuth_offset_deg", "range_offset_m", "firing_offset_s"});
+        LaserSpec s;
+        s.elevation_rad = deg2rad(l.num("elevation_deg"));
+        s.vertical_offset_m = l.num("vertical_offset_m", 0.0);
+        s.azimuth_offset_rad = deg2rad(l.num("azimuth_offset_deg", 0.0));
+        s.range_offset_m = l.num("range_offset_m", 0.0);
+        s.firing_offset_s = l.num("firing_offset_s", 0.0);
+        specs.push_back(s);
+      }
+      job->sensor_model = sensor.str("model", "custom");
+      job->sensor = SensorModel::multiBeam(MultiBeamModel(job->sensor_model, specs, 0.0));
+    } else {
+      const std::string model = sensor.str("model");
+      if (model == "VLP-16") job->sensor = SensorModel::multiBeam(MultiBeamModel::VLP16());
+      else if (model == "HDL-32E") job->sensor = SensorModel::multiBeam(MultiBeamModel::HDL32E());
+      else sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
+      job->sensor_model = model;
+    }
+  } else if (type == "vector") {
+    job->sensor = SensorModel::vectorSensor();
+  } else {
+    sensor.fail("type", "expected \"line\", \"multibeam\" or \"vector\"");
+  }
+}
+
+CalibrationMethod parseMethod(const Fields& top, const std::string& name) {
+  if (name == "vtpm") return CalibrationMethod::kVtpm;
+  if (name == "planes") return CalibrationMethod::kPlanes;
+  if (name == "correspondences") return CalibrationMethod::kCorrespondences;
+  if (name == "features") top.fail("method", "method \"features\" (the second paper's feature matching) is not implemented yet; use \"vtpm\", \"planes\" or \"correspondences\"");
+  top.fail("method", "unknown method '" + name + "' (expected \"vtpm\", \"planes\", \"correspondences\" or an array of them)");
+}
+
+}  // namespace
+
+Job readJob(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw FileError(path, "", "is a folder, not a job file");
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "", "cannot open the job file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
+  }
+  Job job;
+  job.path = path;
+  const Fields top(path, j, "",
+                   {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate", "vtpm",
+                    "solver", "output", "gcps", "check_points", "check_planes", "planes", "plane", "correspondence",
+                    "targets", "features"});
+  const Fields frame = top.sub("frame", {"type", "crs"});
+  const std::string frame_type = frame.str("type");
+  if (frame_type == "local") job.frame_type = JobFrameType::kLocal;
+  else if (frame_type == "crs") job.frame_type = JobFrameType::kCrs;
+  else frame.fail("type", "expected \"local\" or \"crs\"");
+  if (job.frame_type == JobFrameType::kCrs) job.crs = frame.str("crs");
+
+  const Fields traj = top.sub("trajectory", {"path", "format", "time_offset_s"});
+  job.trajectory_path = detail::resolvePath(path, traj.str("path"));
+  const std::string format = traj.str("format", "csv");
+  if (format == "csv") job.trajectory_format = TrajectoryFormat::kCsv;
+  else if (format == "sbet") job.trajectory_format = TrajectoryFormat::kSbet;
+  else traj.fail("format", "expected \"csv\" or \"sbet\"");
+  job.time_offset_s = traj.num("time_offset_s", 0.0);
+
+  readSensor(path, top, &job);
+  const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg"});
+  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
+
+  const json& strips = top.at("strips");
+  if (!strips.is_array() || strips.empty()) top.fail("strips", "expected a non-empty array of {\"id\", \"path\"}");
+  std::set<std::string> ids;
+  for (std::size_t i = 0; i < strips.size(); ++i) {
+    const Fields s(path, strips[i], "strips[" + std::to_string(i) + "]", {"id", "path", "format"});
+    JobStrip js;
+    js.id = s.str("id");
+    js.path = detail::resolvePath(path, s.str("path"));
+    js.format = s.str("format", "las");
+    if (js.format != "las" && js.format != "raw_csv") s.fail("format", "expected \"las\" or \"raw_csv\"");
+    if (!ids.insert(js.id).second) s.fail("id", "strip id '" + js.id + "' appears twice");
+    job.strips.push_back(js);
+  }
+  job.ties_path = detail::resolvePath(path, top.str("ties", ""));
+  job.gcps_path = detail::resolvePath(path, top.str("gcps", ""));
+  job.check_points_path = detail::resolvePath(path, top.str("check_points", ""));
+  job.check_planes_path = detail::resolvePath(path, top.str("check_planes", ""));
+  if (top.has("planes")) {
+    const std::string planes = top.str("planes");
+    if (planes == "auto") job.planes_auto = true;
+    else job.planes_path = detail::resolvePath(path, planes);
+  }
+
+  // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
+  MountingCalibrator::Options& o = job.options;
+  std::vector<CalibrationMethod> methods;
+  if (!top.has("method")) {
+    methods.push_back(job.ties_path.empty() ? CalibrationMethod::kCorrespondences : CalibrationMethod::kVtpm);
+  } else if (top.at("method").is_array()) {
+    const json& list = top.at("method");
+    if (list.empty()) top.fail("method", "expected a method name or a non-empty array of them");
+    for (const json& m : list) {
+      if (!m.is_string()) top.fail("method", "expected an array of method names");
+      const CalibrationMethod cm = parseMethod(top, m.get<std::string>());
+      if (std::find(methods.begin(), methods.end(), cm) != methods.end()) top.fail("method", "method '" + m.get<std::string>() + "' named twice");
+      methods.push_back(cm);
+    }
+  } else {
+    methods.push_back(parseMethod(top, top.str("method")));
+  }
+  o.methods = methods;
+  auto uses = [&](CalibrationMethod m) { return std::find(methods.begin(), methods.end(), m) != methods.end(); };
+  if (uses(CalibrationMethod::kVtpm) && job.ties_path.empty()) top.fail("ties", "missing: method \"vtpm\" needs the ties file (SPEC §4)");
+  if (uses(CalibrationMethod::kPlanes) && job.planes_path.empty() && !job.planes_auto) {
+    top.fail("planes", "missing: method \"planes\" needs a regions CSV or \"auto\"");
+  }
+  o.planes.automatic = job.planes_auto;
+
+  if (top.has("estimate")) {
+    const Fields e = top.sub("estimate", {"lever_arm", "boresight"});
+    if (e.has("lever_arm")) {
+      const auto a = e.bool3("lever_arm");
+      for (int i = 0; i < 3; ++i) o.estimate[i] = a[i];
+    }
+    if (e.has("boresight")) {
+      const auto b = e.bool3("boresight");
+      for (int i = 0; i < 3; ++i) o.estimate[3 + i] = b[i];
+    }
+  }
+  if (top.has("vtpm")) {
+    const Fields v = top.sub("vtpm", {"radius_m", "max_radius_m", "ransac_threshold_m", "tie_sigma_xy_m", "tie_sigma_z_m",
+                                      "strip_offset_sigma_m"});
+    o.vtp.radius_m = v.num("radius_m", o.vtp.radius_m);
+    o.vtp.max_radius_m = v.num("max_radius_m", std::max(o.vtp.max_radius_m, o.vtp.radius_m));
+    o.vtp.ransac_threshold_m = v.num("ransac_threshold_m", o.vtp.ransac_threshold_m);
+    o.tie_sigma_xy_m = v.num("tie_sigma_xy_m", o.tie_sigma_xy_m);
+    o.tie_sigma_z_m = v.num("tie_sigma_z_m", o.tie_sigma_z_m);
+    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m);
+  }
+  if (top.has("plane")) {
+    const Fields p = top.sub("plane", {"sigma_m", "ransac_threshold_m", "ransac_iterations", "min_points_per_strip",
+                                       "max_points_per_strip", "max_normal_angle_deg", "max_plane_offset_m", "cell_size_m",
+                                       "max_roughness_m", "growing_angle_deg", "edge_margin_m", "max_patch_size_m",
+                                       "max_patches", "search_margin_m"});
+    PlaneOptions& po = o.planes;
+    po.sigma_m = p.num("sigma_m", po.sigma_m);
+    po.ransac_threshold_m = p.num("ransac_threshold_m", po.ransac_threshold_m);
+    po.ransac_iterations = p.integer("ransac_iterations", po.ransac_iterations, 1, 100000);
+    po.min_points_per_strip = p.integer("min_points_per_strip", po.min_points_per_strip, 3, 1000000);
+    po.max_points_per_strip = p.integer("max_points_per_strip", po.max_points_per_strip, 3, 1000000);
+    po.max_normal_angle_deg = p.num("max_normal_angle_deg", po.max_normal_angle_deg);
+    po.max_plane_offset_m = p.num("max_plane_offset_m", po.max_plane_offset_m);
+    po.cell_size_m = p.num("cell_size_m", po.cell_size_m);
+    po.max_roughness_m = p.num("max_roughness_m", po.max_roughness_m);
+    po.growing_angle_deg = p.num("growing_angle_deg", po.growing_angle_deg);
+    po.edge_margin_m = p.num("edge_margin_m", po.edge_margin_m);
+    po.max_patch_size_m = p.num("max_patch_size_m", po.max_patch_size_m);
+    po.max_patches = p.integer("max_patches", po.max_patches, 1, 100000);
+    po.search_margin_m = p.num("search_margin_m", po.search_margin_m);
+  }
+  if (top.has("correspondence")) {
+    const Fields c = top.sub("correspondence", {"apriori_misalignment_m", "radius_m", "sample_spacing_m", "min_neighbours",
+                                                "max_neighbours", "max_roughness_factor", "max_roughness_relative",
+                                                "max_distance_factor", "max_normal_angle_deg", "mad_factor", "budget",
+                                                "voxel_size_m", "sigma_m"});
+    CorrespondenceOptions& co = o.correspondence;
+    co.apriori_misalignment_m = c.num("apriori_misalignment_m", co.apriori_misalignment_m);
+    co.radius_m = c.num("radius_m", co.radius_m);
+    co.sample_spacing_m = c.num("sample_spacing_m", co.sample_spacing_m);
+    co.min_neighbours = c.integer("min_neighbours", co.min_neighbours, 3, 1000);
+    co.max_neighbours = c.integer("max_neighbours", co.max_neighbours, 3, 1000);
+    co.max_roughness_factor = c.num("max_roughness_factor", co.max_roughness_factor);
+    co.max_roughness_relative = c.num("max_roughness_relative", co.max_roughness_relative);
+    co.max_distance_factor = c.num("max_distance_factor", co.max_distance_factor);
+    co.max_normal_angle_deg = c.num("max_normal_angle_deg", co.max_normal_angle_deg);
+    co.mad_factor = c.num("mad_factor", co.mad_factor);
+    co.budget = c.integer("budget", co.budget, 1, 10000000);
+    co.voxel_size_m = c.num("voxel_size_m", co.voxel_size_m);
+    co.sigma_m = c.num("sigma_m", co.sigma_m);
+  }
+  if (top.has("solver")) {
+    const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
+                                        "scale_covariance_by_variance_factor", "max_rematch_rounds"});
+    o.max_iterations = s.integer("max_iterations", o.max_iterations, 1, 100000);
+    const std::string loss = s.str("loss", "trivial");
+    if (loss == "trivial") o.loss = LossType::kTrivial;
+    else if (loss == "huber") o.loss = LossType::kHuber;
+    else if (loss == "cauchy") o.loss = LossType::kCauchy;
+    else s.fail("loss", "expected \"trivial\", \"huber\" or \"cauchy\"");
+    o.loss_scale_m = s.num("loss_scale_m", o.loss_scale_m);
+    o.function_tolerance = s.num("function_tolerance", o.function_tolerance);
+    o.parameter_tolerance = s.num("parameter_tolerance", o.parameter_tolerance);
+    o.scale_covariance_by_variance_factor = s.boolean("scale_covariance_by_variance_factor", o.scale_covariance_by_variance_factor);
+    o.max_rematch_rounds = s.integer("max_rematch_rounds", o.max_rematch_rounds, 1, 1000);
+  }
+  std::string why;
+  if (!o.IsValid(&why)) throw FileError(path, "", "invalid calibration settings: " + why);
+  if (top.has("output")) {
+    const Fields out = top.sub("output", {"result", "report"});
+    job.result_path = detail::resolvePath(path, out.str("result", ""));
+    job.report_path = detail::resolvePath(path, out.str("report", ""));
+  }
+  return job;
+}
+
+std::string jobJson(const Job& job) {
+  auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
+  const MountingCalibrator::Options& o = job.options;
+  const MountingCalibrator::Options def;
+  json j;
+  j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
+  j["trajectory"] = {{"path", rel(job.trajectory_path)},
+                     {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
+                     {"time_offset_s", job.time_offset_s}};
+  const Vec3& nom = job.nominal_rotation_deg;
+  json sensor = {{"nominal_rotation_deg", {nom.x(), nom.y(), nom.z()}}};
+  switch (job.sensor.type) {
+    case SensorType::kLine:
+      sensor["type"] = "line";
+      if (job.sensor.line.range_offset_m != 0) sensor["range_offset_m"] = job.sensor.line.range_offset_m;
+      if (job.sensor.line.scan_angle_scale != 1) sensor["scan_angle_scale"] = job.sensor.line.scan_angle_scale;
+      if (job.sensor.line.scan_angle_offset_rad != 0) sensor["scan_angle_offset_deg"] = rad2deg(job.sensor.line.scan_angle_offset_rad);
+      break;
+    case SensorType::kMultiBeam:
+      sensor["type"] = "multibeam";
+      if (job.sensor_model == "VLP-16" || job.sensor_model == "HDL-32E") {
+        sensor["model"] = job.sensor_model;
+      } else {
+        sensor["model"] = job.sensor_model.empty() ? "custom" : job.sensor_model;
+        json lasers = json::array();
+        for (const LaserSpec& l : job.sensor.multibeam.lasers()) {
+          lasers.push_back({{"elevation_deg", rad2deg(l.elevation_rad)}, {"vertical_offset_m", l.vertical_offset_m},
+                            {"azimuth_offset_deg", rad2deg(l.azimuth_offset_rad)}, {"range_offset_m", l.range_offset_m},
+                            {"firing_offset_s", l.firing_offset_s}});
+        }
+        sensor["lasers"] = lasers;
+      }
+      break;
+    case SensorType::kVector: sensor["type"] = "vector"; break;
+  }
+  j["sensor"] = sensor;
+  const Vec3 b = job.mounting_used.boresightDeg();
+  j["mounting_used"] = {{"lever_arm_m", {job.mounting_used.a_b.x(), job.mounting_used.a_b.y(), job.mounting_used.a_b.z()}},
+                        {"boresight_deg", {b.x(), b.y(), b.z()}}};
+  json strips = json::array();
+  for (const JobStrip& s : job.strips) {
+    json e = {{"id", s.id}, {"path", rel(s.path)}};
+    if (s.format != "las") e["format"] = s.format;
+    strips.push_back(e);
+  }
+  j["strips"] = strips;
+  if (!job.ties_path.empty()) j["ties"] = rel(job.ties_path);
+  if (!job.gcps_path.empty()) j["gcps"] = rel(job.gcps_path);
+  if (!job.check_points_path.empty()) j["check_points"] = rel(job.check_points_path);
+  if (!job.check_planes_path.empty()) j["check_planes"] = rel(job.check_planes_path);
+  if (job.planes_auto) j["planes"] = "auto";
+  else if (!job.planes_path.empty()) j["planes"] = rel(job.planes_path);
+  if (o.methods.size() == 1) {
+    j["method"] = toString(o.methods[0]);
+  } else {
+    json m = json::array();
+    for (CalibrationMethod c : o.methods) m.push_back(toString(c));
+    j["method"] = m;
+  }
+  j["estimate"] = {{"lever_arm", {o.estimate[0], o.estimate[1], o.estimate[2]}}, {"boresight", {o.estimate[3], o.estimate[4], o.estimate[5]}}};
+  j["vtpm"] = {{"radius_m", o.vtp.radius_m}, {"ransac_threshold_m", o.vtp.ransac_threshold_m}};
+  if (o.vtp.max_radius_m != def.vtp.max_radius_m) j["vtpm"]["max_radius_m"] = o.vtp.max_radius_m;
+  if (o.tie_sigma_xy_m != def.tie_sigma_xy_m) j["vtpm"]["tie_sigma_xy_m"] = o.tie_sigma_xy_m;
+  if (o.tie_sigma_z_m != def.tie_sigma_z_m) j["vtpm"]["tie_sigma_z_m"] = o.tie_sigma_z_m;
+  if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["vtpm"]["strip_offset_sigma_m"] = o.strip_offset_sigma_m;
+  j["solver"] = {{"max_iterations", o.max_iterations}, {"loss", lossName(o.loss)}};
+  if (o.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = o.loss_scale_m;
+  json out = json::object();
+  if (!job.result_path.empty()) out["result"] = rel(job.result_path);
+  if (!job.report_path.empty()) out["report"] = rel(job.report_path);
+  if (!out.empty()) j["output"] = out;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace mountcal
