@@ -1,5 +1,6 @@
 #include "mountcal/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -61,6 +62,71 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     h << "</tr>";
   }
   h << "</table>";
+  // ---- one section per kind of observation ----------------------------------------------------
+  h << "<p>Methods: " << esc([&] {
+    std::string m;
+    for (const auto& x : S.methods) m += (m.empty() ? "" : " + ") + x;
+    return m;
+  }()) << ". Observations per kind:";
+  for (const auto& k : S.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
+  h << "</p>";
+  if (S.uses(CalibrationMethod::kPlanes)) {
+    const PlaneSection& p = S.planes;
+    h << "<h2>Plane patches (" << (p.automatic ? "found automatically" : "given regions") << ")</h2><p>" << p.patches_used
+      << " patches, " << p.points_used << " points, σ of a point-to-plane distance " << f(p.sigma_m) << " m; RMS before "
+      << f(p.rms_before_m) << " m, after " << f(p.rms_after_m) << " m</p>";
+    std::vector<double> idx, b, a;
+    for (std::size_t i = 0; i < p.patches.size(); ++i) {
+      idx.push_back(static_cast<double>(i + 1));
+      b.push_back(p.patches[i].rms_before_m);
+      a.push_back(p.patches[i].rms_after_m);
+    }
+    if (!idx.empty()) {
+      SvgLinePlot plot("RMS distance to the patch's plane, per patch", "patch", "RMS [m]");
+      plot.addSeries("before", idx, b);
+      plot.addSeries("after", idx, a);
+      h << plot.render(900, 320);
+    }
+    h << "<table><tr><th>patch</th><th>strips</th><th>points</th><th>tilt [°]</th><th>aspect [°]</th><th>RMS before [m]</th>"
+         "<th>RMS after [m]</th><th></th></tr>";
+    for (const PatchResidual& r : p.patches) {
+      const double tilt = std::acos(std::min(1.0, std::abs(r.normal.z()))) * 180.0 / kPi;
+      const double aspect = std::fmod(std::atan2(r.normal.x(), r.normal.y()) * 180.0 / kPi + 360.0, 360.0);
+      h << "<tr><td class=l>" << esc(r.patch_id) << "</td><td>" << r.strips << "</td><td>" << r.points << "</td><td>" << f(tilt, "%.1f")
+        << "</td><td>" << f(aspect, "%.1f") << "</td><td>" << f(r.rms_before_m) << "</td><td>" << f(r.rms_after_m) << "</td><td class=l>"
+        << (r.outlier ? "<span class=bad>outlier</span>" : "") << "</td></tr>";
+    }
+    h << "</table>";
+    if (!p.rejected.empty()) {
+      h << "<details><summary>" << p.rejected.size() << " patches or strip parts rejected</summary><table><tr><th>patch</th><th>strip</th><th>reason</th></tr>";
+      for (const RejectedPatch& r : p.rejected)
+        h << "<tr><td class=l>" << esc(r.patch_id) << "</td><td class=l>" << esc(r.strip_id) << "</td><td class=l>" << esc(r.reason) << "</td></tr>";
+      h << "</table></details>";
+    }
+  }
+  if (S.uses(CalibrationMethod::kCorrespondences)) {
+    const CorrespondenceSection& c = S.correspondences;
+    h << "<h2>Automatic correspondences</h2><p>" << c.used << " point-to-plane correspondences after " << c.rounds
+      << " matchings (r " << f(c.radius_m, "%.2f") << " m, point spacing " << f(c.spacing_m, "%.2f") << " m, σ " << f(c.sigma_m)
+      << " m); |distance| median " << f(c.median_before_m) << " → " << f(c.median_after_m) << " m, RMS " << f(c.rms_before_m) << " → "
+      << f(c.rms_after_m) << " m</p>";
+    h << "<table><tr><th>strips</th><th>samples</th><th>kept</th><th>sparse</th><th>rough</th><th>far</th><th>normals</th><th>MAD</th>"
+         "<th>budget</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS after [m]</th></tr>";
+    for (const auto& p : c.pairs) {
+      h << "<tr><td class=l>" << esc(p.strip_a) << " / " << esc(p.strip_b) << "</td><td>" << p.samples << "</td><td>" << p.kept << "</td><td>"
+        << p.rejected_sparse << "</td><td>" << p.rejected_rough << "</td><td>" << p.rejected_far << "</td><td>" << p.rejected_normal
+        << "</td><td>" << p.rejected_mad << "</td><td>" << p.rejected_budget << "</td><td>" << f(p.median_before_m) << "</td><td>"
+        << f(p.median_after_m) << "</td><td>" << f(p.rms_before_m) << "</td><td>" << f(p.rms_after_m) << "</td></tr>";
+    }
+    h << "</table>";
+  }
+  if (S.control.observations_used > 0) {
+    const Vec3 b = S.control.rms_before_m, a = S.control.rms_after_m;
+    h << "<h2>Ground control</h2><p>" << S.control.ties_used << " control points, " << S.control.observations_used
+      << " point-to-surface observations; RMS before (" << f(b.x()) << ", " << f(b.y()) << ", " << f(b.z()) << ") m, after (" << f(a.x())
+      << ", " << f(a.y()) << ", " << f(a.z()) << ") m</p>";
+  }
+  if (S.uses(CalibrationMethod::kVtpm)) {
   h << "<h2>Tie residuals (seed Table 1)</h2><p>RMS before (" << f(S.rms_before_m.x()) << ", " << f(S.rms_before_m.y()) << ", "
     << f(S.rms_before_m.z()) << ") m, after (" << f(S.rms_after_m.x()) << ", " << f(S.rms_after_m.y()) << ", " << f(S.rms_after_m.z())
     << ") m</p>";
@@ -91,6 +157,7 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     h << "<h2>Rejected tie observations</h2><table><tr><th>tie</th><th>strip</th><th>reason</th></tr>";
     for (const auto& r : S.rejected) h << "<tr><td class=l>" << esc(r.tie_id) << "</td><td class=l>" << esc(r.strip_id) << "</td><td class=l>" << esc(r.reason) << "</td></tr>";
     h << "</table>";
+  }
   }
   if (ev) {
     h << "<h2>Check data (seed Tables 2 and 3)</h2>";

@@ -305,3 +305,68 @@ TEST(Cli, UnknownCrsAndCorruptSbetAreBadInput) {
   EXPECT_NE(r.err.find("trajectory.sbet:record 3"), std::string::npos) << r.err;
   fs::remove_all(base);
 }
+
+TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
+  // SPEC §4 methods from job files: "planes" with the simulator's regions and with "auto",
+  // "correspondences", ["vtpm", "planes"]; and a preset with no ties file calibrates
+  // automatically. Each result keeps the SPEC keys and adds its method's section.
+  const std::string base = (fs::temp_directory_path() / ("mountcal_methods_" + std::to_string(::getpid()))).string();
+  const CliRun sim = runCli("simulate --preset paper-calibration-field --seed 3 --no-ties --out " + base);
+  ASSERT_EQ(sim.code, 0) << sim.err;
+  ASSERT_FALSE(fs::exists(base + "/ties.csv"));
+  const auto job = nlohmann::json::parse(slurp(base + "/job.json"));
+  ASSERT_FALSE(job.contains("ties"));
+  EXPECT_EQ(job["method"], "correspondences");
+  const double truth[3] = {0.05, -0.08, 0.12};
+  auto check = [&](const std::string& name, const nlohmann::json& j) {
+    const std::string path = base + "/" + name + ".json";
+    nlohmann::json jj = j;
+    jj["output"] = {{"result", name + "_result.json"}, {"report", name + "_report.html"}};
+    std::ofstream(path) << jj.dump(2);
+    const CliRun r = runCli("calibrate --quiet " + path);
+    EXPECT_EQ(r.code, 0) << name << ": " << r.err;
+    const auto res = nlohmann::json::parse(slurp(base + "/" + name + "_result.json"));
+    for (const char* key : {"mounting", "sigma", "correlation", "estimated", "unobservable", "ties", "rms_before_m", "rms_after_m",
+                            "residuals", "solver", "methods", "kinds"})
+      EXPECT_TRUE(res.contains(key)) << name << ": " << key;
+    for (int i = 0; i < 3; ++i) {
+      const double e = res["mounting"]["boresight_deg"][i].get<double>(), s = res["sigma"]["boresight_deg"][i].get<double>();
+      EXPECT_LT(std::abs(e - truth[i]), std::max(3 * s, 0.003)) << name << " boresight " << i;
+    }
+    const std::string html = slurp(base + "/" + name + "_report.html");
+    EXPECT_NE(html.find("boresight_heading"), std::string::npos) << name;
+    return res;
+  };
+  auto res = check("auto_corr", job);  // the job as written: no ties, automatic
+  ASSERT_TRUE(res.contains("correspondences"));
+  EXPECT_GT(res["correspondences"]["used"].get<int>(), 1000);
+  EXPECT_EQ(res["correspondences"]["pairs"].size(), 6u);
+  EXPECT_NE(slurp(base + "/auto_corr_report.html").find("Automatic correspondences"), std::string::npos);
+
+  nlohmann::json planes = job;
+  planes["method"] = "planes";
+  res = check("planes_regions", planes);
+  ASSERT_TRUE(res.contains("planes"));
+  EXPECT_GE(res["planes"]["patches_used"].get<int>(), 5);
+  EXPECT_FALSE(res["planes"]["automatic"].get<bool>());
+  for (const auto& p : res["planes"]["patches"]) EXPECT_LT(p["rms_after_m"].get<double>(), p["rms_before_m"].get<double>());
+  EXPECT_NE(slurp(base + "/planes_regions_report.html").find("Plane patches"), std::string::npos);
+
+  planes["planes"] = "auto";
+  res = check("planes_auto", planes);
+  EXPECT_TRUE(res["planes"]["automatic"].get<bool>());
+  EXPECT_GT(res["planes"]["patches_used"].get<int>(), 20);
+
+  // Ties and planes in one adjustment (the ties written by a second simulation of the same seed).
+  ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 3 --out " + base + "/with_ties").code, 0);
+  fs::copy_file(base + "/with_ties/ties.csv", base + "/ties.csv");
+  nlohmann::json both = job;
+  both["ties"] = "ties.csv";
+  both["method"] = {"vtpm", "planes"};
+  res = check("vtpm_planes", both);
+  EXPECT_GT(res["ties"]["used"].get<int>(), 20);
+  EXPECT_GT(res["planes"]["points_used"].get<int>(), 200);
+  ASSERT_EQ(res["kinds"].size(), 2u);
+  EXPECT_EQ(res["methods"], nlohmann::json({"vtpm", "planes"}));
+  fs::remove_all(base);
+}
