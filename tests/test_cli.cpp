@@ -331,7 +331,9 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
       EXPECT_TRUE(res.contains(key)) << name << ": " << key;
     for (int i = 0; i < 3; ++i) {
       const double e = res["mounting"]["boresight_deg"][i].get<double>(), s = res["sigma"]["boresight_deg"][i].get<double>();
-      EXPECT_LT(std::abs(e - truth[i]), std::max(3 * s, 0.003)) << name << " boresight " << i;
+      // Near the truth: the preset's lever_arm_z (0.2 m) is held at 0 without GCPs and leaks a
+      // few thousandths of a degree, hence the 0.01° floor of the other CLI tests.
+      EXPECT_LT(std::abs(e - truth[i]), std::max(3 * s, 0.01)) << name << " boresight " << i;
     }
     const std::string html = slurp(base + "/" + name + "_report.html");
     EXPECT_NE(html.find("boresight_heading"), std::string::npos) << name;
