@@ -55,6 +55,7 @@ bool SolverOptions::IsValid(std::string* error) const {
   if (!(numeric_diff_relative_step > 0) || numeric_diff_relative_step > 1e-2) return failWith(error, "numeric_diff_relative_step must be in (0, 0.01]");
   if (max_rematch_rounds < 1) return failWith(error, "max_rematch_rounds must be at least 1");
   if (!(rematch_tolerance_m > 0) || !(rematch_tolerance_rad > 0)) return failWith(error, "rematch tolerances must be positive");
+  if (!(rematch_sigma_fraction >= 0) || rematch_sigma_fraction > 1) return failWith(error, "rematch_sigma_fraction must be in [0, 1]");
   return true;
 }
 
@@ -317,6 +318,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
   bool first = true;
   auto estimate = [&](const std::array<bool, 6>& est, std::array<double, 6> m) {
     S.rematch_rounds = 0;
+    std::vector<std::array<double, 6>> history;  // the mountings each round started from
     for (int round = 0; round < o.max_rematch_rounds; ++round) {
       double t_mark = elapsed();
       P = std::make_unique<AdjustmentProblem>(m, o.strip_offset_sigma_m, o.loss, o.loss_scale_m, o.numeric_diff_relative_step);
@@ -377,11 +379,38 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       iterations += static_cast<int>(cs.iterations.size()) - 1;
       ++S.rematch_rounds;
       const std::array<double, 6>& m_new = P->mountingValues();
-      double change = 0;
-      for (int j = 0; j < 6; ++j) {
-        const double tol = j < 3 ? o.rematch_tolerance_m : o.rematch_tolerance_rad;
-        change = std::max(change, std::abs(m_new[j] - m[j]) / tol);
+      // Converged when no parameter moved by more than its tolerance, or by more than a
+      // fraction of its standard deviation (a re-matching moves the estimate by a small part
+      // of its uncertainty as the matched points change; chasing that is pointless).
+      std::array<double, 6> sigma_now;
+      sigma_now.fill(0.0);
+      if (any_rematch) {
+        Mat6 N;
+        Vec6 dg;
+        reducedNormalMatrix(*P, &N, &dg);
+        std::vector<int> idx;
+        for (int j = 0; j < 6; ++j)
+          if (est[j]) idx.push_back(j);
+        Eigen::MatrixXd Nn(idx.size(), idx.size());
+        for (std::size_t a = 0; a < idx.size(); ++a)
+          for (std::size_t b = 0; b < idx.size(); ++b) Nn(a, b) = N(idx[a], idx[b]);
+        const Eigen::MatrixXd C = Nn.completeOrthogonalDecomposition().pseudoInverse();
+        for (std::size_t a = 0; a < idx.size(); ++a) sigma_now[idx[a]] = std::sqrt(std::max(C(a, a), 0.0));
       }
+      auto changeFrom = [&](const std::array<double, 6>& prev) {
+        double change = 0;
+        for (int j = 0; j < 6; ++j) {
+          const double tol = std::max(j < 3 ? o.rematch_tolerance_m : o.rematch_tolerance_rad, o.rematch_sigma_fraction * sigma_now[j]);
+          change = std::max(change, std::abs(m_new[j] - prev[j]) / tol);
+        }
+        return change;
+      };
+      double change = changeFrom(m);
+      // A matching can flip between two sets of matches: back where an earlier round ended is
+      // a fixed point of the matching as well.
+      for (const auto& earlier : history)
+        if (changeFrom(earlier) < 1.0) change = 0.0;
+      history.push_back(m);
       m = m_new;
       if (std::getenv("MOUNTCAL_DEBUG_ROUNDS")) std::fprintf(stderr, "round %d: %d obs, cost %.4g -> %.4g, m = %.4f %.4f %.4f %.5f %.5f %.5f\n", round, observations, cs.initial_cost, cs.final_cost, m[0], m[1], m[2], rad2deg(m[3]), rad2deg(m[4]), rad2deg(m[5]));
       if (!any_rematch || change < 1.0) break;

@@ -86,6 +86,8 @@ struct SolverOptions {
   int max_rematch_rounds = 8;
   double rematch_tolerance_m = 1e-4;
   double rematch_tolerance_rad = 2e-7;
+  /// …or by less than this fraction of each parameter's standard deviation [-].
+  double rematch_sigma_fraction = 0.1;
   bool IsValid(std::string* error) const;
 };
 
