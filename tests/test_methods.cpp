@@ -478,3 +478,38 @@ TEST(PlaneMethod, RegionsThatCannotBeUsedAreRejectedWithAReason) {
   for (const PatchResidual& p : S.planes.patches) EXPECT_NE(p.patch_id, "nowhere");
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "planes with unusable regions");
 }
+
+TEST(Adjustment, CorrespondenceResidualEqualsGeoreferenceModel) {
+  // The correspondence residual gathers its sums once (exact regrouping of SPEC §2 eq. 1
+  // differenced); evaluated at any mounting it must equal n·(x_A(M) − x̄_B(M))/σ with every
+  // point georeferenced by GeoreferenceModel.
+  const SimulatedSurvey& s = field(1, false);
+  const CalibrationData d = toCalibrationData(s);
+  CorrespondenceObservations obs(d, CorrespondenceOptions{});
+  const std::array<double, 6> m_match{0.05, -0.02, 0.1, 0.03 * kDeg, -0.05 * kDeg, 0.08 * kDeg};
+  AdjustmentProblem P(m_match, 0.0, LossType::kTrivial, 0.5, 1e-6);
+  obs.addBlocks(m_match, &P);
+  const CorrespondenceSet& set = obs.lastMatching();
+  ASSERT_GT(set.correspondences.size(), 1000u);
+  const std::array<double, 6> m_eval{0.3, 0.1, -0.2, -0.2 * kDeg, 0.15 * kDeg, 0.3 * kDeg};
+  const GeoreferenceModel model(d.trajectory, d.mounting_used.withArray(m_eval.data()));
+  std::size_t k = 0, checked = 0;
+  for (const auto& rec : P.records()) {
+    if (rec.cost->num_residuals() != 1) continue;
+    const Correspondence& c = set.correspondences[k++];
+    if (k % 50 != 0) continue;
+    double zero[3] = {0, 0, 0}, r = 0;
+    const double* params[3] = {m_eval.data(), zero, zero};
+    ASSERT_TRUE(rec.cost->Evaluate(params, &r, nullptr));
+    const StripData& A = d.strips[static_cast<std::size_t>(c.strip_a)];
+    const StripData& B = d.strips[static_cast<std::size_t>(c.strip_b)];
+    const Vec3 xa = model.forward(A.time_s[c.point_a], A.r_s[c.point_a]);
+    Vec3 xb = Vec3::Zero();
+    for (std::size_t j : c.points_b) xb += model.forward(B.time_s[j], B.r_s[j]);
+    xb /= static_cast<double>(c.points_b.size());
+    EXPECT_NEAR(r * set.sigma_m, c.normal.dot(xa - xb), 1e-8) << "correspondence " << k;
+    ++checked;
+  }
+  EXPECT_EQ(k, set.correspondences.size());
+  EXPECT_GT(checked, 20u);
+}

@@ -69,16 +69,23 @@ class Matcher {
       const auto q = [voxel](double v) { return static_cast<std::int64_t>(std::floor(v / voxel)) & 0x1fffff; };
       return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
     };
+    // Each strip's occupied voxels, dilated by one voxel: one look-up per point and strip.
     std::vector<std::unordered_set<std::int64_t>> hull(n_strips);
-    for (std::size_t s = 0; s < n_strips; ++s)
-      for (const Vec3& p : x0_[s]) hull[s].insert(vkey(p));
-    auto dilated = [&](std::size_t s, const Vec3& p) {
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz)
-            if (hull[s].count(vkey(p + Vec3(dx, dy, dz) * voxel))) return true;
-      return false;
-    };
+    for (std::size_t s = 0; s < n_strips; ++s) {
+      std::unordered_set<std::int64_t> occupied;
+      std::vector<Vec3> centres;
+      for (const Vec3& p : x0_[s]) {
+        if (occupied.insert(vkey(p)).second) {
+          centres.push_back(Vec3((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel,
+                                 (std::floor(p.z() / voxel) + 0.5) * voxel));
+        }
+      }
+      for (const Vec3& c : centres)
+        for (int dx = -1; dx <= 1; ++dx)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) hull[s].insert(vkey(c + Vec3(dx, dy, dz) * voxel));
+    }
+    auto dilated = [&](std::size_t s, const Vec3& p) { return hull[s].count(vkey(p)) > 0; };
     active_.resize(n_strips);
     std::vector<std::vector<char>> in_overlap(n_strips);
     for (std::size_t s = 0; s < n_strips; ++s) in_overlap[s].assign(x0_[s].size(), 0);
@@ -124,8 +131,19 @@ class Matcher {
       for (std::size_t k = 0; k < active_[s].size(); ++k) R_mb_[s][k] = data.trajectory->pose(data.strips[s].time_s[active_[s][k]], &cursor).R_mb;
       local_.emplace_back();
       for (std::size_t k = 0; k < active_[s].size(); ++k) local_[s][active_[s][k]] = k;
+      // The k-d tree of the active points at the mounting used.
+      ref_.emplace_back(3 * active_[s].size());
+      for (std::size_t k = 0; k < active_[s].size(); ++k)
+        for (int c = 0; c < 3; ++c) ref_[s][3 * k + static_cast<std::size_t>(c)] = x0_[s][active_[s][k]][c];
+      tree_.emplace_back();
+      if (active_[s].size() >= 3) {
+        flann::Matrix<double> mat(ref_[s].data(), active_[s].size(), 3);
+        tree_[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
+        tree_[s]->buildIndex();
+      }
     }
   }
+  Vec3 ref_xyz(std::size_t s, std::size_t k) const { return Vec3(ref_[s][3 * k], ref_[s][3 * k + 1], ref_[s][3 * k + 2]); }
 
   double radius() const { return r_; }
   double spacing() const { return spacing_; }
@@ -146,33 +164,44 @@ class Matcher {
     const MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m.data());
     const std::size_t n_strips = x0_.size();
     // Active points at m and their k-d trees (3-D).
-    std::vector<std::vector<double>> xyz(n_strips);
-    std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree(n_strips);
+    // Active points at m. The k-d trees hold the points at the mounting used (built once): a
+    // query at p in strip s is moved back by the displacement of s's point nearest p, so the
+    // neighbours found are those at m up to the displacement's variation across a
+    // neighbourhood (a rotation of a few 1e-3 rad over a few metres: millimetres); their
+    // positions at m are then used as they are.
+    std::vector<std::vector<Vec3>> xyz(n_strips);
     for (std::size_t s = 0; s < n_strips; ++s) {
       const auto& act = active_[s];
-      xyz[s].resize(3 * act.size());
-      for (std::size_t k = 0; k < act.size(); ++k) {
-        const Vec3 x = x0_[s][act[k]] + motion.displacement(R_mb_[s][k], data_.strips[s].r_s[act[k]]);
-        for (int c = 0; c < 3; ++c) xyz[s][3 * k + static_cast<std::size_t>(c)] = x[c];
-      }
+      xyz[s].resize(act.size());
+      for (std::size_t k = 0; k < act.size(); ++k) xyz[s][k] = x0_[s][act[k]] + motion.displacement(R_mb_[s][k], data_.strips[s].r_s[act[k]]);
       out.points_searched += act.size();
-      if (act.size() < 3) continue;
-      flann::Matrix<double> mat(xyz[s].data(), act.size(), 3);
-      tree[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
-      tree[s]->buildIndex();
     }
-    auto point = [&](std::size_t s, std::size_t k) { return Vec3(xyz[s][3 * k], xyz[s][3 * k + 1], xyz[s][3 * k + 2]); };
+    auto point = [&](std::size_t s, std::size_t k) -> const Vec3& { return xyz[s][k]; };
     const auto knn = static_cast<std::size_t>(o_.max_neighbours);
-    auto neighbours = [&](std::size_t s, const Vec3& p, double radius, std::vector<std::size_t>* idx) {
-      idx->clear();
-      if (!tree[s]) return;
-      double q[3] = {p.x(), p.y(), p.z()};
+    std::vector<std::size_t> I_buf(knn);
+    std::vector<double> D_buf(knn);
+    const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
+    auto search = [&](std::size_t s, const Vec3& q_ref, std::size_t k) {
+      double q[3] = {q_ref.x(), q_ref.y(), q_ref.z()};
       flann::Matrix<double> query(q, 1, 3);
-      std::vector<std::vector<std::size_t>> I;
-      std::vector<std::vector<double>> D;
-      tree[s]->knnSearch(query, I, D, std::min(knn, active_[s].size()), flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
-      for (std::size_t j = 0; j < I[0].size(); ++j)
-        if (D[0][j] <= radius * radius) idx->push_back(I[0][j]);
+      flann::Matrix<std::size_t> I(I_buf.data(), 1, k);
+      flann::Matrix<double> D(D_buf.data(), 1, k);
+      tree_[s]->knnSearch(query, I, D, k, params);
+    };
+    // k nearest of strip s around p (at m) within `radius`; `p_ref` when p's own position at
+    // the mounting used is known (a point of s itself).
+    auto neighbours = [&](std::size_t s, const Vec3& p, double radius, std::vector<std::size_t>* idx, const Vec3* p_ref = nullptr) {
+      idx->clear();
+      if (!tree_[s]) return;
+      Vec3 q = p_ref ? *p_ref : p;
+      if (!p_ref) {
+        search(s, p, 1);
+        q = p - (xyz[s][I_buf[0]] - ref_xyz(s, I_buf[0]));
+      }
+      const std::size_t k = std::min(knn, active_[s].size());
+      search(s, q, k);
+      for (std::size_t j = 0; j < k; ++j)
+        if ((xyz[s][I_buf[j]] - p).squaredNorm() <= radius * radius) idx->push_back(I_buf[j]);
     };
     struct Candidate {
       Correspondence c;
@@ -209,7 +238,8 @@ class Matcher {
           ++st.rejected_far;
           continue;
         }
-        neighbours(a, p, pr.r, &na);
+        const Vec3 p_ref = ref_xyz(a, local_[a].at(ia));
+        neighbours(a, p, pr.r, &na, &p_ref);
         if (static_cast<int>(na.size()) < o_.min_neighbours) {
           ++st.rejected_sparse;
           continue;
@@ -353,6 +383,8 @@ class Matcher {
   std::vector<std::vector<std::size_t>> active_;
   std::vector<std::vector<Mat3>> R_mb_;
   std::vector<std::unordered_map<std::size_t, std::size_t>> local_;
+  std::vector<std::vector<double>> ref_;  // active points at the mounting used, xyz
+  std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree_;
   std::vector<Pair> pairs_;
   double spacing_ = 0, r_ = 0;
 };
@@ -368,26 +400,27 @@ CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::ar
 namespace {
 
 /// One correspondence: r = n·((x_A(M) + o_A) − (x̄_B(M) + o_B))/σ, every point moved from its
-/// position at the mounting used by SPEC §2 eq. (1) differenced (detail::MountingMotion, exact).
+/// position at the mounting used by SPEC §2 eq. (1) differenced, R_mb (ΔR_bs r_s + Δa_b). With n
+/// held, n·R_mb ΔR_bs r_s = Σ_kl (nᵀR_mb)_k r_l ΔR_kl: the sums over A's point and B's k
+/// neighbours are gathered once into g (9 numbers) and h = Σ nᵀR_mb (3), so an evaluation is
+/// r = (n·(x_A0 − x̄_B0) + g·vec(ΔR_bs) + h·Δa_b + n·(o_A − o_B))/σ — the same value, exactly
+/// (a test compares it with GeoreferenceModel), without a loop over the neighbours.
 struct CorrespondenceResidual {
-  struct Point {
-    Mat3 R_mb;
-    Vec3 r_s;
-  };
-  Vec3 a_rel;  // x_A at M_used minus the centroid of B's neighbours at M_used [m]
-  Point a;
-  std::vector<Point> b;
+  double c0 = 0;                 // n·(x_A0 − x̄_B0) [m]
+  Eigen::Matrix<double, 9, 1> g; // (nᵀR_A)_k r_A,l − mean_j (nᵀR_j)_k r_j,l
+  Vec3 h;                        // nᵀR_A − mean_j nᵀR_j
   Vec3 n;
   const MountingParameters* used;
   Mat3 R_bs_used;
   double inv_sigma;
   bool operator()(const double* m, const double* oa, const double* ob, double* r) const {
-    const detail::MountingMotion motion(used->R_nom, R_bs_used, used->a_b, m);
-    const Vec3 xa = a_rel + motion.displacement(a.R_mb, a.r_s);
-    Vec3 xb = Vec3::Zero();
-    for (const Point& p : b) xb += motion.displacement(p.R_mb, p.r_s);
-    xb /= static_cast<double>(b.size());
-    r[0] = n.dot(xa + Vec3(oa[0], oa[1], oa[2]) - xb - Vec3(ob[0], ob[1], ob[2])) * inv_sigma;
+    const Mat3 dR = R_zyx(Vec3(m[3], m[4], m[5])) * used->R_nom - R_bs_used;
+    const Vec3 da = Vec3(m[0], m[1], m[2]) - used->a_b;
+    double v = c0 + h.dot(da);
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) v += g[3 * k + l] * dR(k, l);
+    v += n.x() * (oa[0] - ob[0]) + n.y() * (oa[1] - ob[1]) + n.z() * (oa[2] - ob[2]);
+    r[0] = v * inv_sigma;
     return true;
   }
 };
@@ -417,15 +450,25 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   blocks_.clear();
   for (const Correspondence& c : set_.correspondences) {
     auto* f = new CorrespondenceResidual;
-    Vec3 cb = Vec3::Zero();
+    const StripData& A = data_.strips[static_cast<std::size_t>(c.strip_a)];
+    const StripData& B = data_.strips[static_cast<std::size_t>(c.strip_b)];
+    const Vec3& n = c.normal;
+    Vec3 cb = Vec3::Zero(), hb = Vec3::Zero();
+    Eigen::Matrix<double, 9, 1> gb = Eigen::Matrix<double, 9, 1>::Zero();
     for (std::size_t j : c.points_b) {
       cb += matcher.x0(c.strip_b)[j];
-      f->b.push_back({matcher.R_mb(c.strip_b, j), data_.strips[static_cast<std::size_t>(c.strip_b)].r_s[j]});
+      const Vec3 nR = matcher.R_mb(c.strip_b, j).transpose() * n;
+      hb += nR;
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) gb[3 * k + l] += nR[k] * B.r_s[j][l];
     }
-    cb /= static_cast<double>(c.points_b.size());
-    f->a_rel = matcher.x0(c.strip_a)[c.point_a] - cb;
-    f->a = {matcher.R_mb(c.strip_a, c.point_a), data_.strips[static_cast<std::size_t>(c.strip_a)].r_s[c.point_a]};
-    f->n = c.normal;
+    const double kb = static_cast<double>(c.points_b.size());
+    const Vec3 nRa = matcher.R_mb(c.strip_a, c.point_a).transpose() * n;
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) f->g[3 * k + l] = nRa[k] * A.r_s[c.point_a][l] - gb[3 * k + l] / kb;
+    f->h = nRa - hb / kb;
+    f->c0 = n.dot(matcher.x0(c.strip_a)[c.point_a] - cb / kb);
+    f->n = n;
     f->used = &data_.mounting_used;
     f->R_bs_used = R_bs_used;
     f->inv_sigma = inv_sigma;
