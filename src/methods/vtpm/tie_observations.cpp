@@ -97,12 +97,37 @@ void TieObservations::build(const MountingParameters& reference) {
     }
     needed.insert(t.strip_id);
   }
+  // Control points need only the strip points around them: a subset of each strip, within the
+  // largest VTP radius and a margin for the mounting's motion of each control point.
+  auto nearPicks = [&](const StripData& strip) {
+    const double reach = vtp.max_radius_m + 10.0, cell = 2 * reach;
+    std::set<std::pair<long, long>> cells;
+    for (const TieObservation& t : picks) cells.insert({std::lround(std::floor(t.x_m / cell)), std::lround(std::floor(t.y_m / cell))});
+    const std::vector<Vec3>& x = strip.x_m;
+    StripData sub;
+    sub.id = strip.id;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const long cx = std::lround(std::floor(x[i].x() / cell)), cy = std::lround(std::floor(x[i].y() / cell));
+      bool near = false;
+      for (long dx = -1; dx <= 1 && !near; ++dx)
+        for (long dy = -1; dy <= 1 && !near; ++dy) near = cells.count({cx + dx, cy + dy}) > 0;
+      if (!near) continue;
+      sub.time_s.push_back(strip.time_s[i]);
+      sub.r_s.push_back(strip.r_s[i]);
+    }
+    return sub;
+  };
   std::map<std::string, VtpStrip> vtp_strips;
   for (const std::string& id : needed) {
-    if (reference.toArray() == data.mounting_used.toArray()) {
-      vtp_strips.emplace(id, VtpStrip(data.strips[strip_index[id]], data.trajectory, data.mounting_used));
+    const StripData& strip = data.strips[strip_index[id]];
+    if (control && !strip.x_m.empty() && strip.x_m.size() == strip.time_s.size()) {
+      StripData sub = nearPicks(strip);  // georeferenced at the reference mounting by VtpStrip
+      if (sub.time_s.size() >= 3) vtp_strips.emplace(id, VtpStrip(std::move(sub), data.trajectory, reference));
+      else vtp_strips.emplace(id, VtpStrip(strip, data.trajectory, data.mounting_used));
+    } else if (reference.toArray() == data.mounting_used.toArray()) {
+      vtp_strips.emplace(id, VtpStrip(strip, data.trajectory, data.mounting_used));
     } else {
-      StripData at = data.strips[strip_index[id]];
+      StripData at = strip;
       at.x_m.clear();  // georeferenced again at the reference mounting
       vtp_strips.emplace(id, VtpStrip(std::move(at), data.trajectory, reference));
     }
