@@ -14,30 +14,6 @@
 using namespace mountcal;
 using namespace mountcal::simulation;
 
-namespace {
-
-std::vector<TieObservation> fiveTies(const SimulatedSurvey& s) {
-  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {
-      {"ring_1", {"1", "3"}}, {"ring_5", {"2", "4"}}, {"zebra_a_c0", {"1", "2"}},
-      {"ring_13", {"2", "3", "4"}}, {"bldg_a_r2", {"1", "3", "4"}}};
-  std::vector<TieObservation> out;
-  for (const auto& [tie, strips] : plan)
-    for (const std::string& strip : strips)
-      for (const TiePick& p : s.ties)
-        if (p.tie_id == tie && p.strip_id == strip) out.push_back({tie, strip, p.x_m, p.y_m, 0});
-  return out;
-}
-
-std::vector<PlaneRegion> flatGround(const SimulatedSurvey& s) {
-  std::vector<PlaneRegion> out;
-  for (const FeaturePoint& f : s.gcps) {
-    if (f.id.rfind("ring_", 0) != 0 || f.id.find('_', 5) != std::string::npos) continue;
-    out.push_back({"ground_" + f.id, f.x_m.x() - 4, f.x_m.y() - 4, f.x_m.x() + 4, f.x_m.y() + 4});
-  }
-  return out;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   std::uint64_t seed = 1;
@@ -74,9 +50,9 @@ int main(int argc, char** argv) {
     edit(r);
     rows.push_back(std::move(r));
   };
-  add("VTPM, the paper's 5 ties (12 obs.)", {CalibrationMethod::kVtpm}, [&](Row& r) { r.data.ties = fiveTies(s); });
+  add("VTPM, the paper's 5 ties (12 obs.)", {CalibrationMethod::kVtpm}, [&](Row& r) { r.data.ties = paperFiveTies(s); });
   add("VTPM, all ties", {CalibrationMethod::kVtpm}, [](Row&) {});
-  add("planes, flat ground only", {CalibrationMethod::kPlanes}, [&](Row& r) { r.data.plane_regions = flatGround(s); });
+  add("planes, flat ground only", {CalibrationMethod::kPlanes}, [&](Row& r) { r.data.plane_regions = flatGroundRegions(s); });
   add("planes, roofs of 4 aspects (regions)", {CalibrationMethod::kPlanes}, [](Row&) {});
   add("planes, found automatically", {CalibrationMethod::kPlanes}, [](Row& r) { r.options.planes.automatic = true; });
   add("correspondences (automatic)", {CalibrationMethod::kCorrespondences}, [](Row&) {});

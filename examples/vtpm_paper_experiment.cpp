@@ -28,24 +28,6 @@ SimulatedSurvey run(const std::string& preset, std::uint64_t seed) {
   return simulate(config, scene);
 }
 
-/// Five ties and twelve observations as in the paper: three ties on two strips, two on three,
-/// spread over the field (two ring targets near the swath edge, a crossing, a roof, a target).
-std::vector<TieObservation> paperTies(const SimulatedSurvey& s) {
-  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {
-      {"ring_1", {"1", "3"}}, {"ring_5", {"2", "4"}}, {"zebra_a_c0", {"1", "2"}},
-      {"ring_13", {"2", "3", "4"}}, {"bldg_a_r2", {"1", "3", "4"}}};
-  std::map<std::string, std::map<std::string, const TiePick*>> picks;
-  for (const TiePick& p : s.ties) picks[p.tie_id][p.strip_id] = &p;
-  std::vector<TieObservation> out;
-  for (const auto& [tie, strips] : plan) {
-    for (const std::string& strip : strips) {
-      auto it = picks[tie].find(strip);
-      if (it != picks[tie].end()) out.push_back({tie, strip, it->second->x_m, it->second->y_m, 0});
-    }
-  }
-  return out;
-}
-
 void table(const char* title, const std::vector<std::string>& labels, const std::vector<Vec3>& a,
            const std::vector<Vec3>& b, const char* ha, const char* hb) {
   std::printf("\n%s\n%-16s %9s %9s %9s | %9s %9s %9s\n", title, "", ha, "", "", hb, "", "");
@@ -79,7 +61,7 @@ int main(int argc, char** argv) {
     // ---- experiment 1: the crossing field -----------------------------------------------
     const SimulatedSurvey field = run("paper-calibration-field", seed);
     CalibrationData data = toCalibrationData(field);
-    if (!all_ties) data.ties = paperTies(field);
+    if (!all_ties) data.ties = paperFiveTies(field);
     std::set<std::string> tie_ids;
     for (const auto& t : data.ties) tie_ids.insert(t.tie_id);
     std::printf("Experiment 1: %s, seed %llu, %zu strips, %zu ties, %zu tie observations\n", field.config.name.c_str(),

@@ -228,36 +228,12 @@ TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 
 // ---- the first paper's comparison: VTPM against the plane method ------------------------------
 
-namespace {
-/// seed 000 experiment 1's five ties and twelve observations (examples/vtpm_paper_experiment).
-std::vector<TieObservation> fiveTies(const SimulatedSurvey& s) {
-  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {
-      {"ring_1", {"1", "3"}}, {"ring_5", {"2", "4"}}, {"zebra_a_c0", {"1", "2"}},
-      {"ring_13", {"2", "3", "4"}}, {"bldg_a_r2", {"1", "3", "4"}}};
-  std::vector<TieObservation> out;
-  for (const auto& [tie, strips] : plan)
-    for (const std::string& strip : strips)
-      for (const TiePick& p : s.ties)
-        if (p.tie_id == tie && p.strip_id == strip) out.push_back({tie, strip, p.x_m, p.y_m, 0});
-  return out;
-}
-
-/// Flat ground with few slopes: 8 m boxes of bare ground around the ground targets.
-std::vector<PlaneRegion> flatGround(const SimulatedSurvey& s) {
-  std::vector<PlaneRegion> out;
-  for (const FeaturePoint& f : s.gcps) {
-    if (f.id.rfind("ring_", 0) != 0 || f.id.find('_', 5) != std::string::npos) continue;  // ring centres only
-    out.push_back({"ground_" + f.id, f.x_m.x() - 4, f.x_m.y() - 4, f.x_m.x() + 4, f.x_m.y() + 4});
-  }
-  return out;
-}
-}  // namespace
 
 TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
   const SimulatedSurvey& s = field(1, true);
   // VTPM with the paper's five ties (12 observations).
   CalibrationData ties = toCalibrationData(s);
-  ties.ties = fiveTies(s);
+  ties.ties = paperFiveTies(s);
   ASSERT_EQ(ties.ties.size(), 12u);
   auto ov = noisy(methodOptions({CalibrationMethod::kVtpm}));
   ov.estimate[kLeverZ] = false;
@@ -266,7 +242,7 @@ TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
   for (int j : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading}) EXPECT_TRUE(V.estimated[j]) << j;
   // Planes on flat ground only: nothing in plan can be seen.
   CalibrationData flat = toCalibrationData(s);
-  flat.plane_regions = flatGround(s);
+  flat.plane_regions = flatGroundRegions(s);
   ASSERT_GE(flat.plane_regions.size(), 10u);
   auto op = noisy(methodOptions({CalibrationMethod::kPlanes}));
   op.estimate[kLeverZ] = false;

@@ -11,7 +11,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <sstream>
 
@@ -283,6 +282,23 @@ void reducedNormalMatrix(AdjustmentProblem& P, Mat6* N_red, Vec6* diag) {
   *N_red = 0.5 * (*N_red + N_red->transpose());
 }
 
+/// The (pseudo-)inverse of the estimated parameters' block of a 6 × 6 normal matrix, placed
+/// back at their indices (zero elsewhere).
+Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
+  std::vector<int> idx;
+  for (int j = 0; j < 6; ++j)
+    if (est[j]) idx.push_back(j);
+  Mat6 out = Mat6::Zero();
+  if (idx.empty()) return out;
+  Eigen::MatrixXd Nn(idx.size(), idx.size());
+  for (std::size_t a = 0; a < idx.size(); ++a)
+    for (std::size_t b = 0; b < idx.size(); ++b) Nn(a, b) = N(idx[a], idx[b]);
+  const Eigen::MatrixXd inv = Nn.completeOrthogonalDecomposition().pseudoInverse();
+  for (std::size_t a = 0; a < idx.size(); ++a)
+    for (std::size_t b = 0; b < idx.size(); ++b) out(idx[a], idx[b]) = inv(a, b);
+  return out;
+}
+
 std::string fmtParam(int j, double v) {
   char buf[64];
   if (j < 3) std::snprintf(buf, sizeof buf, "%+.4f m", v);
@@ -388,14 +404,8 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
         Mat6 N;
         Vec6 dg;
         reducedNormalMatrix(*P, &N, &dg);
-        std::vector<int> idx;
-        for (int j = 0; j < 6; ++j)
-          if (est[j]) idx.push_back(j);
-        Eigen::MatrixXd Nn(idx.size(), idx.size());
-        for (std::size_t a = 0; a < idx.size(); ++a)
-          for (std::size_t b = 0; b < idx.size(); ++b) Nn(a, b) = N(idx[a], idx[b]);
-        const Eigen::MatrixXd C = Nn.completeOrthogonalDecomposition().pseudoInverse();
-        for (std::size_t a = 0; a < idx.size(); ++a) sigma_now[idx[a]] = std::sqrt(std::max(C(a, a), 0.0));
+        const Mat6 C = inverseOnEstimated(N, est);
+        for (int j = 0; j < 6; ++j) sigma_now[j] = est[j] ? std::sqrt(std::max(C(j, j), 0.0)) : 0.0;
       }
       auto changeFrom = [&](const std::array<double, 6>& prev) {
         double change = 0;
@@ -412,7 +422,6 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
         if (changeFrom(earlier) < 1.0) change = 0.0;
       history.push_back(m);
       m = m_new;
-      if (std::getenv("MOUNTCAL_DEBUG_ROUNDS")) std::fprintf(stderr, "round %d: %d obs, cost %.4g -> %.4g, m = %.4f %.4f %.4f %.5f %.5f %.5f\n", round, observations, cs.initial_cost, cs.final_cost, m[0], m[1], m[2], rad2deg(m[3]), rad2deg(m[4]), rad2deg(m[5]));
       if (!any_rematch || change < 1.0) break;
     }
     return true;
@@ -536,15 +545,10 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       S.covariance_source = "ceres::Covariance";
     } else {
       // Fall back on the reduced normal matrix (same marginal covariance in exact arithmetic).
-      std::vector<int> idx;
-      for (int j = 0; j < 6; ++j)
-        if (est[j]) idx.push_back(j);
-      Eigen::MatrixXd Nn(idx.size(), idx.size());
-      for (std::size_t a = 0; a < idx.size(); ++a)
-        for (std::size_t b = 0; b < idx.size(); ++b) Nn(a, b) = N_red(idx[a], idx[b]);
-      const Eigen::MatrixXd inv = Nn.completeOrthogonalDecomposition().pseudoInverse();
-      for (std::size_t a = 0; a < idx.size(); ++a)
-        for (std::size_t b = 0; b < idx.size(); ++b) cov(idx[a], idx[b]) = inv(a, b) * scale;
+      const Mat6 inv = inverseOnEstimated(N_red, est);
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b)
+          if (est[a] && est[b]) cov(a, b) = inv(a, b) * scale;
       S.covariance_source = "reduced normal matrix";
     }
   }

@@ -402,4 +402,25 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
   return d;
 }
 
+std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& s) {
+  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {
+      {"ring_1", {"1", "3"}}, {"ring_5", {"2", "4"}}, {"zebra_a_c0", {"1", "2"}},
+      {"ring_13", {"2", "3", "4"}}, {"bldg_a_r2", {"1", "3", "4"}}};
+  std::vector<TieObservation> out;
+  for (const auto& [tie, strips] : plan)
+    for (const std::string& strip : strips)
+      for (const TiePick& p : s.ties)
+        if (p.tie_id == tie && p.strip_id == strip) out.push_back({tie, strip, p.x_m, p.y_m, 0});
+  return out;
+}
+
+std::vector<PlaneRegion> flatGroundRegions(const SimulatedSurvey& s, double h) {
+  std::vector<PlaneRegion> out;
+  for (const FeaturePoint& f : s.gcps) {
+    if (f.id.rfind("ring_", 0) != 0 || f.id.find('_', 5) != std::string::npos) continue;  // ring centres only
+    out.push_back({"ground_" + f.id, f.x_m.x() - h, f.x_m.y() - h, f.x_m.x() + h, f.x_m.y() + h});
+  }
+  return out;
+}
+
 }  // namespace mountcal::simulation

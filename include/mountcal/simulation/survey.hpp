@@ -143,6 +143,15 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
 /// quantisation.
 CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_points = false);
 
+/// The first paper's experiment 1 on the `paper-calibration-field` preset: five ties and twelve
+/// observations (three ties on two strips, two on three: two ring targets near the swath edge,
+/// a crossing, a roof, a target), as picked on the survey's strips.
+std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& survey);
+
+/// Plane regions of bare, nearly flat ground on `paper-calibration-field`: a square of side
+/// 2 × `half_size_m` around each ring target's centre — the plane method's weak case.
+std::vector<PlaneRegion> flatGroundRegions(const SimulatedSurvey& survey, double half_size_m = 4.0);
+
 /// The names of the built-in presets (SPEC §4): "paper-calibration-field",
 /// "paper-check-block", "uav-vlp16".
 const std::vector<std::string>& presetNames();

@@ -76,7 +76,9 @@ class PlanGrid {
   PlanGrid(const std::vector<Vec3>& x, double cell_m) : cell_(cell_m) {
     for (std::size_t i = 0; i < x.size(); ++i) cells_[key(x[i].x(), x[i].y())].push_back(static_cast<std::uint32_t>(i));
   }
-  static std::int64_t pack(std::int64_t ix, std::int64_t iy) { return (ix << 32) ^ (iy & 0xffffffffLL); }
+  static std::int64_t pack(std::int64_t ix, std::int64_t iy) {
+    return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+  }
   std::int64_t key(double x, double y) const { return pack(cellIndex(x), cellIndex(y)); }
   std::int64_t cellIndex(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_)); }
   double cell() const { return cell_; }
