@@ -258,7 +258,8 @@ void reducedNormalMatrix(AdjustmentProblem& P, Mat6* N_red, Vec6* diag) {
   }
   Eigen::SparseMatrix<double> Js(row, n);
   Js.setFromTriplets(trip.begin(), trip.end());
-  const Eigen::SparseMatrix<double> N = (Js.transpose() * Js).pruned();
+  const Eigen::SparseMatrix<double> Jt_s = Js.transpose();
+  const Eigen::SparseMatrix<double> N = Jt_s * Js;
   const Eigen::MatrixXd Nmm = Eigen::MatrixXd(N.topLeftCorner(6, 6));
   *diag = Nmm.diagonal();
   if (n == 6) {
