@@ -203,3 +203,54 @@ TEST(Las, MalformedHeadersAreRefusedNamingFileAndByte) {
   }
   EXPECT_FALSE(fs::exists(w));
 }
+
+TEST(Las, ExtraBytesDescriptorsDecodeHandBuiltValues) {
+  // A hand-built Extra Bytes VLR (ASPRS LAS 1.4 R15 §2.5.4.2, 192-byte descriptors): a scaled
+  // and offset unsigned short "height" and a deprecated 3-element float array "vel", then a
+  // point whose extra bytes are written byte by byte.
+  io::LasHeader h;
+  h.point_format = 6;
+  h.point_record_length = static_cast<std::uint16_t>(io::LasHeader::standardRecordLength(6) + 2 + 12);
+  std::vector<std::uint8_t> d(2 * 192, 0);
+  d[2] = 3;                 // unsigned short
+  d[3] = 8 | 16;            // scale and offset valid
+  std::memcpy(&d[4], "height", 6);
+  const double scale = 0.01, offset = 100.0;
+  std::memcpy(&d[112], &scale, 8);
+  std::memcpy(&d[136], &offset, 8);
+  d[192 + 2] = 29;          // deprecated: 3 × float
+  std::memcpy(&d[192 + 4], "vel", 3);
+  h.vlrs.push_back({"LASF_Spec", 4, "extra bytes", d});
+  const auto attrs = io::extraBytesAttributes(h, "hand.las");
+  ASSERT_EQ(attrs.size(), 2u);
+  EXPECT_EQ(attrs[0].name, "height");
+  EXPECT_EQ(attrs[0].size, 2u);
+  EXPECT_EQ(attrs[1].byte_offset, 2u);
+  EXPECT_EQ(attrs[1].elements, 3);
+  EXPECT_EQ(attrs[1].size, 12u);
+  io::LasPoint p;
+  p.extra.assign(14, 0);
+  p.extra[0] = 0x39;        // 12345 = 0x3039, little endian
+  p.extra[1] = 0x30;
+  const float v[3] = {1.5f, -2.25f, 8.0f};
+  std::memcpy(&p.extra[2], v, 12);
+  EXPECT_DOUBLE_EQ(io::extraBytesValue(p, attrs[0]), 12345 * 0.01 + 100.0);
+  EXPECT_DOUBLE_EQ(io::extraBytesValue(p, attrs[1], 0), 1.5);
+  EXPECT_DOUBLE_EQ(io::extraBytesValue(p, attrs[1], 1), -2.25);
+  EXPECT_DOUBLE_EQ(io::extraBytesValue(p, attrs[1], 2), 8.0);
+  // Malformed: a descriptor count that is not whole, attributes longer than the record, an
+  // unknown type — each a FileError naming the file and the descriptor.
+  h.vlrs[0].data.resize(200);
+  EXPECT_THROW(io::extraBytesAttributes(h, "hand.las"), FileError);
+  h.vlrs[0].data = d;
+  h.point_record_length = static_cast<std::uint16_t>(io::LasHeader::standardRecordLength(6) + 4);
+  try {
+    io::extraBytesAttributes(h, "hand.las");
+    FAIL() << "no exception";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("hand.las:Extra Bytes descriptor 1 ('vel')"), std::string::npos) << e.what();
+  }
+  d[2] = 77;
+  h.vlrs[0].data = d;
+  EXPECT_THROW(io::extraBytesAttributes(h, "hand.las"), FileError);
+}

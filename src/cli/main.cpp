@@ -131,6 +131,10 @@ int runInfo(const std::string& path) {
     std::printf("  GPS time: %s\n", h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
     for (const auto& v : h.vlrs) std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
     for (const auto& v : h.evlrs) std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+    for (const auto& a : io::extraBytesAttributes(h, path)) {
+      std::printf("  extra bytes: %-24s type %2d, bytes %zu-%zu%s%s\n", a.name.c_str(), a.data_type, a.byte_offset, a.byte_offset + a.size - 1,
+                  a.hasScale() ? ", scaled" : "", a.hasOffset() ? ", offset" : "");
+    }
     if (h.hasGpsTime()) {
       double t0 = 1e300, t1 = -1e300, a0 = 1e300, a1 = -1e300;
       std::vector<io::LasPoint> chunk;

@@ -433,3 +433,111 @@ void writeLas(const std::string& path, const LasHeader& header, const std::vecto
 }
 
 }  // namespace mountcal::io
+
+// ---- Extra Bytes attributes (ASPRS LAS 1.4 R15, §2.5.4.2) ------------------------------------
+
+namespace mountcal::io {
+
+namespace {
+
+/// Bytes of one element of an Extra Bytes data type 1–10 (0 for anything else).
+std::size_t elementSize(int base_type) {
+  static const std::size_t sizes[11] = {0, 1, 1, 2, 2, 4, 4, 8, 8, 4, 8};
+  return base_type >= 1 && base_type <= 10 ? sizes[base_type] : 0;
+}
+
+std::string fixedString(const std::uint8_t* p, std::size_t n) {
+  std::size_t len = 0;
+  while (len < n && p[len] != 0) ++len;
+  return std::string(reinterpret_cast<const char*>(p), len);
+}
+
+double readF64(const std::uint8_t* p) {
+  double v;
+  std::memcpy(&v, p, 8);
+  return v;
+}
+
+}  // namespace
+
+std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, const std::string& path) {
+  const LasVlr* vlr = nullptr;
+  for (const auto* list : {&header.vlrs, &header.evlrs})
+    for (const LasVlr& v : *list)
+      if (!vlr && v.user_id == "LASF_Spec" && v.record_id == 4) vlr = &v;
+  std::vector<ExtraBytesAttribute> out;
+  if (!vlr) return out;
+  constexpr std::size_t kDescriptor = 192;
+  if (vlr->data.size() % kDescriptor != 0) {
+    throw FileError(path, "Extra Bytes VLR", "its " + std::to_string(vlr->data.size()) + " bytes are not a whole number of 192-byte descriptors");
+  }
+  std::size_t at = 0;
+  const std::size_t available = header.extraBytesPerPoint();
+  for (std::size_t k = 0; k < vlr->data.size() / kDescriptor; ++k) {
+    const std::uint8_t* d = vlr->data.data() + k * kDescriptor;
+    ExtraBytesAttribute a;
+    a.data_type = d[2];
+    a.options = d[3];
+    a.name = fixedString(d + 4, 32);
+    a.description = fixedString(d + 160, 32);
+    const std::string where = "Extra Bytes descriptor " + std::to_string(k) + " ('" + a.name + "')";
+    if (a.data_type == 0) {
+      a.size = a.options;  // undocumented bytes: the options field holds their count
+      a.options = 0;
+      if (a.size == 0) throw FileError(path, where, "data type 0 with a size of 0 bytes");
+    } else if (a.data_type <= 30) {
+      const int base = a.data_type <= 10 ? a.data_type : (a.data_type - 1) % 10 + 1;
+      a.elements = a.data_type <= 10 ? 1 : (a.data_type <= 20 ? 2 : 3);
+      a.size = elementSize(base) * static_cast<std::size_t>(a.elements);
+      for (int e = 0; e < 3; ++e) {
+        a.scale[static_cast<std::size_t>(e)] = a.hasScale() ? readF64(d + 112 + 8 * e) : 1.0;
+        a.offset[static_cast<std::size_t>(e)] = a.hasOffset() ? readF64(d + 136 + 8 * e) : 0.0;
+        if (!std::isfinite(a.scale[static_cast<std::size_t>(e)]) || !std::isfinite(a.offset[static_cast<std::size_t>(e)]))
+          throw FileError(path, where, "scale or offset is not finite");
+      }
+    } else {
+      throw FileError(path, where, "unknown data type " + std::to_string(a.data_type) + " (1–30 and 0 are defined)");
+    }
+    a.byte_offset = at;
+    at += a.size;
+    if (at > available) {
+      throw FileError(path, where, "the attributes need " + std::to_string(at) + " extra bytes per point; the point record has " +
+                                       std::to_string(available));
+    }
+    out.push_back(a);
+  }
+  return out;
+}
+
+const ExtraBytesAttribute* findExtraBytesAttribute(const std::vector<ExtraBytesAttribute>& attributes, const std::string& name) {
+  for (const ExtraBytesAttribute& a : attributes)
+    if (a.name == name) return &a;
+  return nullptr;
+}
+
+double extraBytesValue(const LasPoint& p, const ExtraBytesAttribute& a, int element) {
+  if (a.data_type == 0) throw InvalidInput("extra bytes attribute '" + a.name + "' is undocumented (data type 0): it has no value");
+  if (element < 0 || element >= a.elements) throw InvalidInput("extra bytes attribute '" + a.name + "' has no element " + std::to_string(element));
+  const int base = a.data_type <= 10 ? a.data_type : (a.data_type - 1) % 10 + 1;
+  const std::size_t n = elementSize(base);
+  const std::size_t at = a.byte_offset + n * static_cast<std::size_t>(element);
+  if (at + n > p.extra.size()) throw InvalidInput("the point has " + std::to_string(p.extra.size()) + " extra bytes; attribute '" + a.name + "' needs " + std::to_string(at + n));
+  const std::uint8_t* b = p.extra.data() + at;
+  double raw = 0;
+  switch (base) {
+    case 1: raw = b[0]; break;
+    case 2: raw = static_cast<std::int8_t>(b[0]); break;
+    case 3: { std::uint16_t v; std::memcpy(&v, b, 2); raw = v; break; }
+    case 4: { std::int16_t v; std::memcpy(&v, b, 2); raw = v; break; }
+    case 5: { std::uint32_t v; std::memcpy(&v, b, 4); raw = v; break; }
+    case 6: { std::int32_t v; std::memcpy(&v, b, 4); raw = v; break; }
+    case 7: { std::uint64_t v; std::memcpy(&v, b, 8); raw = static_cast<double>(v); break; }
+    case 8: { std::int64_t v; std::memcpy(&v, b, 8); raw = static_cast<double>(v); break; }
+    case 9: { float v; std::memcpy(&v, b, 4); raw = v; break; }
+    default: { double v; std::memcpy(&v, b, 8); raw = v; break; }
+  }
+  const auto e = static_cast<std::size_t>(element);
+  return raw * (a.hasScale() ? a.scale[e] : 1.0) + (a.hasOffset() ? a.offset[e] : 0.0);
+}
+
+}  // namespace mountcal::io

@@ -18,9 +18,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   try {
     mountcal::io::LasReader reader(path);
+    // Extra Bytes descriptors: parsed, then every attribute of every point decoded.
+    const auto attributes = mountcal::io::extraBytesAttributes(reader.header(), path);
     std::vector<mountcal::io::LasPoint> chunk;
     while (reader.read(&chunk, 4096) > 0) {
-      for (const auto& p : chunk) (void)mountcal::io::scanAngleDeg(reader.header(), p);
+      for (const auto& p : chunk) {
+        (void)mountcal::io::scanAngleDeg(reader.header(), p);
+        for (const auto& a : attributes) {
+          if (a.data_type == 0) continue;
+          for (int e = 0; e < a.elements; ++e) (void)mountcal::io::extraBytesValue(p, a, e);
+        }
+      }
     }
   } catch (const mountcal::Error&) {
   }

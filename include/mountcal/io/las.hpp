@@ -137,6 +137,35 @@ class LasWriter {
   bool any_ = false;
 };
 
+/// One attribute of the Extra Bytes VLR (user "LASF_Spec", record 4; or its EVLR): a named,
+/// typed field stored in every point's extra bytes (ASPRS LAS 1.4 R15, §2.5.4.2).
+struct ExtraBytesAttribute {
+  std::string name;             ///< e.g. "SensorX"
+  std::string description;
+  std::uint8_t data_type = 0;   ///< 1–10: uchar, char, ushort, short, ulong, long, ulonglong, longlong, float, double; 0: undocumented bytes; 11–30 (deprecated): 2 or 3 of those
+  std::uint8_t options = 0;     ///< bits: 0 no_data, 1 min, 2 max, 3 scale, 4 offset valid
+  std::size_t byte_offset = 0;  ///< position in the point's extra bytes [bytes]
+  std::size_t size = 0;         ///< bytes of all its elements [bytes]
+  int elements = 1;             ///< 1, or 2–3 for the deprecated array types
+  std::array<double, 3> scale{1, 1, 1}, offset{0, 0, 0};  ///< applied when the options say so
+  bool hasScale() const { return (options & 8u) != 0; }
+  bool hasOffset() const { return (options & 16u) != 0; }
+};
+
+/// The attributes of the header's Extra Bytes (E)VLR, in record order; empty without one.
+/// Throws FileError (naming `path` and the descriptor) when a descriptor is malformed, or when
+/// the attributes do not fit in the point record's extra bytes.
+std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, const std::string& path);
+
+/// The attribute named `name`, or null.
+const ExtraBytesAttribute* findExtraBytesAttribute(const std::vector<ExtraBytesAttribute>& attributes,
+                                                   const std::string& name);
+
+/// Element `element` of attribute `a` of point `p`, with the attribute's scale and offset
+/// applied (value · scale + offset). Throws InvalidInput for an undocumented (type 0)
+/// attribute, an element out of range, or a point without the extra bytes.
+double extraBytesValue(const LasPoint& p, const ExtraBytesAttribute& a, int element = 0);
+
 /// Reads a whole LAS file (header and all points).
 void readLas(const std::string& path, LasHeader* header, std::vector<LasPoint>* points);
 /// Writes a whole LAS file atomically.
