@@ -101,7 +101,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   if (sources.empty()) {
     fillSections();
     S.termination = TerminationType::kInvalidInput;
-    if (ties && sources.empty() && methods.size() == 1) {
+    if (ties && methods.size() == 1) {
       S.message = "no usable tie: " + std::to_string(S.rejected.size()) + " tie observations rejected (see rejected)";
     } else {
       S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
@@ -116,9 +116,6 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   S.methods = names;
   S.construction_time_s += construction_s;
   fillSections();
-  if (S.termination == TerminationType::kInvalidInput && ties && methods.size() == 1 && S.observations_used == 0) {
-    S.message = "no usable tie: " + std::to_string(S.rejected.size()) + " tie observations rejected (see rejected)";
-  }
   S.time_s = elapsed();
   return S;
 }

@@ -145,7 +145,6 @@ class Matcher {
   }
   Vec3 ref_xyz(std::size_t s, std::size_t k) const { return Vec3(ref_[s][3 * k], ref_[s][3 * k + 1], ref_[s][3 * k + 2]); }
 
-  double radius() const { return r_; }
   double spacing() const { return spacing_; }
   const std::vector<Vec3>& x0(int s) const { return x0_[static_cast<std::size_t>(s)]; }
   const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][local_[static_cast<std::size_t>(s)].at(i)]; }
@@ -479,7 +478,7 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   }
 }
 
-void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+void CorrespondenceObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
                                         const AnalysisOptions& /*analysis*/) {
   detail::Matcher& matcher = *matcher_;
   section_.used = static_cast<int>(set_.correspondences.size());
@@ -487,7 +486,6 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
   section_.sigma_m = set_.sigma_m;
   section_.spacing_m = set_.spacing_m;
   section_.pairs = set_.pairs;
-  (void)m0;
   std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> dist;
   std::vector<double> all_b, all_a;
   for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
@@ -520,7 +518,6 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
   }
   stats(all_b, &section_.median_before_m, &section_.rms_before_m);
   stats(all_a, &section_.median_after_m, &section_.rms_after_m);
-  (void)m;
 }
 
 }  // namespace mountcal

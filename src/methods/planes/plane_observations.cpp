@@ -423,7 +423,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   }
 }
 
-void PlaneObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
                                const AnalysisOptions& analysis) {
   section_.patches.clear();
   double ss_before = 0, ss_after = 0;
@@ -440,7 +440,6 @@ void PlaneObservations::finish(const std::array<double, 6>& m0, const std::array
     pr.points = static_cast<int>(patch.points.size());
     pr.strips = patch.strips;
     // Before: every strip's points at M_used about their one best-fit plane (seed eq. 13).
-    (void)m0;
     const detail::PlaneFit before = detail::fitPlane(patch.points.size(), [&](std::size_t k) { return patch.points[k].x0_rel; });
     double sb = 0;
     for (const PatchPoint& pp : patch.points) sb += std::pow(before.normal.dot(pp.x0_rel - before.centroid), 2);

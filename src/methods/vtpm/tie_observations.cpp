@@ -159,9 +159,7 @@ void TieObservations::build(const MountingParameters& reference) {
       std::vector<int> near;
       for (int k : tie.obs) {
         const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-        const auto& V = v.vertices();
-        Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
-        const double d = std::abs(n.dot(v.referencePosition() - x));
+        const double d = std::abs(triangleNormal(v).dot(v.referencePosition() - x));
         if (d <= kControlGate_m) {
           near.push_back(k);
         } else {
@@ -247,7 +245,6 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
   std::vector<double> norms;
   if (kind_ == "control") {
     // The distances across the surface, as vectors along the triangle's normal.
-    std::size_t b = 0;
     for (const Tie& tie : ties_) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
       for (int k : tie.obs) {
@@ -258,7 +255,6 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
         r.strip_id = v.stripId();
         r.before_m = n * n.dot(v.position(m0.data()) - x);
         r.after_m = n * n.dot(v.position(m.data()) + P.stripOffsetValue(v.stripId()) - x);
-        (void)blocks_[b++];
         ss_before += r.before_m.cwiseAbs2();
         ss_after += r.after_m.cwiseAbs2();
         norms.push_back(r.after_m.norm());
