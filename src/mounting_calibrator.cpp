@@ -53,7 +53,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     S.message = "invalid options: " + why;
     return S;
   }
-  if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  data.requirePoses();
   std::set<CalibrationMethod> methods(o.methods.begin(), o.methods.end());
   for (CalibrationMethod m : methods) S.methods.push_back(toString(m));
 

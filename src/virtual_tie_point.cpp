@@ -88,7 +88,15 @@ VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory
     throw InvalidInput("strip '" + strip_.id + "': time, r_s and x_m must have the same length");
   }
   if (n < 3) throw InvalidInput("strip '" + strip_.id + "': fewer than 3 points");
-  if (strip_.x_m.empty()) {
+  if (!strip_.poses.empty() && strip_.poses.size() != n) {
+    throw InvalidInput("strip '" + strip_.id + "': per-point poses and points differ in number");
+  }
+  if (strip_.poses.empty() && !trajectory_) throw InvalidInput("strip '" + strip_.id + "': no per-point poses and no trajectory");
+  if (strip_.x_m.empty() && !strip_.poses.empty()) {
+    const Mat3 R_bs = reference_.R_bs();
+    strip_.x_m.resize(n);
+    for (std::size_t i = 0; i < n; ++i) strip_.x_m[i] = georeference(strip_.poses[i], R_bs, reference_.a_b, strip_.r_s[i]);
+  } else if (strip_.x_m.empty()) {
     const GeoreferenceModel model(trajectory_, reference_);
     strip_.x_m.resize(n);
     std::vector<double> r(3 * n), x(3 * n);
@@ -329,7 +337,7 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
     verts[k].index = i;
     verts[k].r_s = strip_.r_s[i];
     verts[k].x0_m = X[i];
-    verts[k].pose = trajectory_->pose(strip_.time_s[i]);
+    verts[k].pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
   }
   *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
   // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mountcal/error.hpp"
 #include "mountcal/mounting.hpp"
 #include "mountcal/observations.hpp"
 #include "mountcal/trajectory.hpp"
@@ -21,6 +22,10 @@ struct StripData {
   std::vector<double> time_s;  ///< [s]
   std::vector<Vec3> r_s;       ///< laser vectors in the scanner frame [m]
   std::vector<Vec3> x_m;       ///< georeferenced with the reference mounting [m]; filled if empty
+  /// Per-point sensor poses (SPEC §4 "Per-point poses"): when not empty, poses[i] is the IMU
+  /// pose (SPEC §2 frames: p_m, R_mb = R_mn·R_nb) that measured point i, and the trajectory is
+  /// not consulted for this strip (time_s may then be coarse, e.g. rounded to seconds).
+  std::vector<Pose> poses;
 };
 
 /// Everything a calibration needs: the delivered trajectory, the mounting the strips were
@@ -34,6 +39,24 @@ struct CalibrationData {
   /// Method "planes": regions each holding one planar face seen by two or more strips (SPEC §4).
   /// Empty with PlaneOptions::automatic: the patches are found in the overlaps.
   std::vector<PlaneRegion> plane_regions;
+
+  /// The pose that measured point `i` of `strip`: its per-point pose, else the trajectory at
+  /// its time (`cursor` speeds up lookups in time order). Call requirePoses() first.
+  Pose pose(const StripData& strip, std::size_t i, std::size_t* cursor = nullptr) const {
+    if (!strip.poses.empty()) return strip.poses[i];
+    return cursor ? trajectory->pose(strip.time_s[i], cursor) : trajectory->pose(strip.time_s[i]);
+  }
+  /// Throws InvalidInput naming the strip when a strip has neither per-point poses (of its
+  /// length) nor a trajectory to take them from.
+  void requirePoses() const {
+    for (const StripData& s : strips) {
+      if (!s.poses.empty() && s.poses.size() != s.time_s.size()) {
+        throw InvalidInput("strip '" + s.id + "': " + std::to_string(s.poses.size()) + " per-point poses for " +
+                           std::to_string(s.time_s.size()) + " points");
+      }
+      if (s.poses.empty() && !trajectory) throw InvalidInput("calibrate: strip '" + s.id + "' has no per-point poses and there is no trajectory");
+    }
+  }
 };
 
 }  // namespace mountcal

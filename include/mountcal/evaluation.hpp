@@ -3,6 +3,7 @@
 /// Evaluation on check data (seed 000 §3.2, Tables 2 and 3; SPEC §3 step 6): check points
 /// (ties not used in the adjustment) and check planes, before and after applying a mounting.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -39,5 +40,47 @@ struct CheckPlaneResult {
 std::vector<CheckPlaneResult> evaluateCheckPlanes(const CalibrationData& data,
                                                   const std::vector<PlaneRegion>& regions,
                                                   const MountingParameters& mounting);
+
+/// The pass-to-pass discrepancy (issue "Real UAV data"): each point of the smaller strip of a
+/// pair against the local plane of the larger strip. A point counts when its nearest neighbour
+/// in the larger strip is within `max_neighbour_distance_m` and the plane of its `neighbours`
+/// nearest neighbours there is planar (σ of the fit ≤ `max_plane_sigma_m`), a surface and not
+/// a line (second/largest spread ≥ `min_spread_ratio`) and local (largest spread ≤
+/// `max_extent_m`). The distance is |n·(x − c)| to that plane.
+struct DiscrepancyOptions {
+  int neighbours = 10;                    ///< k [-]
+  double max_neighbour_distance_m = 1.0;  ///< [m]
+  double max_plane_sigma_m = 0.02;        ///< √λ_min of the neighbours' covariance [m]
+  double min_spread_ratio = 0.2;          ///< √(λ_mid/λ_max) [-]
+  double max_extent_m = 0.3;              ///< √λ_max [m]
+  std::size_t max_queries = 200000;       ///< larger query strips are strided evenly [-]
+  bool IsValid(std::string* why) const;
+};
+
+struct DiscrepancyStats {
+  std::size_t queries = 0;  ///< points of the smaller strip examined
+  std::size_t used = 0;     ///< points that passed the gates
+  double median_m = NAN, rms_m = NAN, p90_m = NAN, mean_m = NAN;  ///< of |distance| [m]
+};
+
+/// One strip pair: `query` is the smaller strip, `reference` the larger.
+struct PairDiscrepancy {
+  std::string query, reference;
+  DiscrepancyStats stats;
+};
+
+/// The statistics of `query` points against `reference`'s local planes.
+DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
+                                         const DiscrepancyOptions& options = {});
+
+/// Every strip pair of `data` georeferenced with `mounting` (per-point poses or the
+/// trajectory); pairs whose smaller strip has no point within reach of the larger are left out.
+/// Throws InvalidInput for invalid options.
+std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& mounting,
+                                               const DiscrepancyOptions& options = {});
+
+/// The statistics over every pair's used points together (a pair's points are weighted by count).
+DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& mounting,
+                                   const DiscrepancyOptions& options = {});
 
 }  // namespace mountcal

@@ -96,10 +96,24 @@ int runEvaluate(const std::string& job_path, const std::string& result_path) {
   const Job job = readJob(job_path);
   const LoadedJob loaded = loadJob(job);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
-  const ResultEvaluation ev = evaluateJob(job, loaded, m);
+  const ResultEvaluation ev = evaluateJob(job, loaded, m, true);
   if (!ev.any()) {
-    std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes\n", job_path.c_str());
+    std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes, and no strips overlap\n", job_path.c_str());
     return 2;
+  }
+  if (!ev.discrepancy_after.empty()) {
+    const DiscrepancyOptions d;
+    std::printf("pass-to-pass discrepancy (each point of the smaller strip against the local plane of the larger's %d nearest:\n"
+                "  nearest within %.2f m, plane sigma <= %.3f m, sqrt(l_mid/l_max) >= %.2f, extent <= %.2f m):\n",
+                d.neighbours, d.max_neighbour_distance_m, d.max_plane_sigma_m, d.min_spread_ratio, d.max_extent_m);
+    std::printf("  %-12s %-12s %8s %8s   median  before/after [m]     RMS before/after [m]     P90 before/after [m]\n", "query", "reference", "points", "used");
+    for (const PairDiscrepancy& a : ev.discrepancy_after) {
+      DiscrepancyStats b;
+      for (const PairDiscrepancy& x : ev.discrepancy_before)
+        if (x.query == a.query && x.reference == a.reference) b = x.stats;
+      std::printf("  %-12s %-12s %8zu %8zu   %8.4f %8.4f        %8.4f %8.4f        %8.4f %8.4f\n", a.query.c_str(), a.reference.c_str(),
+                  a.stats.queries, a.stats.used, b.median_m, a.stats.median_m, b.rms_m, a.stats.rms_m, b.p90_m, a.stats.p90_m);
+    }
   }
   if (ev.has_check_points) {
     const auto &b = ev.check_points_before, &a = ev.check_points_after;
@@ -211,7 +225,7 @@ int main(int argc, char** argv) {
   apply->add_option("job", job_path, "Job JSON file")->required();
   apply->add_option("--result", result_path, "Result JSON file of mountcal calibrate")->required();
   apply->add_option("--out", apply_out, "Output folder (the strips keep their file names)")->required();
-  CLI::App* evaluate = app.add_subcommand("evaluate", "Check points and check planes before and after a result (seed Tables 2, 3)");
+  CLI::App* evaluate = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
   evaluate->add_option("job", job_path, "Job JSON file")->required();
   evaluate->add_option("--result", result_path, "Result JSON file")->required();
   std::string info_path;

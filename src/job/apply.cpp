@@ -1,44 +1,80 @@
 #include "mountcal/job/apply.hpp"
 
 #include <filesystem>
+#include <map>
+#include <memory>
 
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/pose_fields.hpp"
 #include "mountcal/job/load.hpp"
 
 namespace mountcal {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+bool samePath(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
+}  // namespace
+
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
                          std::size_t chunk_points) {
+  // Every input file once, in job order; every output checked against every input first.
+  std::vector<std::string> inputs;
+  for (const JobStrip& js : job.strips) {
+    if (js.format != "las") throw FileError(js.path, "", "apply rewrites LAS strips; this strip is a raw CSV");
+    bool seen = false;
+    for (const std::string& in : inputs) seen = seen || samePath(in, js.path);
+    if (!seen) inputs.push_back(js.path);
+  }
+  std::map<std::string, std::string> by_name;
+  std::vector<std::string> outputs;
+  for (const std::string& in : inputs) {
+    const std::string name = fs::path(in).filename().string();
+    auto [it, fresh] = by_name.emplace(name, in);
+    if (!fresh) throw FileError(in, "", "has the same file name as " + it->second + "; apply would write both to " + (fs::path(out_dir) / name).string());
+    outputs.push_back((fs::path(out_dir) / name).string());
+    if (samePath(outputs.back(), job.path)) throw FileError(job.path, "", "apply would overwrite the job file");
+    for (const std::string& other : inputs) {
+      if (samePath(outputs.back(), other)) throw FileError(outputs.back(), "", "apply would overwrite an input of the job; choose another --out folder");
+    }
+  }
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
   const LoadedJob loaded = loadJobTrajectory(job);
-  const Trajectory& T = *loaded.data.trajectory;
   const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
   ApplyStats stats;
-  for (const JobStrip& js : job.strips) {
-    if (js.format != "las") throw FileError(js.path, "", "apply rewrites LAS strips; this strip is a raw CSV");
-    const std::string out_path = (fs::path(out_dir) / fs::path(js.path).filename()).string();
-    if (fs::exists(out_path) && fs::equivalent(out_path, js.path)) {
-      throw FileError(out_path, "", "apply would overwrite its own input; choose another --out folder");
-    }
-    io::LasReader reader(js.path);
+  for (std::size_t f = 0; f < inputs.size(); ++f) {
+    const std::string& in_path = inputs[f];
+    io::LasReader reader(in_path);
     const io::LasHeader& h = reader.header();
-    if (!h.hasGpsTime()) throw FileError(js.path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
-    io::LasWriter writer(out_path, h);
+    std::unique_ptr<io::PoseFieldReader> poses;
+    if (job.per_point_poses) poses = std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
+    else if (!h.hasGpsTime()) throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
+    const Trajectory* T = loaded.data.trajectory.get();
+    io::LasWriter writer(outputs[f], h);
     std::vector<io::LasPoint> chunk;
     std::size_t cursor = 0;
     std::uint64_t record = 0;
     while (reader.read(&chunk, chunk_points) > 0) {
       for (io::LasPoint& p : chunk) {
-        if (!(p.gps_time >= T.startTime() && p.gps_time <= T.endTime())) {
-          throw FileError(js.path, "record " + std::to_string(record), "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
+        Pose pose;
+        if (poses) {
+          pose = poses->pose(p, record);
+        } else {
+          if (!(p.gps_time >= T->startTime() && p.gps_time <= T->endTime())) {
+            throw FileError(in_path, "record " + std::to_string(record), "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
+          }
+          pose = T->pose(p.gps_time, &cursor);
         }
-        const Pose pose = T.pose(p.gps_time, &cursor);
         const Vec3 x_crs(reader.x(p), reader.y(p), reader.z(p));
         const Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, loaded.frame.toLocal(x_crs));
         const Vec3 x_new = loaded.frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));

@@ -11,6 +11,7 @@
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/pose_fields.hpp"
 #include "mountcal/io/sbet.hpp"
 
 namespace mountcal {
@@ -63,7 +64,72 @@ namespace {
 /// any date since 2011 is far larger.
 bool looksLikeWeekSeconds(double t) { return t >= -1.0 && t <= 604801.0; }
 
-StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const JobFrame& frame,
+/// Which records of a file a strip takes (JobStrip::split), in file order.
+class SplitFilter {
+ public:
+  SplitFilter(const io::LasHeader& h, const JobStrip& js) : split_(js.split) {
+    if (split_.active()) field_ = std::make_unique<io::PointFieldReader>(h, js.path, split_.field);
+  }
+  bool take(const io::LasPoint& p) {
+    if (!field_) return true;
+    const double v = field_->value(p);
+    if (split_.part == 0) return v >= split_.min && v <= split_.max;
+    if (!started_ || std::abs(v - prev_) > split_.gap) ++part_;
+    started_ = true;
+    prev_ = v;
+    return part_ == split_.part;
+  }
+  int parts() const { return part_; }
+
+ private:
+  StripSplit split_;
+  std::unique_ptr<io::PointFieldReader> field_;
+  bool started_ = false;
+  double prev_ = 0.0;
+  int part_ = 0;
+};
+
+[[noreturn]] void emptySplit(const Job& job, const JobStrip& js, const SplitFilter& f) {
+  std::string what = js.split.part > 0 ? "part " + std::to_string(js.split.part) + " of " + std::to_string(f.parts()) + " (gap " + std::to_string(js.split.gap) + ")"
+                                       : "the range [" + std::to_string(js.split.min) + ", " + std::to_string(js.split.max) + "]";
+  throw FileError(js.path, "field '" + js.split.field + "'", "strip '" + js.id + "' of " + job.path + " selects " + what + ", which holds no record");
+}
+
+/// A strip whose points carry their own sensor pose (JobStrip of a job with "poses").
+StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
+  io::LasReader reader(js.path);
+  const io::LasHeader& h = reader.header();
+  const io::PoseFieldReader poses(h, js.path, job.pose_fields);
+  SplitFilter filter(h, js);
+  StripData s;
+  s.id = js.id;
+  std::vector<io::LasPoint> chunk;
+  std::uint64_t record = 0;
+  const Mat3 R_bs = job.mounting_used.R_bs();
+  while (reader.read(&chunk) > 0) {
+    for (const io::LasPoint& p : chunk) {
+      const std::uint64_t rec = record++;
+      if (!filter.take(p)) continue;
+      const Pose pose = poses.pose(p, rec);
+      const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
+      const Vec3 r = inverseGeoreference(pose, R_bs, job.mounting_used.a_b, x);  // SPEC §2 inverse
+      if (!(r.norm() < 1e4)) {
+        throw FileError(js.path, "record " + std::to_string(rec), "the point lies " + std::to_string(r.norm()) + " m from its sensor position; are the pose fields right?");
+      }
+      s.time_s.push_back(h.hasGpsTime() ? p.gps_time : 0.0);
+      s.x_m.push_back(x);
+      s.r_s.push_back(r);
+      s.poses.push_back(pose);
+    }
+  }
+  if (s.time_s.empty()) {
+    if (js.split.active()) emptySplit(job, js, filter);
+    throw FileError(js.path, "", "strip '" + js.id + "' has no points");
+  }
+  return s;
+}
+
+StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceModel& model, const JobFrame& frame,
                        std::vector<double>* xyz_crs) {
   io::LasReader reader(js.path);
   const io::LasHeader& h = reader.header();
@@ -71,6 +137,7 @@ StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const
     throw FileError(js.path, "byte 104", "point format " + std::to_string(h.point_format) +
                                              " has no GPS time; a calibration needs formats 1, 3 or 6-8");
   }
+  SplitFilter filter(h, js);
   StripData s;
   s.id = js.id;
   s.time_s.reserve(static_cast<std::size_t>(h.point_count));
@@ -81,9 +148,13 @@ StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const
   std::uint64_t record = 0;
   while (reader.read(&chunk) > 0) {
     for (const io::LasPoint& p : chunk) {
+      if (!filter.take(p)) {
+        ++record;
+        continue;
+      }
       const double t = p.gps_time;
       if (!std::isfinite(t)) throw FileError(js.path, "record " + std::to_string(record), "GPS time is not finite");
-      if (record == 0 && h.adjustedStandardGpsTime() == traj_week) {
+      if (s.time_s.empty() && h.adjustedStandardGpsTime() == traj_week) {
         throw FileError(js.path, "byte 6",
                         std::string("time encoding mismatch: the LAS global encoding says ") +
                             (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") +
@@ -101,6 +172,7 @@ StripData loadLasStrip(const JobStrip& js, const GeoreferenceModel& model, const
       ++record;
     }
   }
+  if (js.split.active() && s.time_s.empty()) emptySplit(job, js, filter);
   // Inverse georeferencing (SPEC §2): the raw vectors that, with mounting_used, gave x_m.
   const std::size_t n = s.time_s.size();
   std::vector<double> x(3 * n), r(3 * n);
@@ -175,6 +247,10 @@ std::vector<PlaneRegion> liftRegions(std::vector<PlaneRegion> regions, const Loa
 LoadedJob loadJobTrajectory(const Job& job) {
   LoadedJob out;
   CalibrationData& d = out.data;
+  if (job.per_point_poses) {  // no trajectory: every strip point carries its pose
+    d.mounting_used = job.mounting_used;
+    return out;
+  }
   if (job.frame_type == JobFrameType::kLocal) {
     if (job.trajectory_format != TrajectoryFormat::kCsv) {
       throw FileError(job.path, "field 'trajectory.format'", "a local-frame job needs the local trajectory CSV of SPEC §4; an SBET needs \"frame\": {\"type\": \"crs\"}");
@@ -199,11 +275,16 @@ LoadedJob loadJobTrajectory(const Job& job) {
 LoadedJob loadJob(const Job& job) {
   LoadedJob out = loadJobTrajectory(job);
   CalibrationData& d = out.data;
-  const GeoreferenceModel model(d.trajectory, job.mounting_used);
   std::vector<double> xyz_crs;
-  for (const JobStrip& js : job.strips) {
+  if (job.per_point_poses) {
+    for (const JobStrip& js : job.strips) d.strips.push_back(loadPosedLasStrip(job, js));
+  }
+  const std::unique_ptr<const GeoreferenceModel> model_ptr =
+      job.per_point_poses ? nullptr : std::make_unique<const GeoreferenceModel>(d.trajectory, job.mounting_used);
+  for (const JobStrip& js : job.per_point_poses ? std::vector<JobStrip>{} : job.strips) {
+    const GeoreferenceModel& model = *model_ptr;
     if (js.format == "las") {
-      d.strips.push_back(loadLasStrip(js, model, out.frame, out.frame.isLocal() ? nullptr : &xyz_crs));
+      d.strips.push_back(loadLasStrip(job, js, model, out.frame, out.frame.isLocal() ? nullptr : &xyz_crs));
     } else {
       if (!out.frame.isLocal()) throw FileError(js.path, "", "raw CSV strips are supported in local-frame jobs only");
       d.strips.push_back(loadRawStrip(js, job.sensor, model));

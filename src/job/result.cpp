@@ -11,7 +11,7 @@ namespace mountcal {
 
 using nlohmann::json;
 
-ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting) {
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy) {
   ResultEvaluation ev;
   CalibrationData check = loaded.data;
   check.ties = loadCheckPoints(job, loaded);
@@ -24,6 +24,10 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
   if (!planes.empty()) {
     ev.check_planes_before = evaluateCheckPlanes(check, planes, job.mounting_used);
     ev.check_planes_after = evaluateCheckPlanes(check, planes, mounting);
+  }
+  if ((discrepancy || job.per_point_poses) && loaded.data.strips.size() >= 2) {
+    ev.discrepancy_before = passDiscrepancies(loaded.data, job.mounting_used);
+    ev.discrepancy_after = passDiscrepancies(loaded.data, mounting);
   }
   return ev;
 }
@@ -129,6 +133,17 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
                         {"rms_before_m", numOrNull(ev->check_planes_before[i].rms_m)}, {"rms_after_m", numOrNull(ev->check_planes_after[i].rms_m)}});
     }
     if (!planes.empty()) e["check_planes"] = planes;
+    json disc = json::array();
+    auto st = [](const DiscrepancyStats& s) {
+      return json{{"queries", s.queries}, {"used", s.used}, {"median_m", numOrNull(s.median_m)}, {"rms_m", numOrNull(s.rms_m)}, {"p90_m", numOrNull(s.p90_m)}};
+    };
+    for (const PairDiscrepancy& a : ev->discrepancy_after) {
+      json d = {{"query_strip", a.query}, {"reference_strip", a.reference}, {"after", st(a.stats)}};
+      for (const PairDiscrepancy& b : ev->discrepancy_before)
+        if (b.query == a.query && b.reference == a.reference) d["before"] = st(b.stats);
+      disc.push_back(d);
+    }
+    if (!disc.empty()) e["discrepancy"] = disc;
     j["evaluation"] = e;
   }
   return j.dump(2) + "\n";

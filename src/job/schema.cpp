@@ -92,7 +92,7 @@ Job readJob(const std::string& path) {
   const Fields top(path, j, "",
                    {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate", "vtpm",
                     "solver", "output", "gcps", "check_points", "check_planes", "planes", "plane", "correspondence",
-                    "targets", "features"});
+                    "targets", "features", "poses"});
   const Fields frame = top.sub("frame", {"type", "crs"});
   const std::string frame_type = frame.str("type");
   if (frame_type == "local") job.frame_type = JobFrameType::kLocal;
@@ -100,13 +100,42 @@ Job readJob(const std::string& path) {
   else frame.fail("type", "expected \"local\" or \"crs\"");
   if (job.frame_type == JobFrameType::kCrs) job.crs = frame.str("crs");
 
-  const Fields traj = top.sub("trajectory", {"path", "format", "time_offset_s"});
-  job.trajectory_path = detail::resolvePath(path, traj.str("path"));
-  const std::string format = traj.str("format", "csv");
-  if (format == "csv") job.trajectory_format = TrajectoryFormat::kCsv;
-  else if (format == "sbet") job.trajectory_format = TrajectoryFormat::kSbet;
-  else traj.fail("format", "expected \"csv\" or \"sbet\"");
-  job.time_offset_s = traj.num("time_offset_s", 0.0);
+  if (top.has("poses")) {
+    if (top.has("trajectory")) top.fail("poses", "a job takes either a \"trajectory\" or per-point \"poses\", not both");
+    if (job.frame_type != JobFrameType::kLocal) {
+      top.fail("poses", "per-point poses need \"frame\": {\"type\": \"local\"}: positions and attitudes are taken in the strips' own (projected) coordinates");
+    }
+    const Fields p = top.sub("poses", {"from", "position", "attitude", "attitude_unit", "convention"});
+    if (p.str("from", "extra_bytes") != "extra_bytes") p.fail("from", "expected \"extra_bytes\"");
+    auto names3 = [&](const std::string& k, std::array<std::string, 3>* out) {
+      if (!p.has(k)) return;
+      const json& a = p.at(k);
+      if (!a.is_array() || a.size() != 3) p.fail(k, "expected an array of 3 attribute names");
+      for (int i = 0; i < 3; ++i) {
+        if (!a[i].is_string() || a[i].get<std::string>().empty()) p.fail(k, "expected an array of 3 attribute names");
+        (*out)[i] = a[i].get<std::string>();
+      }
+    };
+    job.per_point_poses = true;
+    names3("position", &job.pose_fields.position);
+    names3("attitude", &job.pose_fields.attitude);
+    const std::string unit = p.str("attitude_unit", "rad");
+    if (unit != "rad" && unit != "deg") p.fail("attitude_unit", "expected \"rad\" or \"deg\"");
+    job.pose_fields.degrees = unit == "deg";
+    try {
+      job.pose_fields.convention = io::attitudeConventionFromString(p.str("convention"));
+    } catch (const InvalidInput& e) {
+      p.fail("convention", e.what());
+    }
+  } else {
+    const Fields traj = top.sub("trajectory", {"path", "format", "time_offset_s"});
+    job.trajectory_path = detail::resolvePath(path, traj.str("path"));
+    const std::string format = traj.str("format", "csv");
+    if (format == "csv") job.trajectory_format = TrajectoryFormat::kCsv;
+    else if (format == "sbet") job.trajectory_format = TrajectoryFormat::kSbet;
+    else traj.fail("format", "expected \"csv\" or \"sbet\"");
+    job.time_offset_s = traj.num("time_offset_s", 0.0);
+  }
 
   readSensor(path, top, &job);
   const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg"});
@@ -116,12 +145,31 @@ Job readJob(const std::string& path) {
   if (!strips.is_array() || strips.empty()) top.fail("strips", "expected a non-empty array of {\"id\", \"path\"}");
   std::set<std::string> ids;
   for (std::size_t i = 0; i < strips.size(); ++i) {
-    const Fields s(path, strips[i], "strips[" + std::to_string(i) + "]", {"id", "path", "format"});
+    const Fields s(path, strips[i], "strips[" + std::to_string(i) + "]", {"id", "path", "format", "split"});
     JobStrip js;
     js.id = s.str("id");
     js.path = detail::resolvePath(path, s.str("path"));
     js.format = s.str("format", "las");
     if (js.format != "las" && js.format != "raw_csv") s.fail("format", "expected \"las\" or \"raw_csv\"");
+    if (job.per_point_poses && js.format != "las") s.fail("format", "per-point poses come from LAS extra bytes; a raw CSV strip needs a trajectory");
+    if (s.has("split")) {
+      if (js.format != "las") s.fail("split", "only a LAS strip can be split by a field");
+      const Fields sp = s.sub("split", {"field", "range", "part", "gap"});
+      js.split.field = sp.str("field");
+      if (js.split.field.empty()) sp.fail("field", "expected a field name");
+      if (sp.has("range") == sp.has("part")) sp.fail("", "expected either \"range\": [min, max] or \"part\" (with \"gap\")");
+      if (sp.has("range")) {
+        const json& r = sp.at("range");
+        if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number()) sp.fail("range", "expected [min, max]");
+        js.split.min = r[0].get<double>();
+        js.split.max = r[1].get<double>();
+        if (!std::isfinite(js.split.min) || !std::isfinite(js.split.max) || js.split.min > js.split.max) sp.fail("range", "expected finite min <= max");
+      } else {
+        js.split.part = sp.integer("part", 0, 1, 1000000);
+        js.split.gap = sp.num("gap", 1.0);
+        if (!(js.split.gap >= 0)) sp.fail("gap", "expected a number >= 0");
+      }
+    }
     if (!ids.insert(js.id).second) s.fail("id", "strip id '" + js.id + "' appears twice");
     job.strips.push_back(js);
   }
@@ -206,7 +254,7 @@ Job readJob(const std::string& path) {
     const Fields c = top.sub("correspondence", {"apriori_misalignment_m", "radius_m", "sample_spacing_m", "min_neighbours",
                                                 "max_neighbours", "max_roughness_factor", "max_roughness_relative",
                                                 "max_distance_factor", "max_normal_angle_deg", "mad_factor", "budget",
-                                                "voxel_size_m", "sigma_m"});
+                                                "voxel_size_m", "sigma_m", "min_spread_ratio", "dense"});
     CorrespondenceOptions& co = o.correspondence;
     co.apriori_misalignment_m = c.num("apriori_misalignment_m", co.apriori_misalignment_m);
     co.radius_m = c.num("radius_m", co.radius_m);
@@ -221,6 +269,8 @@ Job readJob(const std::string& path) {
     co.budget = c.integer("budget", co.budget, 1, 10000000);
     co.voxel_size_m = c.num("voxel_size_m", co.voxel_size_m);
     co.sigma_m = c.num("sigma_m", co.sigma_m);
+    co.min_spread_ratio = c.num("min_spread_ratio", co.min_spread_ratio);
+    co.dense = c.boolean("dense", co.dense);
   }
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
@@ -253,9 +303,18 @@ std::string jobJson(const Job& job) {
   const MountingCalibrator::Options def;
   json j;
   j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
-  j["trajectory"] = {{"path", rel(job.trajectory_path)},
-                     {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
-                     {"time_offset_s", job.time_offset_s}};
+  if (job.per_point_poses) {
+    const io::PoseFields& f = job.pose_fields;
+    j["poses"] = {{"from", "extra_bytes"},
+                  {"position", {f.position[0], f.position[1], f.position[2]}},
+                  {"attitude", {f.attitude[0], f.attitude[1], f.attitude[2]}},
+                  {"attitude_unit", f.degrees ? "deg" : "rad"},
+                  {"convention", io::toString(f.convention)}};
+  } else {
+    j["trajectory"] = {{"path", rel(job.trajectory_path)},
+                       {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
+                       {"time_offset_s", job.time_offset_s}};
+  }
   const Vec3& nom = job.nominal_rotation_deg;
   json sensor = {{"nominal_rotation_deg", {nom.x(), nom.y(), nom.z()}}};
   switch (job.sensor.type) {
@@ -290,6 +349,15 @@ std::string jobJson(const Job& job) {
   for (const JobStrip& s : job.strips) {
     json e = {{"id", s.id}, {"path", rel(s.path)}};
     if (s.format != "las") e["format"] = s.format;
+    if (s.split.active()) {
+      e["split"] = {{"field", s.split.field}};
+      if (s.split.part > 0) {
+        e["split"]["part"] = s.split.part;
+        e["split"]["gap"] = s.split.gap;
+      } else {
+        e["split"]["range"] = {s.split.min, s.split.max};
+      }
+    }
     strips.push_back(e);
   }
   j["strips"] = strips;

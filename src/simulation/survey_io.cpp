@@ -122,7 +122,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     const SimulatedStrip& s = survey.strips[k];
     writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1), frame);
     io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
-    job.strips.push_back({s.id, at("strip_" + s.id + ".las"), "las"});
+    job.strips.push_back({s.id, at("strip_" + s.id + ".las"), "las", {}});
   }
   auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;

@@ -15,7 +15,8 @@ namespace mountcal {
 /// tree over (x, y), and its poses.
 class VtpStrip {
  public:
-  /// Georeferences `strip` with `reference` through `trajectory` when `strip.x_m` is empty.
+  /// Georeferences `strip` with `reference` through its per-point poses, or else `trajectory`
+  /// (which may then be null), when `strip.x_m` is empty.
   /// Throws InvalidInput for inconsistent sizes, TimeOutOfRange for a point outside the
   /// trajectory.
   VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,

@@ -11,17 +11,20 @@ namespace mountcal {
 
 /// Statistics of an apply run.
 struct ApplyStats {
-  std::size_t strips = 0;
+  std::size_t strips = 0;      ///< input files rewritten (several strips may share one file)
   std::uint64_t points = 0;
   double max_shift_m = 0.0;  ///< largest point displacement [m]
 };
 
-/// Rewrites every LAS strip of `job` into `out_dir` (same file names) with `mounting` in place
-/// of `mounting_used`: each point is inverse-georeferenced with the used mounting and
-/// georeferenced again with the new one, through the job's frame. Every other field, the VLRs,
-/// EVLRs and extra bytes are kept; the strips are streamed in chunks of `chunk_points`, so
+/// Rewrites every LAS file of `job`'s strips into `out_dir` (same file names; one output per
+/// input file, even when several strips are split from one file, and every record of it) with
+/// `mounting` in place of `mounting_used`: each point is inverse-georeferenced with the used
+/// mounting and georeferenced again with the new one, at its pose (the trajectory at its time,
+/// or its per-point pose), through the job's frame. Every other field, the VLRs, EVLRs and
+/// extra bytes are kept byte for byte; the files are streamed in chunks of `chunk_points`, so
 /// memory does not grow with the strip. Files are written through a temporary name. Throws
-/// FileError (raw CSV strips cannot be rewritten; an output path equal to an input).
+/// FileError, before anything is written, for raw CSV strips (they cannot be rewritten), two
+/// inputs with the same file name, or an output that would be one of the inputs.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
                          std::size_t chunk_points = 1u << 20);
 

@@ -13,15 +13,19 @@ namespace mountcal {
 
 /// Optional evaluation to store with the result.
 struct ResultEvaluation {
-  bool any() const { return has_check_points || !check_planes_after.empty(); }
+  bool any() const { return has_check_points || !check_planes_after.empty() || !discrepancy_after.empty(); }
   bool has_check_points = false;
   CheckPointReport check_points_before, check_points_after;
   std::vector<CheckPlaneResult> check_planes_before, check_planes_after;
+  /// The pass-to-pass discrepancy of every overlapping strip pair (DiscrepancyOptions defaults).
+  std::vector<PairDiscrepancy> discrepancy_before, discrepancy_after;
 };
 
-/// Check points and check planes named by the job, at `mounting_used` and at `mounting`.
-/// `any()` is false when the job names neither.
-ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting);
+/// Check points and check planes named by the job, at `mounting_used` and at `mounting`; with
+/// `discrepancy` (or in a job with per-point poses, whose strips are passes over one object)
+/// also the pass-to-pass discrepancy of every strip pair. `any()` is false when there is none.
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting,
+                             bool discrepancy = false);
 
 /// The result file of SPEC §4 as JSON text: the keys of SPEC §4 for every method (`ties` and
 /// `residuals` hold the tie section, empty without VTPM), `methods`, `kinds`, and one section

@@ -7,16 +7,30 @@
 #include <string>
 #include <vector>
 
+#include "mountcal/io/pose_fields.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/sensor_model.hpp"
 
 namespace mountcal {
+
+/// Which records of a file a strip takes (`"split"`, SPEC §4 "Per-point poses"): one file
+/// may hold several passes, told apart by a field such as `frameNo`.
+struct StripSplit {
+  std::string field;           ///< empty: every record of the file
+  double min = -1e308, max = 1e308;  ///< `"range": [min, max]`, inclusive
+  /// `"part": k, "gap": g`: the k-th (1-based) run of records in file order, a new run starting
+  /// where the field jumps by more than g between consecutive records; 0: no part selection.
+  int part = 0;
+  double gap = 0.0;
+  bool active() const { return !field.empty(); }
+};
 
 /// One strip entry of a job.
 struct JobStrip {
   std::string id;
   std::string path;             ///< absolute (resolved against the job file)
   std::string format = "las";   ///< "las" or "raw_csv"
+  StripSplit split;             ///< LAS only
 };
 
 /// How the job's frame is given.
@@ -29,7 +43,11 @@ struct Job {
   std::string path;              ///< the job file itself
   JobFrameType frame_type = JobFrameType::kLocal;
   std::string crs;               ///< for JobFrameType::kCrs
-  std::string trajectory_path;
+  std::string trajectory_path;   ///< empty when the job takes per-point poses
+  /// `"poses"`: each point's sensor pose from LAS extra bytes instead of a trajectory (a
+  /// local-frame job: the strips' coordinates, e.g. UTM, are the computation frame).
+  bool per_point_poses = false;
+  io::PoseFields pose_fields;
   TrajectoryFormat trajectory_format = TrajectoryFormat::kCsv;
   double time_offset_s = 0.0;
   SensorModel sensor;

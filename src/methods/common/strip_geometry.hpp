@@ -26,13 +26,13 @@ struct MountingMotion {
   Vec3 displacement(const Mat3& R_mb, const Vec3& r_s) const { return R_mb * (dR_bs * r_s + da_b); }
 };
 
-/// The strip's points at `used` (StripData::x_m, or computed through the trajectory).
-inline std::vector<Vec3> referencePoints(const StripData& s, const Trajectory& T, const MountingParameters& used) {
+/// The strip's points at `used` (StripData::x_m, or computed through the per-point poses or the trajectory).
+inline std::vector<Vec3> referencePoints(const CalibrationData& data, const StripData& s, const MountingParameters& used) {
   if (!s.x_m.empty()) return s.x_m;
   std::vector<Vec3> x(s.r_s.size());
   std::size_t cursor = 0;
   const Mat3 R_bs = used.R_bs();
-  for (std::size_t i = 0; i < x.size(); ++i) x[i] = georeference(T.pose(s.time_s[i], &cursor), R_bs, used.a_b, s.r_s[i]);
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = georeference(data.pose(s, i, &cursor), R_bs, used.a_b, s.r_s[i]);
   return x;
 }
 
@@ -42,6 +42,10 @@ struct PlaneFit {
   Vec3 centroid = Vec3::Zero();
   Vec3 normal = Vec3::UnitZ();
   double sigma_m = 0.0;
+  /// √(λ_mid / λ_max) of the points' covariance: near 0 for points along a line (one scan
+  /// line of a multi-beam scanner), whose "plane" normal is arbitrary.
+  double spread_ratio = 0.0;
+  double extent_m = 0.0;  ///< √λ_max: the spread along the plane's longest direction [m]
   int n = 0;
 };
 template <typename Get>
@@ -63,6 +67,8 @@ PlaneFit fitPlane(std::size_t count, Get get) {
   f.centroid = c;
   f.normal = n;
   f.sigma_m = std::sqrt(std::max(eig.eigenvalues()(0), 0.0) / static_cast<double>(count));
+  f.extent_m = std::sqrt(std::max(eig.eigenvalues()(2), 0.0) / static_cast<double>(count));
+  f.spread_ratio = eig.eigenvalues()(2) > 0 ? std::sqrt(std::max(eig.eigenvalues()(1), 0.0) / eig.eigenvalues()(2)) : 0.0;
   return f;
 }
 

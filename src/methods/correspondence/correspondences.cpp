@@ -29,6 +29,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!(max_roughness_relative >= 1) || !std::isfinite(max_roughness_relative)) return fail("max_roughness_relative must be at least 1");
   if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0)) return fail("roughness, distance and MAD factors must be positive");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
+  if (!(min_spread_ratio >= 0 && min_spread_ratio < 1)) return fail("min_spread_ratio must be in [0, 1)");
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
   if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
   if (!nonneg(sigma_m)) return fail("sigma_m must be finite and non-negative");
@@ -44,7 +45,7 @@ class Matcher {
   Matcher(const CalibrationData& data, const CorrespondenceOptions& o) : data_(data), o_(o) {
     std::string why;
     if (!o.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
-    if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+    data.requirePoses();
     const std::size_t n_strips = data.strips.size();
     x0_.resize(n_strips);
     std::vector<double> spacing(n_strips, 0.0);
@@ -53,7 +54,7 @@ class Matcher {
       if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
         throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
       }
-      x0_[s] = referencePoints(st, *data.trajectory, data.mounting_used);
+      x0_[s] = referencePoints(data, st, data.mounting_used);
       spacing[s] = planSpacing(x0_[s]);
       spacing_ = std::max(spacing_, spacing[s]);
     }
@@ -117,7 +118,27 @@ class Matcher {
         if (!any) continue;
         for (std::size_t i = 0; i < x0_[b].size(); ++i)
           if (!in_overlap[b][i] && dilated(a, x0_[b][i])) in_overlap[b][i] = 1;
-        for (const auto& c : cells) pr.samples.push_back(c.second.second);
+        if (o.dense) {
+          // Every overlap point of the sparser strip (queries against the denser one's
+          // planes), evenly strided to at most 4 × the budget.
+          std::vector<std::size_t> all, all_b;
+          for (std::size_t i = 0; i < x0_[a].size(); ++i)
+            if (dilated(b, x0_[a][i])) all.push_back(i);
+          for (std::size_t i = 0; i < x0_[b].size(); ++i)
+            if (dilated(a, x0_[b][i])) all_b.push_back(i);
+          // Both directions (A's points on B's planes and B's on A's): neither strip's
+          // sampling decides alone.
+          const std::size_t cap = 2 * static_cast<std::size_t>(o.budget);
+          Pair rev;
+          rev.a = pr.b;
+          rev.b = pr.a;
+          rev.r = pr.r;
+          for (std::size_t k = 0, stride = (all.size() + cap - 1) / cap; k < all.size(); k += stride) pr.samples.push_back(all[k]);
+          for (std::size_t k = 0, stride = (all_b.size() + cap - 1) / cap; k < all_b.size(); k += stride) rev.samples.push_back(all_b[k]);
+          if (!rev.samples.empty()) pairs_.push_back(std::move(rev));
+        } else {
+          for (const auto& c : cells) pr.samples.push_back(c.second.second);
+        }
         std::sort(pr.samples.begin(), pr.samples.end());
         pairs_.push_back(std::move(pr));
       }
@@ -128,7 +149,7 @@ class Matcher {
       // Poses of the active points, once (the trajectory does not change between rounds).
       R_mb_.emplace_back(active_[s].size());
       std::size_t cursor = 0;
-      for (std::size_t k = 0; k < active_[s].size(); ++k) R_mb_[s][k] = data.trajectory->pose(data.strips[s].time_s[active_[s][k]], &cursor).R_mb;
+      for (std::size_t k = 0; k < active_[s].size(); ++k) R_mb_[s][k] = data.pose(data.strips[s], active_[s][k], &cursor).R_mb;
       local_.emplace_back();
       for (std::size_t k = 0; k < active_[s].size(); ++k) local_[s][active_[s][k]] = k;
       // The k-d tree of the active points at the mounting used.
@@ -209,7 +230,84 @@ class Matcher {
     std::vector<Candidate> cand;
     out.pairs.resize(pairs_.size());
     std::vector<std::size_t> nb, na;
-    for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
+    // Dense mode: k-d trees of the active points at m itself (no displacement approximation),
+    // and each sample's plane from B's k nearest at m, gated to a local, planar, non-linear
+    // neighbourhood that agrees with A's own plane.
+    std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree_m(o_.dense ? n_strips : 0);
+    std::vector<std::vector<double>> flat_m(o_.dense ? n_strips : 0);
+    const Vec3 origin = n_strips && !xyz[0].empty() ? xyz[0][0] : Vec3::Zero();
+    for (std::size_t s = 0; s < tree_m.size(); ++s) {
+      if (xyz[s].size() < knn) continue;
+      flat_m[s].resize(3 * xyz[s].size());
+      for (std::size_t k = 0; k < xyz[s].size(); ++k) Eigen::Map<Vec3>{&flat_m[s][3 * k]} = xyz[s][k] - origin;
+      tree_m[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(flann::Matrix<double>(flat_m[s].data(), xyz[s].size(), 3),
+                                                                            flann::KDTreeSingleIndexParams(12));
+      tree_m[s]->buildIndex();
+    }
+    auto knnAt = [&](std::size_t s, const Vec3& p, std::vector<std::size_t>* idx, double* nearest2) {
+      idx->assign(knn, 0);
+      Vec3 q = p - origin;
+      flann::Matrix<double> query(q.data(), 1, 3);
+      flann::Matrix<std::size_t> I(idx->data(), 1, knn);
+      flann::Matrix<double> D(D_buf.data(), 1, knn);
+      tree_m[s]->knnSearch(query, I, D, static_cast<int>(knn), params);
+      *nearest2 = D_buf[0];
+    };
+    for (std::size_t pi = 0; o_.dense && pi < pairs_.size(); ++pi) {
+      const Pair& pr = pairs_[pi];
+      CorrespondencePairStats& st = out.pairs[pi];
+      st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
+      st.strip_b = data_.strips[static_cast<std::size_t>(pr.b)].id;
+      st.samples = static_cast<int>(pr.samples.size());
+      const auto a = static_cast<std::size_t>(pr.a), b = static_cast<std::size_t>(pr.b);
+      const double gate_m = first_round ? std::max(o_.max_distance_factor * pr.r, 2.0 * o_.apriori_misalignment_m)
+                                        : o_.max_distance_factor * pr.r;
+      out.max_distance_m = std::max(out.max_distance_m, gate_m);
+      if (!tree_m[a] || !tree_m[b]) {
+        st.rejected_sparse += st.samples;
+        continue;
+      }
+      for (std::size_t ia : pr.samples) {
+        const Vec3 p = point(a, local_[a].at(ia));
+        double d2 = 0;
+        knnAt(b, p, &nb, &d2);
+        if (d2 > gate_m * gate_m) {
+          ++st.rejected_far;
+          continue;
+        }
+        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
+        if (fb.sigma_m > o_.max_roughness_factor * pr.r || fb.spread_ratio < o_.min_spread_ratio || fb.extent_m > pr.r) {
+          ++st.rejected_rough;
+          continue;
+        }
+        const double d = fb.normal.dot(p - fb.centroid);
+        if (std::abs(d) > gate_m) {
+          ++st.rejected_far;
+          continue;
+        }
+        knnAt(a, p, &na, &d2);
+        const PlaneFit fa = fitPlane(na.size(), [&](std::size_t k) { return point(a, na[k]); });
+        if (fa.spread_ratio < o_.min_spread_ratio || fa.extent_m > pr.r) {
+          ++st.rejected_rough;
+          continue;
+        }
+        if (angleDeg(fa.normal, fb.normal) > o_.max_normal_angle_deg) {
+          ++st.rejected_normal;
+          continue;
+        }
+        Candidate c;
+        c.pair = static_cast<int>(pi);
+        c.c.strip_a = pr.a;
+        c.c.strip_b = pr.b;
+        c.c.point_a = ia;
+        for (std::size_t k : nb) c.c.points_b.push_back(active_[b][k]);
+        c.c.normal = fb.normal;
+        c.c.distance_m = d;
+        c.c.roughness_m = fb.sigma_m;
+        cand.push_back(std::move(c));
+      }
+    }
+    for (std::size_t pi = 0; !o_.dense && pi < pairs_.size(); ++pi) {
       const Pair& pr = pairs_[pi];
       CorrespondencePairStats& st = out.pairs[pi];
       st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
@@ -228,7 +326,7 @@ class Matcher {
           continue;
         }
         const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
-        if (fb.sigma_m > o_.max_roughness_factor * pr.r) {
+        if (fb.sigma_m > o_.max_roughness_factor * pr.r || fb.spread_ratio < o_.min_spread_ratio) {
           ++st.rejected_rough;
           continue;
         }
@@ -244,6 +342,10 @@ class Matcher {
           continue;
         }
         const PlaneFit fa = fitPlane(na.size(), [&](std::size_t k) { return point(a, na[k]); });
+        if (fa.spread_ratio < o_.min_spread_ratio) {
+          ++st.rejected_rough;
+          continue;
+        }
         if (angleDeg(fa.normal, fb.normal) > o_.max_normal_angle_deg) {
           ++st.rejected_normal;
           continue;

@@ -46,7 +46,7 @@ struct StripCloud {
 };
 
 std::vector<StripCloud> makeClouds(const CalibrationData& data, double cell_m) {
-  if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  data.requirePoses();
   std::vector<StripCloud> clouds;
   for (const StripData& s : data.strips) {
     if (s.r_s.size() != s.time_s.size() || (!s.x_m.empty() && s.x_m.size() != s.time_s.size())) {
@@ -54,7 +54,7 @@ std::vector<StripCloud> makeClouds(const CalibrationData& data, double cell_m) {
     }
     StripCloud c;
     c.strip = &s;
-    c.x0 = detail::referencePoints(s, *data.trajectory, data.mounting_used);
+    c.x0 = detail::referencePoints(data, s, data.mounting_used);
     c.grid = std::make_unique<detail::PlanGrid>(c.x0, cell_m);
     clouds.push_back(std::move(c));
   }
@@ -271,7 +271,7 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
         cand.strip_id = c.strip->id;
         cand.x0 = c.x0[i];
         cand.r_s = c.strip->r_s[i];
-        cand.R_mb = data.trajectory->pose(c.strip->time_s[i]).R_mb;
+        cand.R_mb = data.pose(*c.strip, i).R_mb;
         region.candidates.push_back(cand);
       }
     }

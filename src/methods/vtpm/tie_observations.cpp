@@ -71,7 +71,7 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
                                  const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
                                  const VtpOptions& vtp, std::string kind)
     : kind_(std::move(kind)), options_(options), gcps_(gcps), data_(&data), picks_(picks), vtp_(vtp) {
-  if (!data.trajectory) throw InvalidInput("calibrate: no trajectory");
+  data.requirePoses();
   built_at_ = data.mounting_used.toArray();
   build(data.mounting_used);
 }
@@ -114,6 +114,7 @@ void TieObservations::build(const MountingParameters& reference) {
       if (!near) continue;
       sub.time_s.push_back(strip.time_s[i]);
       sub.r_s.push_back(strip.r_s[i]);
+      if (!strip.poses.empty()) sub.poses.push_back(strip.poses[i]);
     }
     return sub;
   };

@@ -51,6 +51,14 @@ struct CorrespondenceOptions {
   /// A-priori σ of a correspondence distance [m]; 0: from the neighbourhoods' plane fits.
   double sigma_m = 0.0;
   int max_neighbours = 16;         ///< neighbours used for B's plane [-]
+  /// A neighbourhood whose points lie along a line (√(λ_mid/λ_max) below this: one scan line of
+  /// a multi-beam scanner) has no plane: rejected as rough [-].
+  double min_spread_ratio = 0.1;
+  /// Dense matching for small overlaps of dense multi-beam strips (a UAV pass over one
+  /// object): every overlap point of A (strided to at most 4 × budget per pair) instead of one
+  /// sample per 2 r cell, and B's plane only where its neighbours spread no more than r
+  /// (√λ_max ≤ r: a local plane, not a surface bent over metres).
+  bool dense = false;
   bool IsValid(std::string* error) const;
 };
 
