@@ -245,6 +245,15 @@ std::string MountingCalibrator::Summary::FullReport() const {
                     p.rejected_mad, p.rejected_budget, p.median_before_m, p.median_after_m, p.rms_before_m, p.rms_after_m);
       r << buf;
     }
+    if (!c.laser_elevation_deg.empty()) {
+      r << "Per-laser elevation offsets (by laser id; mean held at 0; sigma a priori, the mounting's sigma above eliminates them):\n"
+           "  laser  offset [deg]  sigma [deg]  max|corr| with boresight  points\n";
+      for (std::size_t i = 0; i < c.laser_elevation_deg.size(); ++i) {
+        std::snprintf(buf, sizeof buf, "  %5zu  %+12.4f  %11.4f  %24.2f  %6d\n", i, c.laser_elevation_deg[i], c.laser_elevation_sigma_deg[i],
+                      c.laser_boresight_correlation[i], c.laser_points[i]);
+        r << buf;
+      }
+    }
   }
   return r.str();
 }

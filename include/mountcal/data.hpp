@@ -4,6 +4,7 @@
 /// (time, laser vector, position at the mounting used), the trajectory, and what a surveyor
 /// adds — tie picks, planar regions, ground control.
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ struct StripData {
   /// pose (SPEC §2 frames: p_m, R_mb = R_mn·R_nb) that measured point i, and the trajectory is
   /// not consulted for this strip (time_s may then be coarse, e.g. rounded to seconds).
   std::vector<Pose> poses;
+  /// Laser (ring) of each point of a multi-beam scanner, when the strip file records it (job
+  /// key `sensor.laser_field`); empty otherwise. Needed to estimate per-laser intrinsics.
+  std::vector<std::uint16_t> laser;
 };
 
 /// Everything a calibration needs: the delivered trajectory, the mounting the strips were

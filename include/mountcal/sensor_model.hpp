@@ -3,6 +3,7 @@
 /// Laser scanner models: raw observations → the laser vector `r_s` in the scanner frame, and
 /// back (SPEC §2 "Sensor models").
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,20 @@ struct LaserSpec {
   double range_offset_m = 0.0;     ///< added to the measured range [m]
   double firing_offset_s = 0.0;    ///< firing time after the start of its sequence [s]
 };
+
+/// ∂r/∂ω of a multi-beam laser vector r = ρ(cos ω sin α, cos ω cos α, sin ω) (SPEC §2):
+/// (−r_z r_x / h, −r_z r_y / h, h), h = |r_xy|; zero on the spin axis.
+inline Vec3 elevationTangent(const Vec3& r) {
+  const double h = std::hypot(r.x(), r.y());
+  if (h <= 0.0) return Vec3::Zero();
+  return Vec3(-r.z() * r.x() / h, -r.z() * r.y() / h, h);
+}
+/// The laser vector with its elevation offset by δ (a per-laser elevation intrinsic), azimuth
+/// and range kept: r(ω + δ) = cos δ · r + sin δ · ∂r/∂ω, exactly.
+inline Vec3 elevateLaserVector(const Vec3& r, double delta) {
+  if (delta == 0.0) return r;
+  return std::cos(delta) * r + std::sin(delta) * elevationTangent(r);
+}
 
 /// Multi-beam spinning scanner in the Velodyne manual convention:
 /// `r_s = ρ' · (cos ω_i sin α', cos ω_i cos α', sin ω_i) + (0, 0, vertical_offset_i)`,

@@ -167,9 +167,14 @@ double* AdjustmentProblem::addNuisanceBlock(int size, const double* initial, cer
 }
 
 int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks) {
+  return addResidualBlock(cost, loss_sigma_m, blocks, loss_scale_m_);
+}
+
+int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks,
+                                        double loss_scale_m) {
   ceres::LossFunction* loss = nullptr;
   if (loss_sigma_m > 0 && loss_ != LossType::kTrivial) {
-    const double scale = loss_scale_m_ / loss_sigma_m;
+    const double scale = loss_scale_m / loss_sigma_m;
     if (loss_ == LossType::kHuber) loss = new ceres::HuberLoss(scale);
     else loss = new ceres::CauchyLoss(scale);
   }
@@ -388,6 +393,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       so.logging_type = ceres::SILENT;
       so.minimizer_progress_to_stdout = false;
       ceres::Solve(so, &problem, &cs);
+      for (ObservationSource* s : sources) s->solved(*P);
       S.solve_time_s += elapsed() - t_mark;
       if (first) {
         S.initial_cost = cs.initial_cost;
@@ -421,9 +427,12 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       // a fixed point of the matching as well.
       for (const auto& earlier : history)
         if (changeFrom(earlier) < 1.0) change = 0.0;
-      history.push_back(m);
+      bool settled = true;
+      for (ObservationSource* s : sources) settled &= s->settled();
+      if (!settled) history.clear();  // a coarse stage's fixed points are not the fine stage's
+      else history.push_back(m);
       m = m_new;
-      if (!any_rematch || change < 1.0) break;
+      if (!any_rematch || (change < 1.0 && settled)) break;
     }
     return true;
   };

@@ -55,6 +55,12 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   return 0;
 }
 
+std::vector<double> laserElevationOf(const mountcal::MountingCalibrator::Summary& S) {
+  std::vector<double> out;
+  for (double d : S.correspondences.laser_elevation_deg) out.push_back(mountcal::deg2rad(d));
+  return out;
+}
+
 int runCalibrate(const std::string& job_path, bool quiet) {
   using namespace mountcal;
   const Job job = readJob(job_path);
@@ -63,7 +69,7 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   const CalibrationData& data = loaded.data;
   progress("building the observations and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
-  const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting);
+  const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting, false, laserElevationOf(S));
   const bool any_eval = ev.any();
   if (!job.result_path.empty()) io::writeFileAtomically(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
   if (!job.report_path.empty()) {
@@ -82,8 +88,9 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
   using namespace mountcal;
   const Job job = readJob(job_path);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
+  const std::vector<double> lasers = readResultLaserElevation(result_path);
   progress("rewriting the strips");
-  const ApplyStats st = applyMounting(job, m, out);
+  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers);
   std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu strips, %llu points; "
               "largest shift %.3f m; wrote %s\n",
               m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
@@ -96,7 +103,7 @@ int runEvaluate(const std::string& job_path, const std::string& result_path) {
   const Job job = readJob(job_path);
   const LoadedJob loaded = loadJob(job);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
-  const ResultEvaluation ev = evaluateJob(job, loaded, m, true);
+  const ResultEvaluation ev = evaluateJob(job, loaded, m, true, readResultLaserElevation(result_path));
   if (!ev.any()) {
     std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes, and no strips overlap\n", job_path.c_str());
     return 2;

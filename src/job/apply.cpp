@@ -9,6 +9,7 @@
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/job/load.hpp"
+#include "mountcal/sensor_model.hpp"
 
 namespace mountcal {
 
@@ -25,7 +26,10 @@ bool samePath(const std::string& a, const std::string& b) {
 }  // namespace
 
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points) {
+                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad) {
+  if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
+    throw FileError(job.path, "field 'sensor.laser_field'", "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
+  }
   // Every input file once, in job order; every output checked against every input first.
   std::vector<std::string> inputs;
   for (const JobStrip& js : job.strips) {
@@ -59,6 +63,8 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     std::unique_ptr<io::PoseFieldReader> poses;
     if (job.per_point_poses) poses = std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
     else if (!h.hasGpsTime()) throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
+    std::unique_ptr<io::PointFieldReader> laser;
+    if (!laser_elevation_rad.empty()) laser = std::make_unique<io::PointFieldReader>(h, in_path, job.laser_field);
     const Trajectory* T = loaded.data.trajectory.get();
     io::LasWriter writer(outputs[f], h);
     std::vector<io::LasPoint> chunk;
@@ -76,7 +82,14 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
           pose = T->pose(p.gps_time, &cursor);
         }
         const Vec3 x_crs(reader.x(p), reader.y(p), reader.z(p));
-        const Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, loaded.frame.toLocal(x_crs));
+        Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, loaded.frame.toLocal(x_crs));
+        if (laser) {
+          const double id = laser->value(p);
+          if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad.size()))) {
+            throw FileError(in_path, "record " + std::to_string(record), "laser id " + std::to_string(id) + " has no elevation offset in the result");
+          }
+          r_s = elevateLaserVector(r_s, laser_elevation_rad[static_cast<std::size_t>(id)]);
+        }
         const Vec3 x_new = loaded.frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));
         stats.max_shift_m = std::max(stats.max_shift_m, (x_new - x_crs).norm());
         p.X = writer.quantize(0, x_new.x());

@@ -101,6 +101,9 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
   const io::LasHeader& h = reader.header();
   const io::PoseFieldReader poses(h, js.path, job.pose_fields);
   SplitFilter filter(h, js);
+  std::unique_ptr<io::PointFieldReader> laser;
+  if (!job.laser_field.empty()) laser = std::make_unique<io::PointFieldReader>(h, js.path, job.laser_field);
+  const int lasers = job.sensor.type == SensorType::kMultiBeam ? job.sensor.multibeam.laserCount() : 0;
   StripData s;
   s.id = js.id;
   std::vector<io::LasPoint> chunk;
@@ -120,6 +123,14 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
       s.x_m.push_back(x);
       s.r_s.push_back(r);
       s.poses.push_back(pose);
+      if (laser) {
+        const double id = laser->value(p);
+        if (!(id >= 0 && id < lasers && id == std::floor(id))) {
+          throw FileError(js.path, "record " + std::to_string(rec), "laser id " + std::to_string(id) + " in field '" + job.laser_field +
+                                                                       "' is not one of the " + std::to_string(lasers) + " lasers of the sensor");
+        }
+        s.laser.push_back(static_cast<std::uint16_t>(id));
+      }
     }
   }
   if (s.time_s.empty()) {

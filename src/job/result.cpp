@@ -11,7 +11,20 @@ namespace mountcal {
 
 using nlohmann::json;
 
-ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy) {
+void applyLaserElevation(CalibrationData* data, const std::vector<double>& offsets) {
+  if (offsets.empty()) return;
+  for (StripData& s : data->strips) {
+    if (s.laser.empty()) continue;
+    for (std::size_t i = 0; i < s.r_s.size(); ++i) {
+      if (s.laser[i] >= offsets.size()) throw InvalidInput("strip '" + s.id + "': laser id " + std::to_string(s.laser[i]) + " has no elevation offset");
+      s.r_s[i] = elevateLaserVector(s.r_s[i], offsets[s.laser[i]]);
+    }
+    s.x_m.clear();
+  }
+}
+
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy,
+                             const std::vector<double>& laser_elevation_rad) {
   ResultEvaluation ev;
   CalibrationData check = loaded.data;
   check.ties = loadCheckPoints(job, loaded);
@@ -27,7 +40,13 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
   }
   if ((discrepancy || job.per_point_poses) && loaded.data.strips.size() >= 2) {
     ev.discrepancy_before = passDiscrepancies(loaded.data, job.mounting_used);
-    ev.discrepancy_after = passDiscrepancies(loaded.data, mounting);
+    if (laser_elevation_rad.empty()) {
+      ev.discrepancy_after = passDiscrepancies(loaded.data, mounting);
+    } else {
+      CalibrationData d = loaded.data;
+      applyLaserElevation(&d, laser_elevation_rad);
+      ev.discrepancy_after = passDiscrepancies(d, mounting);
+    }
   }
   return ev;
 }
@@ -109,6 +128,18 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
                             {"sigma_m", c.sigma_m}, {"median_before_m", c.median_before_m}, {"rms_before_m", c.rms_before_m},
                             {"median_after_m", c.median_after_m}, {"rms_after_m", c.rms_after_m},
                             {"search_time_s", c.search_time_s}, {"points_searched", c.points_searched}, {"pairs", pairs}};
+    if (!c.laser_elevation_deg.empty()) {
+      json off = json::array(), sig = json::array(), cor = json::array(), pts = json::array();
+      for (std::size_t i = 0; i < c.laser_elevation_deg.size(); ++i) {
+        off.push_back(c.laser_elevation_deg[i]);
+        sig.push_back(numOrNull(c.laser_elevation_sigma_deg[i]));
+        cor.push_back(numOrNull(c.laser_boresight_correlation[i]));
+        pts.push_back(c.laser_points[i]);
+      }
+      // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
+      j["intrinsics"] = {{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig},
+                         {"laser_boresight_correlation", cor}, {"laser_points", pts}};
+    }
   }
   if (S.control.observations_used > 0 || !S.control.rejected.empty()) {
     json rej = json::array();
@@ -147,6 +178,28 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
     j["evaluation"] = e;
   }
   return j.dump(2) + "\n";
+}
+
+std::vector<double> readResultLaserElevation(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "", "cannot open the result file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
+  }
+  std::vector<double> out;
+  if (!j.is_object() || !j.contains("intrinsics") || j["intrinsics"].is_null()) return out;
+  const json& a = j["intrinsics"].is_object() && j["intrinsics"].contains("laser_elevation_offset_deg") ? j["intrinsics"]["laser_elevation_offset_deg"] : json();
+  if (!a.is_array() || a.size() > 4096) throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected an array of numbers, one per laser");
+  for (const json& v : a) {
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || std::abs(v.get<double>()) > 10) {
+      throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected offsets in degrees within ±10");
+    }
+    out.push_back(deg2rad(v.get<double>()));
+  }
+  return out;
 }
 
 MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom) {

@@ -24,7 +24,7 @@ const char* lossName(LossType l) {
 
 void readSensor(const std::string& path, const Fields& top, Job* job) {
   const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m",
-                                           "scan_angle_scale", "scan_angle_offset_deg"});
+                                           "scan_angle_scale", "scan_angle_offset_deg", "laser_field"});
   const std::string type = sensor.str("type");
   job->nominal_rotation_deg = sensor.has("nominal_rotation_deg") ? sensor.vec3("nominal_rotation_deg") : Vec3::Zero();
   if (type == "line") {
@@ -34,6 +34,7 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
     m.scan_angle_offset_rad = deg2rad(sensor.num("scan_angle_offset_deg", 0.0));
     job->sensor = SensorModel::lineScanner(m);
   } else if (type == "multibeam") {
+    job->laser_field = sensor.str("laser_field", "");
     if (sensor.has("lasers")) {
       const json& lasers = sensor.at("lasers");
       if (!lasers.is_array() || lasers.empty()) sensor.fail("lasers", "expected a non-empty array of lasers");
@@ -254,7 +255,8 @@ Job readJob(const std::string& path) {
     const Fields c = top.sub("correspondence", {"apriori_misalignment_m", "radius_m", "sample_spacing_m", "min_neighbours",
                                                 "max_neighbours", "max_roughness_factor", "max_roughness_relative",
                                                 "max_distance_factor", "max_normal_angle_deg", "mad_factor", "budget",
-                                                "voxel_size_m", "sigma_m", "min_spread_ratio", "dense"});
+                                                "voxel_size_m", "sigma_m", "min_spread_ratio", "dense", "coarse_radius_m",
+                                                "laser_elevation_sigma_deg", "thin_cell_m"});
     CorrespondenceOptions& co = o.correspondence;
     co.apriori_misalignment_m = c.num("apriori_misalignment_m", co.apriori_misalignment_m);
     co.radius_m = c.num("radius_m", co.radius_m);
@@ -271,10 +273,14 @@ Job readJob(const std::string& path) {
     co.sigma_m = c.num("sigma_m", co.sigma_m);
     co.min_spread_ratio = c.num("min_spread_ratio", co.min_spread_ratio);
     co.dense = c.boolean("dense", co.dense);
+    co.coarse_radius_m = c.num("coarse_radius_m", co.coarse_radius_m);
+    co.thin_cell_m = c.num("thin_cell_m", co.thin_cell_m);
+    co.laser_elevation_sigma_deg = c.num("laser_elevation_sigma_deg", co.laser_elevation_sigma_deg);
   }
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
-                                        "scale_covariance_by_variance_factor", "max_rematch_rounds"});
+                                        "scale_covariance_by_variance_factor", "max_rematch_rounds",
+                                        "rematch_tolerance_m", "rematch_tolerance_deg"});
     o.max_iterations = s.integer("max_iterations", o.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", "trivial");
     if (loss == "trivial") o.loss = LossType::kTrivial;
@@ -286,6 +292,8 @@ Job readJob(const std::string& path) {
     o.parameter_tolerance = s.num("parameter_tolerance", o.parameter_tolerance);
     o.scale_covariance_by_variance_factor = s.boolean("scale_covariance_by_variance_factor", o.scale_covariance_by_variance_factor);
     o.max_rematch_rounds = s.integer("max_rematch_rounds", o.max_rematch_rounds, 1, 1000);
+    o.rematch_tolerance_m = s.num("rematch_tolerance_m", o.rematch_tolerance_m);
+    o.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(o.rematch_tolerance_rad)));
   }
   std::string why;
   if (!o.IsValid(&why)) throw FileError(path, "", "invalid calibration settings: " + why);
@@ -338,6 +346,7 @@ std::string jobJson(const Job& job) {
         }
         sensor["lasers"] = lasers;
       }
+      if (!job.laser_field.empty()) sensor["laser_field"] = job.laser_field;
       break;
     case SensorType::kVector: sensor["type"] = "vector"; break;
   }

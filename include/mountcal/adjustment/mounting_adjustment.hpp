@@ -136,6 +136,9 @@ class AdjustmentProblem {
   /// deviation [m] the residuals were divided by: the robust loss applies with scale
   /// loss_scale_m / loss_sigma_m. 0: never robust (priors). Returns the block's index.
   int addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks);
+  /// As above, with the robust loss bending at `loss_scale_m` instead of the options' scale
+  /// (a matching source's coarse rounds, whose distances are still metres).
+  int addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks, double loss_scale_m);
   /// Central-difference step for the methods' numeric-diff cost functions [-].
   double numericDiffRelativeStep() const { return numeric_diff_relative_step_; }
 
@@ -193,6 +196,13 @@ class ObservationSource {
   /// True for sources whose blocks depend on the mounting they are built at (re-matched
   /// between solves until the mounting stops changing).
   virtual bool rematches() const { return false; }
+  /// A matching source that is still in a coarse stage (its matches are not yet those it
+  /// finishes with) returns false: the estimation goes on re-matching even if the mounting
+  /// stopped changing.
+  virtual bool settled() const { return true; }
+  /// After each solve, while `problem` holds that solve's estimates (e.g. to carry nuisance
+  /// values that persist across re-matchings into the next problem).
+  virtual void solved(const AdjustmentProblem& problem) { (void)problem; }
   /// After the last solve, while `problem` holds the estimates: compute the kind's residual
   /// section (before at `mounting_used`, after at `mounting`).
   virtual void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,

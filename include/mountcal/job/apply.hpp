@@ -25,7 +25,9 @@ struct ApplyStats {
 /// memory does not grow with the strip. Files are written through a temporary name. Throws
 /// FileError, before anything is written, for raw CSV strips (they cannot be rewritten), two
 /// inputs with the same file name, or an output that would be one of the inputs.
+/// `laser_elevation_rad` (by laser id, a result's intrinsics) turns each laser vector by its
+/// laser's elevation offset before georeferencing; it needs the job's `sensor.laser_field`.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points = 1u << 20);
+                         std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {});
 
 }  // namespace mountcal

@@ -11,6 +11,7 @@
 #include <unordered_set>
 
 #include "../common/strip_geometry.hpp"
+#include "dense_matching.hpp"
 #include "mountcal/error.hpp"
 
 namespace mountcal {
@@ -30,6 +31,9 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0)) return fail("roughness, distance and MAD factors must be positive");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
   if (!(min_spread_ratio >= 0 && min_spread_ratio < 1)) return fail("min_spread_ratio must be in [0, 1)");
+  if (!(coarse_radius_m > 0 && coarse_radius_m <= 100)) return fail("coarse_radius_m must be in (0, 100]");
+  if (!(thin_cell_m >= 0 && thin_cell_m <= 10)) return fail("thin_cell_m must be in [0, 10]");
+  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
   if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
   if (!nonneg(sigma_m)) return fail("sigma_m must be finite and non-negative");
@@ -118,27 +122,7 @@ class Matcher {
         if (!any) continue;
         for (std::size_t i = 0; i < x0_[b].size(); ++i)
           if (!in_overlap[b][i] && dilated(a, x0_[b][i])) in_overlap[b][i] = 1;
-        if (o.dense) {
-          // Every overlap point of the sparser strip (queries against the denser one's
-          // planes), evenly strided to at most 4 × the budget.
-          std::vector<std::size_t> all, all_b;
-          for (std::size_t i = 0; i < x0_[a].size(); ++i)
-            if (dilated(b, x0_[a][i])) all.push_back(i);
-          for (std::size_t i = 0; i < x0_[b].size(); ++i)
-            if (dilated(a, x0_[b][i])) all_b.push_back(i);
-          // Both directions (A's points on B's planes and B's on A's): neither strip's
-          // sampling decides alone.
-          const std::size_t cap = 2 * static_cast<std::size_t>(o.budget);
-          Pair rev;
-          rev.a = pr.b;
-          rev.b = pr.a;
-          rev.r = pr.r;
-          for (std::size_t k = 0, stride = (all.size() + cap - 1) / cap; k < all.size(); k += stride) pr.samples.push_back(all[k]);
-          for (std::size_t k = 0, stride = (all_b.size() + cap - 1) / cap; k < all_b.size(); k += stride) rev.samples.push_back(all_b[k]);
-          if (!rev.samples.empty()) pairs_.push_back(std::move(rev));
-        } else {
-          for (const auto& c : cells) pr.samples.push_back(c.second.second);
-        }
+        for (const auto& c : cells) pr.samples.push_back(c.second.second);
         std::sort(pr.samples.begin(), pr.samples.end());
         pairs_.push_back(std::move(pr));
       }
@@ -230,84 +214,7 @@ class Matcher {
     std::vector<Candidate> cand;
     out.pairs.resize(pairs_.size());
     std::vector<std::size_t> nb, na;
-    // Dense mode: k-d trees of the active points at m itself (no displacement approximation),
-    // and each sample's plane from B's k nearest at m, gated to a local, planar, non-linear
-    // neighbourhood that agrees with A's own plane.
-    std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree_m(o_.dense ? n_strips : 0);
-    std::vector<std::vector<double>> flat_m(o_.dense ? n_strips : 0);
-    const Vec3 origin = n_strips && !xyz[0].empty() ? xyz[0][0] : Vec3::Zero();
-    for (std::size_t s = 0; s < tree_m.size(); ++s) {
-      if (xyz[s].size() < knn) continue;
-      flat_m[s].resize(3 * xyz[s].size());
-      for (std::size_t k = 0; k < xyz[s].size(); ++k) Eigen::Map<Vec3>{&flat_m[s][3 * k]} = xyz[s][k] - origin;
-      tree_m[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(flann::Matrix<double>(flat_m[s].data(), xyz[s].size(), 3),
-                                                                            flann::KDTreeSingleIndexParams(12));
-      tree_m[s]->buildIndex();
-    }
-    auto knnAt = [&](std::size_t s, const Vec3& p, std::vector<std::size_t>* idx, double* nearest2) {
-      idx->assign(knn, 0);
-      Vec3 q = p - origin;
-      flann::Matrix<double> query(q.data(), 1, 3);
-      flann::Matrix<std::size_t> I(idx->data(), 1, knn);
-      flann::Matrix<double> D(D_buf.data(), 1, knn);
-      tree_m[s]->knnSearch(query, I, D, static_cast<int>(knn), params);
-      *nearest2 = D_buf[0];
-    };
-    for (std::size_t pi = 0; o_.dense && pi < pairs_.size(); ++pi) {
-      const Pair& pr = pairs_[pi];
-      CorrespondencePairStats& st = out.pairs[pi];
-      st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
-      st.strip_b = data_.strips[static_cast<std::size_t>(pr.b)].id;
-      st.samples = static_cast<int>(pr.samples.size());
-      const auto a = static_cast<std::size_t>(pr.a), b = static_cast<std::size_t>(pr.b);
-      const double gate_m = first_round ? std::max(o_.max_distance_factor * pr.r, 2.0 * o_.apriori_misalignment_m)
-                                        : o_.max_distance_factor * pr.r;
-      out.max_distance_m = std::max(out.max_distance_m, gate_m);
-      if (!tree_m[a] || !tree_m[b]) {
-        st.rejected_sparse += st.samples;
-        continue;
-      }
-      for (std::size_t ia : pr.samples) {
-        const Vec3 p = point(a, local_[a].at(ia));
-        double d2 = 0;
-        knnAt(b, p, &nb, &d2);
-        if (d2 > gate_m * gate_m) {
-          ++st.rejected_far;
-          continue;
-        }
-        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
-        if (fb.sigma_m > o_.max_roughness_factor * pr.r || fb.spread_ratio < o_.min_spread_ratio || fb.extent_m > pr.r) {
-          ++st.rejected_rough;
-          continue;
-        }
-        const double d = fb.normal.dot(p - fb.centroid);
-        if (std::abs(d) > gate_m) {
-          ++st.rejected_far;
-          continue;
-        }
-        knnAt(a, p, &na, &d2);
-        const PlaneFit fa = fitPlane(na.size(), [&](std::size_t k) { return point(a, na[k]); });
-        if (fa.spread_ratio < o_.min_spread_ratio || fa.extent_m > pr.r) {
-          ++st.rejected_rough;
-          continue;
-        }
-        if (angleDeg(fa.normal, fb.normal) > o_.max_normal_angle_deg) {
-          ++st.rejected_normal;
-          continue;
-        }
-        Candidate c;
-        c.pair = static_cast<int>(pi);
-        c.c.strip_a = pr.a;
-        c.c.strip_b = pr.b;
-        c.c.point_a = ia;
-        for (std::size_t k : nb) c.c.points_b.push_back(active_[b][k]);
-        c.c.normal = fb.normal;
-        c.c.distance_m = d;
-        c.c.roughness_m = fb.sigma_m;
-        cand.push_back(std::move(c));
-      }
-    }
-    for (std::size_t pi = 0; !o_.dense && pi < pairs_.size(); ++pi) {
+    for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
       const Pair& pr = pairs_[pi];
       CorrespondencePairStats& st = out.pairs[pi];
       st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
@@ -500,6 +407,24 @@ CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::ar
 
 namespace {
 
+/// A prior on one laser's elevation offset (δ_i/σ), or on their mean (Σδ/(L σ)).
+struct LaserPrior {
+  int index, count;
+  double sigma;
+  bool mean;
+  template <typename T>
+  bool operator()(T const* const* p, T* r) const {
+    if (!mean) {
+      r[0] = p[0][index] / T(sigma);
+      return true;
+    }
+    T s(0.0);
+    for (int i = 0; i < count; ++i) s += p[0][i];
+    r[0] = s / T(count * sigma);
+    return true;
+  }
+};
+
 /// One correspondence: r = n·((x_A(M) + o_A) − (x̄_B(M) + o_B))/σ, every point moved from its
 /// position at the mounting used by SPEC §2 eq. (1) differenced, R_mb (ΔR_bs r_s + Δa_b). With n
 /// held, n·R_mb ΔR_bs r_s = Σ_kl (nᵀR_mb)_k r_l ΔR_kl: the sums over A's point and B's k
@@ -536,7 +461,96 @@ CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& da
   if (!options_.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
 }
 
+bool CorrespondenceObservations::settled() const { return !options_.dense || !coarse_; }
+
+void CorrespondenceObservations::solved(const AdjustmentProblem& P) {
+  (void)P;
+  if (laser_block_) std::copy(laser_block_, laser_block_ + static_cast<long>(laser_dl_.size()), laser_dl_.begin());
+}
+
+void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+  if (!dense_) {
+    dense_ = std::make_unique<detail::DenseMatcher>(data_, options_);
+    if (options_.laser_elevation_sigma_deg > 0) laser_dl_.assign(static_cast<std::size_t>(dense_->laserCount()), 0.0);
+    coarse_ = true;
+  }
+  // Stage: coarse until the mounting stops moving (or for 15 rounds), then fine.
+  if (coarse_ && section_.rounds > 0) {
+    double change_m = 0, change_rad = 0;
+    for (int j = 0; j < 3; ++j) change_m = std::max(change_m, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
+    for (int j = 3; j < 6; ++j) change_rad = std::max(change_rad, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
+    constexpr int kMaxCoarseMatchings = 6;
+    if ((change_m < 1e-3 && change_rad < 1e-4) || section_.rounds >= kMaxCoarseMatchings) {
+      coarse_ = false;
+      fine_gate_m_ = options_.max_distance_factor * (options_.radius_m > 0 ? options_.radius_m : set_.radius_m);
+    }
+  }
+
+  last_ = mounting;
+  // The fine stage re-matches at most kMaxFineMatchings times, then keeps its last matches:
+  // the next solve then reproduces its mounting and the estimation ends (a matching of
+  // millimetre-scale noise would otherwise flip forever between near-equal sets).
+  constexpr int kMaxFineMatchings = 6;
+  if (!coarse_) ++fine_rounds_;
+  if (coarse_ || fine_rounds_ <= kMaxFineMatchings) {
+    dense_->place(mounting, laser_dl_);
+    set_ = dense_->match(coarse_, fine_gate_m_);
+  }
+  ++section_.rounds;
+  section_.search_time_s += set_.seconds;
+  section_.points_searched += set_.points_searched;
+  if (!coarse_ && fine_rounds_ <= kMaxFineMatchings && !set_.correspondences.empty()) {  // the fine gate shrinks to max(r/2, 10 σ_MAD)
+    std::vector<double> d;
+    for (const Correspondence& c : set_.correspondences) d.push_back(std::abs(c.distance_m));
+    std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+    fine_gate_m_ = std::max(0.5 * set_.radius_m, std::min(fine_gate_m_, 10.0 * 1.4826 * d[d.size() / 2]));
+  }
+  const int L = static_cast<int>(laser_dl_.size());
+  laser_block_ = nullptr;
+  if (L > 0) {
+    laser_block_ = P->addNuisanceBlock(L, laser_dl_.data(), nullptr, false);
+    // Priors: each offset N(0, σ_prior); their mean held at 0 (the boresight pitch's direction).
+    const double sp = deg2rad(options_.laser_elevation_sigma_deg);
+    for (int i = 0; i < L; ++i) {
+      auto* prior = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{i, L, sp, false});
+      prior->AddParameterBlock(L);
+      prior->SetNumResiduals(1);
+      P->addResidualBlock(prior, 0.0, {laser_block_});
+    }
+    auto* mean = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{0, L, 1e-6, true});
+    mean->AddParameterBlock(L);
+    mean->SetNumResiduals(1);
+    P->addResidualBlock(mean, 0.0, {laser_block_});
+  }
+  const Mat3& R_nom = data_.mounting_used.R_nom;
+  const double loss_scale = coarse_ ? 0.3 * set_.radius_m : -1.0;
+  blocks_.clear();
+  for (const Correspondence& c : set_.correspondences) {
+    std::vector<detail::DenseResidual::Point> pts;
+    auto add = [&](int s, std::size_t i, double w) {
+      detail::DenseResidual::Point q;
+      q.p_m = dense_->p_m(s, i);
+      q.R_mb = dense_->R_mb(s, i);
+      q.r_s = data_.strips[static_cast<std::size_t>(s)].r_s[i];
+      q.laser = L > 0 ? dense_->laser(s, i) : -1;
+      q.weight = w;
+      pts.push_back(q);
+    };
+    add(c.strip_a, c.point_a, 1.0);
+    for (std::size_t j : c.points_b) add(c.strip_b, j, -1.0 / static_cast<double>(c.points_b.size()));
+    auto* cost = new detail::DenseResidual(pts, c.normal, R_nom, set_.sigma_m, L);
+    std::vector<double*> blocks = {P->mounting(), P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
+                                   P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)};
+    if (L > 0) blocks.push_back(laser_block_);
+    blocks_.push_back(loss_scale > 0 ? P->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale) : P->addResidualBlock(cost, set_.sigma_m, blocks));
+  }
+}
+
 void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+  if (options_.dense) {
+    addDenseBlocks(mounting, P);
+    return;
+  }
   if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_);
   detail::Matcher& matcher = *matcher_;
   set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray());
@@ -580,8 +594,12 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   }
 }
 
-void CorrespondenceObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
-                                        const AnalysisOptions& /*analysis*/) {
+void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+                                        const AnalysisOptions& analysis) {
+  if (options_.dense) {
+    finishDense(m0, m, P, analysis);
+    return;
+  }
   detail::Matcher& matcher = *matcher_;
   section_.used = static_cast<int>(set_.correspondences.size());
   section_.radius_m = set_.radius_m;
@@ -620,6 +638,93 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& /*m0*/, con
   }
   stats(all_b, &section_.median_before_m, &section_.rms_before_m);
   stats(all_a, &section_.median_after_m, &section_.rms_after_m);
+}
+
+void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+                                             const AnalysisOptions& /*analysis*/) {
+  section_.used = static_cast<int>(set_.correspondences.size());
+  section_.radius_m = set_.radius_m;
+  section_.sigma_m = set_.sigma_m;
+  section_.spacing_m = set_.spacing_m;
+  section_.pairs = set_.pairs;
+  // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
+  dense_->place(m0, {});
+  std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> dist;
+  std::vector<double> all_b, all_a;
+  for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
+    const Correspondence& c = set_.correspondences[k];
+    Vec3 cb = Vec3::Zero();
+    for (std::size_t j : c.points_b) cb += dense_->x(c.strip_b, j);
+    cb /= static_cast<double>(c.points_b.size());
+    const double d_before = std::abs(c.normal.dot(dense_->x(c.strip_a, c.point_a) - cb));
+    const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
+    dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
+    dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
+    all_b.push_back(d_before);
+    all_a.push_back(d_after);
+  }
+  auto stats = [](std::vector<double> v, double* median, double* rms) {
+    if (v.empty()) return;
+    double ss = 0;
+    for (double x : v) ss += x * x;
+    *rms = std::sqrt(ss / static_cast<double>(v.size()));
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    *median = v[v.size() / 2];
+  };
+  std::map<std::string, int> index;
+  for (std::size_t s = 0; s < data_.strips.size(); ++s) index[data_.strips[s].id] = static_cast<int>(s);
+  for (CorrespondencePairStats& p : section_.pairs) {
+    auto it = dist.find({index[p.strip_a], index[p.strip_b]});
+    if (it == dist.end()) continue;
+    stats(it->second.first, &p.median_before_m, &p.rms_before_m);
+    stats(it->second.second, &p.median_after_m, &p.rms_after_m);
+  }
+  stats(all_b, &section_.median_before_m, &section_.rms_before_m);
+  stats(all_a, &section_.median_after_m, &section_.rms_after_m);
+  // Per-laser elevation offsets: values, σ and correlation with the boresight (a-priori σ of
+  // the distances; the mounting's own σ in the summary eliminates these offsets).
+  const int L = static_cast<int>(laser_dl_.size());
+  if (L == 0 || !laser_block_) return;
+  section_.laser_elevation_deg.assign(static_cast<std::size_t>(L), 0.0);
+  section_.laser_elevation_sigma_deg.assign(static_cast<std::size_t>(L), std::nan(""));
+  section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), std::nan(""));
+  section_.laser_points.assign(static_cast<std::size_t>(L), 0);
+  for (int i = 0; i < L; ++i) section_.laser_elevation_deg[static_cast<std::size_t>(i)] = rad2deg(laser_block_[i]);
+  for (const Correspondence& c : set_.correspondences) {
+    const int la = dense_->laser(c.strip_a, c.point_a);
+    if (la >= 0) ++section_.laser_points[static_cast<std::size_t>(la)];
+    for (std::size_t j : c.points_b) {
+      const int lb = dense_->laser(c.strip_b, j);
+      if (lb >= 0) ++section_.laser_points[static_cast<std::size_t>(lb)];
+    }
+  }
+  ceres::Problem& problem = const_cast<AdjustmentProblem&>(P).ceresProblem();
+  double* mount = const_cast<AdjustmentProblem&>(P).mounting();
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {{laser_block_, laser_block_}};
+  const bool mount_free = !problem.IsParameterBlockConstant(mount);
+  if (mount_free) blocks.push_back({laser_block_, mount}), blocks.push_back({mount, mount});
+  if (!cov.Compute(blocks, &problem)) return;
+  Eigen::MatrixXd C_ll(L, L);
+  cov.GetCovarianceBlock(laser_block_, laser_block_, C_ll.data());  // row-major, symmetric
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> C_lm(L, 6);
+  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C_mm = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>::Zero();
+  if (mount_free) {
+    cov.GetCovarianceBlock(laser_block_, mount, C_lm.data());
+    cov.GetCovarianceBlock(mount, mount, C_mm.data());
+  }
+  for (int i = 0; i < L; ++i) {
+    if (section_.laser_points[static_cast<std::size_t>(i)] == 0) continue;
+    const double v = C_ll(i, i);
+    section_.laser_elevation_sigma_deg[static_cast<std::size_t>(i)] = rad2deg(std::sqrt(std::max(v, 0.0)));
+    double rho = 0;
+    for (int j = 3; j < 6 && mount_free; ++j)
+      if (C_mm(j, j) > 0 && v > 0) rho = std::max(rho, std::abs(C_lm(i, j)) / std::sqrt(v * C_mm(j, j)));
+    section_.laser_boresight_correlation[static_cast<std::size_t>(i)] = rho;
+  }
 }
 
 }  // namespace mountcal

@@ -28,6 +28,7 @@ namespace mountcal {
 
 namespace detail {
 class Matcher;
+class DenseMatcher;
 }
 
 /// Settings of the correspondence search. Every length has a default derived from the point
@@ -54,11 +55,30 @@ struct CorrespondenceOptions {
   /// A neighbourhood whose points lie along a line (√(λ_mid/λ_max) below this: one scan line of
   /// a multi-beam scanner) has no plane: rejected as rough [-].
   double min_spread_ratio = 0.1;
-  /// Dense matching for small overlaps of dense multi-beam strips (a UAV pass over one
-  /// object): every overlap point of A (strided to at most 4 × budget per pair) instead of one
-  /// sample per 2 r cell, and B's plane only where its neighbours spread no more than r
-  /// (√λ_max ≤ r: a local plane, not a surface bent over metres).
+  /// Dense matching, for passes of a dense multi-beam scanner over one object (a UAV over a
+  /// truck): both directions of every strip pair (each strip's points on the other's planes),
+  /// every point a candidate (evenly strided to `budget` per direction), k-d trees of the
+  /// points at the current estimate (mounting and intrinsics) in every round, and two stages:
+  ///  - coarse, until the mounting stops moving (< 1 mm, 1e-4 rad) or for 6 rounds: the
+  ///    plane of the 30 nearest within `coarse_radius_m`, σ ≤ max_roughness_factor ×
+  ///    coarse radius, normals within 2 × max_normal_angle_deg, budget / 4 samples, distance gate
+  ///    2 × apriori_misalignment_m, robust loss bending at 0.3 × coarse radius;
+  ///  - fine: the plane of the `max_neighbours` nearest, spread ≤ radius_m (√λ_max), σ ≤
+  ///    max_roughness_factor × radius_m, √(λ_mid/λ_max) ≥ min_spread_ratio for both strips'
+  ///    planes, normals within max_normal_angle_deg, a distance gate starting at
+  ///    max_distance_factor × radius_m and shrinking to max(r/2, 10 σ_MAD), the solver's loss;
+  ///    at most 6 fine matchings, then the last matches are kept until the solve settles.
+  /// The residual is exact (no linearisation about the mounting used), with analytic
+  /// derivatives.
   bool dense = false;
+  double coarse_radius_m = 1.0;   ///< dense mode's coarse stage [m]
+  /// Dense mode: strips are thinned to one point per cube of this size before matching (the
+  /// first in file order); 0: every point [m].
+  double thin_cell_m = 0.0;
+  /// Dense mode, multi-beam strips with laser ids (StripData::laser): estimate one elevation
+  /// offset per laser (SPEC §2 "per-laser elevation offsets"), each with a prior of this σ and
+  /// their mean held at zero (a common offset is the boresight pitch's); 0: not estimated [deg].
+  double laser_elevation_sigma_deg = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -93,6 +113,7 @@ struct CorrespondenceSet {
   double max_distance_m = 0.0;  ///< largest distance gate used [m]
   double seconds = 0.0;         ///< wall time [s]
   std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
+  int tree_builds = 0;              ///< k-d trees built (dense mode: rebuilt only after a move) [-]
 };
 
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
@@ -111,6 +132,11 @@ struct CorrespondenceSection {
   double median_before_m = 0, rms_before_m = 0, median_after_m = 0, rms_after_m = 0;  ///< |distance| [m]
   double search_time_s = 0;  ///< all matchings [s]
   std::size_t points_searched = 0;
+  /// Dense mode with laser_elevation_sigma_deg > 0: per laser id, the estimated elevation
+  /// offset and its σ [deg] (σ NaN for a laser no used correspondence saw), and the largest
+  /// |correlation| of each with a boresight angle.
+  std::vector<double> laser_elevation_deg, laser_elevation_sigma_deg, laser_boresight_correlation;
+  std::vector<int> laser_points;  ///< used correspondences' points per laser (A's and B's)
 };
 
 class CorrespondenceObservations final : public ObservationSource {
@@ -124,6 +150,8 @@ class CorrespondenceObservations final : public ObservationSource {
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
               const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  bool settled() const override;
+  void solved(const AdjustmentProblem& problem) override;
   const CorrespondenceSection& section() const { return section_; }
   const CorrespondenceSet& lastMatching() const { return set_; }
 
@@ -133,6 +161,16 @@ class CorrespondenceObservations final : public ObservationSource {
   CorrespondenceSet set_;
   std::vector<int> blocks_;
   std::unique_ptr<detail::Matcher> matcher_;
+  std::unique_ptr<detail::DenseMatcher> dense_;
+  double* laser_block_ = nullptr;  // this round's per-laser elevation block (dense mode)
+  std::vector<double> laser_dl_;   // its values, carried from solve to solve [rad]
+  bool coarse_ = true;
+  std::array<double, 6> last_{};
+  double fine_gate_m_ = 0.0;
+  int fine_rounds_ = 0;
+  void addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem);
+  void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
+                   const AdjustmentProblem& problem, const AnalysisOptions& analysis);
   CorrespondenceSection section_;
 };
 

@@ -1,0 +1,84 @@
+#pragma once
+// Internal (not installed): the dense matching of CorrespondenceOptions::dense and its exact
+// point-to-plane residual with analytic derivatives.
+
+#include <ceres/ceres.h>
+#include <flann/flann.hpp>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "mountcal/data.hpp"
+#include "mountcal/sensor_model.hpp"
+#include "mountcal/methods/correspondence/correspondences.hpp"
+
+namespace mountcal::detail {
+
+/// Matches every strip pair in both directions at the current estimate.
+class DenseMatcher {
+ public:
+  /// Throws InvalidInput for strips without per-point poses or a trajectory, inconsistent
+  /// lengths, or laser ids on some strips only.
+  DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& o);
+
+  /// The positions of every point at mounting m (MountingIndex order) and laser offsets dl.
+  void place(const std::array<double, 6>& m, const std::vector<double>& dl);
+  const Vec3& x(int s, std::size_t i) const { return x_[static_cast<std::size_t>(s)][i]; }
+  const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][i]; }
+  const Vec3& p_m(int s, std::size_t i) const { return p_m_[static_cast<std::size_t>(s)][i]; }
+  int laser(int s, std::size_t i) const {
+    const auto& l = data_.strips[static_cast<std::size_t>(s)].laser;
+    return l.empty() ? -1 : static_cast<int>(l[i]);
+  }
+  int laserCount() const { return lasers_; }
+
+  /// One matching at the positions of the last place(): coarse or fine stage, with the fine
+  /// stage's current distance gate [m].
+  CorrespondenceSet match(bool coarse, double fine_gate_m);
+
+ private:
+  const CalibrationData& data_;
+  CorrespondenceOptions o_;
+  int lasers_ = 0;
+  std::vector<std::vector<Vec3>> x_, p_m_;
+  std::vector<std::vector<Mat3>> R_mb_;
+  Vec3 origin_ = Vec3::Zero();
+  double spacing_ = 0.0;  // the strips' largest plan spacing at the mounting used [m]
+  std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<float>>>> tree_;
+  std::vector<std::vector<float>> ref_;
+  std::vector<std::vector<std::size_t>> keep_;  // each strip's points after thinning  // the trees' points (this round's positions − origin_)
+};
+
+/// r = n · [(x_A + o_A) − mean_j (x_Bj + o_B)] / σ with x = p_m + R_mb (R_zyx(b) R_nom r(δ) + a),
+/// exact, with analytic derivatives. Parameter blocks: mounting (6), o_A (3), o_B (3), and the
+/// per-laser elevation offsets (L) when estimated.
+class DenseResidual final : public ceres::CostFunction {
+ public:
+  struct Point {
+    Vec3 p_m, r_s;
+    Mat3 R_mb;
+    int laser = -1;
+    double weight = 1.0;  // 1 for A, −1/k for each of B's k points
+  };
+  DenseResidual(const std::vector<Point>& points, const Vec3& normal, const Mat3& R_nom, double sigma_m, int lasers);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  // Σ w n·x = c + h·a + Σ_l [cos δ_l tr(G_lᵀ R_b) + sin δ_l tr(U_lᵀ R_b)], exactly, with
+  // c = Σ w n·p_m, h = Σ w R_mbᵀ n, and per laser l (δ = 0 for points without one)
+  // G_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom r)ᵀ, U_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom u)ᵀ (u: elevationTangent).
+  struct LaserTerm {
+    int laser = -1;
+    Mat3 G = Mat3::Zero(), U = Mat3::Zero();
+  };
+  double c_ = 0.0;
+  Vec3 h_ = Vec3::Zero();
+  std::vector<LaserTerm> terms_;
+  Vec3 n_;
+  Mat3 R_nom_;
+  double inv_sigma_;
+  int lasers_;
+};
+
+}  // namespace mountcal::detail
