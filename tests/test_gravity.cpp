@@ -3,6 +3,8 @@
 // repository's example jobs. Read from ../shared/data; a failure, not a skip, in CI.
 #include <gtest/gtest.h>
 
+#include "real_data.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -22,17 +24,7 @@ using namespace mountcal;
 namespace fs = std::filesystem;
 
 namespace {
-std::string dataFile(const std::string& rel) { return std::string(MOUNTCAL_SHARED_DIR) + "/data/" + rel; }
 std::string exampleJob(const std::string& name) { return std::string(MOUNTCAL_SOURCE_DIR) + "/examples/gravity/" + name + ".json"; }
-bool inCi() {
-  const char* ci = std::getenv("CI");
-  return ci && *ci && std::string(ci) != "false" && std::string(ci) != "0";
-}
-#define REQUIRE_DATA(rel)                                                                                     \
-  if (!fs::exists(dataFile(rel))) {                                                                           \
-    if (inCi()) FAIL() << "real data not found in CI: " << dataFile(rel) << " (../shared must be beside the repository)"; \
-    GTEST_SKIP() << "real data not found: " << dataFile(rel) << " (needs ../shared beside the repository)";     \
-  }
 }  // namespace
 
 // Hand derivation: yaw 90° (counter-clockwise from East) faces North; SPEC's body x forward →
@@ -151,7 +143,7 @@ TEST(PerPointPoses, SplitByRangeAndByGap) {
 // Calibration of each set from the repository's job (boresight and per-laser elevation
 // offsets, dense correspondences): the pass-to-pass discrepancy (median) before and after,
 // held below ARMO's figures (0.023 / 0.032 / 0.011 m; README table; measured 2026-11-22:
-// Truck 0.401 → 0.0214, Car 0.232 → 0.0213, Tent 0.0220 → 0.0105 m).
+// Truck 0.401 → 0.0217, Car 0.232 → 0.0211, Tent 0.0220 → 0.0105 m).
 struct GravityCase {
   const char* name;
   const char* file;

@@ -2,6 +2,8 @@
 // developer's machine, a failure when absent in CI (CI=true, as `.ci/run` runs).
 #include <gtest/gtest.h>
 
+#include "real_data.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <cstdlib>
 #include <cstring>
@@ -18,18 +20,6 @@
 using namespace mountcal;
 namespace fs = std::filesystem;
 
-namespace {
-std::string dataFile(const std::string& rel) { return std::string(MOUNTCAL_SHARED_DIR) + "/data/" + rel; }
-bool inCi() {
-  const char* ci = std::getenv("CI");
-  return ci && *ci && std::string(ci) != "false" && std::string(ci) != "0";
-}
-#define REQUIRE_DATA(rel)                                                                                     \
-  if (!fs::exists(dataFile(rel))) {                                                                           \
-    if (inCi()) FAIL() << "real data not found in CI: " << dataFile(rel) << " (../shared must be beside the repository)"; \
-    GTEST_SKIP() << "real data not found: " << dataFile(rel) << " (needs ../shared beside the repository)";     \
-  }
-}  // namespace
 
 TEST(RealData, PdalTwoPointSbetReproducesTheExpectedValues) {
   REQUIRE_DATA("pdal/2-points.sbet");

@@ -48,6 +48,7 @@ bool StochasticOptions::IsValid(std::string* error) const {
 
 bool SolverOptions::IsValid(std::string* error) const {
   if (max_iterations < 1) return failWith(error, "max_iterations must be at least 1");
+  if (max_iterations_per_matching < 0) return failWith(error, "max_iterations_per_matching must be >= 0");
   if (!(function_tolerance >= 0) || !(parameter_tolerance >= 0) || !(gradient_tolerance >= 0)) return failWith(error, "tolerances must be non-negative");
   if (!(max_solver_time_s > 0)) return failWith(error, "max_solver_time_s must be positive");
   if (num_threads < 1) return failWith(error, "num_threads must be at least 1");
@@ -384,7 +385,8 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       } else {
         so.linear_solver_type = ceres::DENSE_QR;
       }
-      so.max_num_iterations = o.max_iterations;
+      const bool capped = any_rematch && o.max_iterations_per_matching > 0 && o.max_iterations_per_matching < o.max_iterations;
+      so.max_num_iterations = capped ? o.max_iterations_per_matching : o.max_iterations;
       so.function_tolerance = o.function_tolerance;
       so.parameter_tolerance = o.parameter_tolerance;
       so.gradient_tolerance = o.gradient_tolerance;
@@ -432,7 +434,16 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       if (!settled) history.clear();  // a coarse stage's fixed points are not the fine stage's
       else history.push_back(m);
       m = m_new;
-      if (!any_rematch || (change < 1.0 && settled)) break;
+      const bool done = !any_rematch || (change < 1.0 && settled);
+      if ((done || round + 1 >= o.max_rematch_rounds) && capped && cs.termination_type == ceres::NO_CONVERGENCE) {
+        t_mark = elapsed();
+        so.max_num_iterations = o.max_iterations;  // the estimate's last solve: to convergence
+        ceres::Solve(so, &problem, &cs);
+        for (ObservationSource* s : sources) s->solved(*P);
+        iterations += static_cast<int>(cs.iterations.size()) - 1;
+        S.solve_time_s += elapsed() - t_mark;
+      }
+      if (done) break;
     }
     return true;
   };

@@ -91,7 +91,7 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
   const std::vector<double> lasers = readResultLaserElevation(result_path);
   progress("rewriting the strips");
   const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers);
-  std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu strips, %llu points; "
+  std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
               "largest shift %.3f m; wrote %s\n",
               m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
               static_cast<unsigned long long>(st.points), st.max_shift_m, out.c_str());

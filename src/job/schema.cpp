@@ -280,7 +280,7 @@ Job readJob(const std::string& path) {
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
                                         "scale_covariance_by_variance_factor", "max_rematch_rounds",
-                                        "rematch_tolerance_m", "rematch_tolerance_deg"});
+                                        "rematch_tolerance_m", "rematch_tolerance_deg", "max_iterations_per_matching"});
     o.max_iterations = s.integer("max_iterations", o.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", "trivial");
     if (loss == "trivial") o.loss = LossType::kTrivial;
@@ -293,6 +293,7 @@ Job readJob(const std::string& path) {
     o.scale_covariance_by_variance_factor = s.boolean("scale_covariance_by_variance_factor", o.scale_covariance_by_variance_factor);
     o.max_rematch_rounds = s.integer("max_rematch_rounds", o.max_rematch_rounds, 1, 1000);
     o.rematch_tolerance_m = s.num("rematch_tolerance_m", o.rematch_tolerance_m);
+    o.max_iterations_per_matching = s.integer("max_iterations_per_matching", o.max_iterations_per_matching, 0, 100000);
     o.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(o.rematch_tolerance_rad)));
   }
   std::string why;

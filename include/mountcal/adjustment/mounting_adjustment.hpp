@@ -88,6 +88,10 @@ struct SolverOptions {
   double rematch_tolerance_rad = 2e-7;
   /// …or by less than this fraction of each parameter's standard deviation [-].
   double rematch_sigma_fraction = 0.1;
+  /// With re-matching sources: at most this many iterations per solve between matchings (the
+  /// next matching moves the optimum anyway); the solve that ends the estimation is continued
+  /// to convergence (up to max_iterations). 0: max_iterations in every solve [-].
+  int max_iterations_per_matching = 0;
   bool IsValid(std::string* error) const;
 };
 

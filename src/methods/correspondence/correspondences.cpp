@@ -4,6 +4,7 @@
 #include <flann/flann.hpp>
 
 #include <algorithm>
+#include <functional>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -601,6 +602,10 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
     return;
   }
   detail::Matcher& matcher = *matcher_;
+  fillSection(P, [&](int s, std::size_t i) -> const Vec3& { return matcher.x0(s)[i]; });
+}
+
+void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const std::function<const Vec3&(int, std::size_t)>& before) {
   section_.used = static_cast<int>(set_.correspondences.size());
   section_.radius_m = set_.radius_m;
   section_.sigma_m = set_.sigma_m;
@@ -611,9 +616,9 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
   for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
     const Correspondence& c = set_.correspondences[k];
     Vec3 cb = Vec3::Zero();
-    for (std::size_t j : c.points_b) cb += matcher.x0(c.strip_b)[j];
+    for (std::size_t j : c.points_b) cb += before(c.strip_b, j);
     cb /= static_cast<double>(c.points_b.size());
-    const double d_before = std::abs(c.normal.dot(matcher.x0(c.strip_a)[c.point_a] - cb));
+    const double d_before = std::abs(c.normal.dot(before(c.strip_a, c.point_a) - cb));
     const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
     dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
     dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
@@ -642,45 +647,9 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
 
 void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
                                              const AnalysisOptions& /*analysis*/) {
-  section_.used = static_cast<int>(set_.correspondences.size());
-  section_.radius_m = set_.radius_m;
-  section_.sigma_m = set_.sigma_m;
-  section_.spacing_m = set_.spacing_m;
-  section_.pairs = set_.pairs;
   // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
   dense_->place(m0, {});
-  std::map<std::pair<int, int>, std::pair<std::vector<double>, std::vector<double>>> dist;
-  std::vector<double> all_b, all_a;
-  for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
-    const Correspondence& c = set_.correspondences[k];
-    Vec3 cb = Vec3::Zero();
-    for (std::size_t j : c.points_b) cb += dense_->x(c.strip_b, j);
-    cb /= static_cast<double>(c.points_b.size());
-    const double d_before = std::abs(c.normal.dot(dense_->x(c.strip_a, c.point_a) - cb));
-    const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
-    dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
-    dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
-    all_b.push_back(d_before);
-    all_a.push_back(d_after);
-  }
-  auto stats = [](std::vector<double> v, double* median, double* rms) {
-    if (v.empty()) return;
-    double ss = 0;
-    for (double x : v) ss += x * x;
-    *rms = std::sqrt(ss / static_cast<double>(v.size()));
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    *median = v[v.size() / 2];
-  };
-  std::map<std::string, int> index;
-  for (std::size_t s = 0; s < data_.strips.size(); ++s) index[data_.strips[s].id] = static_cast<int>(s);
-  for (CorrespondencePairStats& p : section_.pairs) {
-    auto it = dist.find({index[p.strip_a], index[p.strip_b]});
-    if (it == dist.end()) continue;
-    stats(it->second.first, &p.median_before_m, &p.rms_before_m);
-    stats(it->second.second, &p.median_after_m, &p.rms_after_m);
-  }
-  stats(all_b, &section_.median_before_m, &section_.rms_before_m);
-  stats(all_a, &section_.median_after_m, &section_.rms_after_m);
+  fillSection(P, [&](int s, std::size_t i) -> const Vec3& { return dense_->x(s, i); });
   // Per-laser elevation offsets: values, σ and correlation with the boresight (a-priori σ of
   // the distances; the mounting's own σ in the summary eliminates these offsets).
   const int L = static_cast<int>(laser_dl_.size());

@@ -264,10 +264,17 @@ DenseResidual::DenseResidual(const std::vector<Point>& points, const Vec3& norma
 bool DenseResidual::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const double* m = parameters[0];
   const Vec3 b(m[3], m[4], m[5]), a(m[0], m[1], m[2]);
-  const Mat3 Rb = R_zyx(b);
+  // Every residual of one evaluation shares the boresight: R_zyx(b) and its derivatives once.
+  thread_local Vec3 cached_b = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  thread_local Mat3 Rb;
+  thread_local std::array<Mat3, 3> dR;
+  if (!(b == cached_b)) {
+    Rb = R_zyx(b);
+    dR = dRzyx(b);
+    cached_b = b;
+  }
   const double* dl = lasers_ > 0 ? parameters[3] : nullptr;
   const bool jac = jacobians != nullptr;
-  const std::array<Mat3, 3> dR = jac ? dRzyx(b) : std::array<Mat3, 3>{};
   double v = c_ + h_.dot(a);
   Eigen::Matrix<double, 1, 6> jm = Eigen::Matrix<double, 1, 6>::Zero();
   if (jac) jm.head<3>() = h_.transpose();

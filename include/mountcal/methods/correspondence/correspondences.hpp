@@ -17,6 +17,7 @@
 /// `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 3, 3>`.
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -171,6 +172,9 @@ class CorrespondenceObservations final : public ObservationSource {
   void addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem);
   void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
                    const AdjustmentProblem& problem, const AnalysisOptions& analysis);
+  // The section's distances: before from `before(strip, point)` (positions at the mounting
+  // used), after from the residuals.
+  void fillSection(const AdjustmentProblem& problem, const std::function<const Vec3&(int, std::size_t)>& before);
   CorrespondenceSection section_;
 };
 
