@@ -174,6 +174,20 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
       }
       h << "</table>";
     }
+    if (!ev->discrepancy_after.empty()) {
+      h << "<p>Pass-to-pass discrepancy: each point of the smaller strip against the local plane of the larger one "
+           "(DiscrepancyOptions defaults), |distance| [m]:</p><table><tr><th>query / reference</th><th>points</th><th>used</th>"
+           "<th>median before</th><th>median after</th><th>RMS before</th><th>RMS after</th><th>P90 before</th><th>P90 after</th></tr>";
+      for (const PairDiscrepancy& a : ev->discrepancy_after) {
+        DiscrepancyStats b;
+        for (const PairDiscrepancy& x : ev->discrepancy_before)
+          if (x.query == a.query && x.reference == a.reference) b = x.stats;
+        h << "<tr><td class=l>" << esc(a.query) << " / " << esc(a.reference) << "</td><td>" << a.stats.queries << "</td><td>" << a.stats.used
+          << "</td><td>" << f(b.median_m) << "</td><td>" << f(a.stats.median_m) << "</td><td>" << f(b.rms_m) << "</td><td>"
+          << f(a.stats.rms_m) << "</td><td>" << f(b.p90_m) << "</td><td>" << f(a.stats.p90_m) << "</td></tr>";
+      }
+      h << "</table>";
+    }
   }
   h << "<pre>" << esc(S.FullReport()) << "</pre></body></html>\n";
   return h.str();

@@ -138,6 +138,16 @@ TEST(PerPointPoses, SplitByRangeAndByGap) {
   }
   job.strips[1].split = StripSplit{"noSuchField", 0, 1, 0, 0.0};
   EXPECT_THROW(loadJob(job), FileError);
+  // A laser field whose values are no laser of the HDL-32E: refused naming the record.
+  Job lasers = readJob(exampleJob("truck"));
+  lasers.laser_field = "intensity";
+  try {
+    loadJob(lasers);
+    FAIL() << "intensities are not laser ids";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("record"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("lasers of the sensor"), std::string::npos) << e.what();
+  }
 }
 
 // Calibration of each set from the repository's job (boresight and per-laser elevation

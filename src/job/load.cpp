@@ -95,15 +95,35 @@ class SplitFilter {
   throw FileError(js.path, "field '" + js.split.field + "'", "strip '" + js.id + "' of " + job.path + " selects " + what + ", which holds no record");
 }
 
+/// Each point's laser id from the job's sensor.laser_field, checked against the sensor's lasers.
+class LaserIds {
+ public:
+  LaserIds(const io::LasHeader& h, const Job& job, const JobStrip& js)
+      : field_(h, js.path, job.laser_field), path_(js.path),
+        lasers_(job.sensor.type == SensorType::kMultiBeam ? job.sensor.multibeam.laserCount() : 0) {}
+  std::uint16_t id(const io::LasPoint& p, std::uint64_t record) const {
+    const double id = field_.value(p);
+    if (!(id >= 0 && id < lasers_ && id == std::floor(id))) {
+      throw FileError(path_, "record " + std::to_string(record), "laser id " + std::to_string(id) + " in field '" + field_.name() +
+                                                                    "' is not one of the " + std::to_string(lasers_) + " lasers of the sensor");
+    }
+    return static_cast<std::uint16_t>(id);
+  }
+
+ private:
+  io::PointFieldReader field_;
+  std::string path_;
+  int lasers_;
+};
+
 /// A strip whose points carry their own sensor pose (JobStrip of a job with "poses").
 StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
   io::LasReader reader(js.path);
   const io::LasHeader& h = reader.header();
   const io::PoseFieldReader poses(h, js.path, job.pose_fields);
   SplitFilter filter(h, js);
-  std::unique_ptr<io::PointFieldReader> laser;
-  if (!job.laser_field.empty()) laser = std::make_unique<io::PointFieldReader>(h, js.path, job.laser_field);
-  const int lasers = job.sensor.type == SensorType::kMultiBeam ? job.sensor.multibeam.laserCount() : 0;
+  std::unique_ptr<LaserIds> laser;
+  if (!job.laser_field.empty()) laser = std::make_unique<LaserIds>(h, job, js);
   StripData s;
   s.id = js.id;
   std::vector<io::LasPoint> chunk;
@@ -123,14 +143,7 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
       s.x_m.push_back(x);
       s.r_s.push_back(r);
       s.poses.push_back(pose);
-      if (laser) {
-        const double id = laser->value(p);
-        if (!(id >= 0 && id < lasers && id == std::floor(id))) {
-          throw FileError(js.path, "record " + std::to_string(rec), "laser id " + std::to_string(id) + " in field '" + job.laser_field +
-                                                                       "' is not one of the " + std::to_string(lasers) + " lasers of the sensor");
-        }
-        s.laser.push_back(static_cast<std::uint16_t>(id));
-      }
+      if (laser) s.laser.push_back(laser->id(p, rec));
     }
   }
   if (s.time_s.empty()) {
@@ -149,6 +162,8 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
                                              " has no GPS time; a calibration needs formats 1, 3 or 6-8");
   }
   SplitFilter filter(h, js);
+  std::unique_ptr<LaserIds> laser;
+  if (!job.laser_field.empty()) laser = std::make_unique<LaserIds>(h, job, js);
   StripData s;
   s.id = js.id;
   s.time_s.reserve(static_cast<std::size_t>(h.point_count));
@@ -177,6 +192,7 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
         throw FileError(js.path, "record " + std::to_string(record), buf);
       }
       s.time_s.push_back(t);
+      if (laser) s.laser.push_back(laser->id(p, record));
       const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
       if (xyz_crs) xyz_crs->insert(xyz_crs->end(), {x.x(), x.y(), x.z()});
       s.x_m.push_back(frame.toLocal(x));

@@ -54,7 +54,7 @@ struct Job {
   std::string sensor_model;          ///< "VLP-16", "HDL-32E", "custom" (a lasers table) or empty
   /// Multi-beam: the LAS field holding each point's laser id (`sensor.laser_field`, e.g.
   /// "user_data" in the Gravity files); empty: not read.
-  std::string laser_field;
+  std::string laser_field;  ///< read for LAS strips, with a trajectory or per-point poses
   Vec3 nominal_rotation_deg = Vec3::Zero();
   MountingParameters mounting_used;
   std::vector<JobStrip> strips;
