@@ -180,20 +180,31 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
   return j.dump(2) + "\n";
 }
 
-std::vector<double> readResultLaserElevation(const std::string& path) {
+namespace {
+/// A result file parsed; FileError naming the file (and the byte) when it cannot be read.
+json readResultFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw FileError(path, "", "cannot open the result file");
-  json j;
   try {
-    j = json::parse(in);
+    return json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
   } catch (const json::exception& e) {
     throw FileError(path, "", std::string("invalid JSON: ") + e.what());
   }
+}
+}  // namespace
+
+std::vector<double> readResultLaserElevation(const std::string& path) {
+  const json j = readResultFile(path);
   std::vector<double> out;
   if (!j.is_object() || !j.contains("intrinsics") || j["intrinsics"].is_null()) return out;
-  const json& a = j["intrinsics"].is_object() && j["intrinsics"].contains("laser_elevation_offset_deg") ? j["intrinsics"]["laser_elevation_offset_deg"] : json();
-  if (!a.is_array() || a.size() > 4096) throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected an array of numbers, one per laser");
-  for (const json& v : a) {
+  const json& intrinsics = j["intrinsics"];
+  if (!intrinsics.is_object() || !intrinsics.contains("laser_elevation_offset_deg") || !intrinsics["laser_elevation_offset_deg"].is_array() ||
+      intrinsics["laser_elevation_offset_deg"].size() > 4096) {
+    throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected an array of numbers, one per laser");
+  }
+  for (const json& v : intrinsics["laser_elevation_offset_deg"]) {
     if (!v.is_number() || !std::isfinite(v.get<double>()) || std::abs(v.get<double>()) > 10) {
       throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected offsets in degrees within ±10");
     }
@@ -203,16 +214,7 @@ std::vector<double> readResultLaserElevation(const std::string& path) {
 }
 
 MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "", "cannot open the result file");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
-  } catch (const json::exception& e) {
-    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
-  }
+  const json j = readResultFile(path);
   if (!j.is_object() || !j.contains("mounting")) throw FileError(path, "field 'mounting'", "missing");
   const detail::Fields m(path, j["mounting"], "mounting", {"lever_arm_m", "boresight_deg"});
   MountingParameters out = MountingParameters::fromDegrees(m.vec3("lever_arm_m"), m.vec3("boresight_deg"));

@@ -118,7 +118,6 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
     for (std::size_t j = 0; j < kept.size(); ++j) Eigen::Map<Eigen::Vector3f>{&ref_[s][3 * j]} = (x_[s][kept[j]] - origin_).cast<float>();
     tree_[s] = std::make_unique<Tree>(flann::Matrix<float>(ref_[s].data(), kept.size(), 3), flann::KDTreeSingleIndexParams(12));
     tree_[s]->buildIndex();
-    ++out.tree_builds;
   }
   const auto& tree = tree_;
   const double spacing = spacing_;

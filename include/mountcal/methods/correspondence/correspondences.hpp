@@ -114,7 +114,6 @@ struct CorrespondenceSet {
   double max_distance_m = 0.0;  ///< largest distance gate used [m]
   double seconds = 0.0;         ///< wall time [s]
   std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
-  int tree_builds = 0;              ///< k-d trees built (dense mode: rebuilt only after a move) [-]
 };
 
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
