@@ -168,7 +168,9 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
   };
   const std::string las = slurp((dir / "s1.las").string());
   writeFile("truncated.las", las.substr(0, las.size() / 2));
-  writeFile("points.laz", las);
+  std::string flagged = las;  // the compression bit without a LASzip VLR
+  flagged[104] = static_cast<char>(flagged[104] | 0x80);
+  writeFile("points.laz", flagged);
   writeFile("notlas.las", "this is not a LAS file, just text that is long enough to hold a header ............"
                           "..........................................................................................."
                           "...........................................................................");
@@ -186,7 +188,7 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("wrongtype.json", "\"max_iterations\": 100", "\"max_iterations\": \"many\""), "max_iterations"},
       {variant("notraj.json", "\"traj.csv\"", "\"nowhere.csv\""), "nowhere.csv"},
       {variant("trunc.json", "\"s1.las\"", "\"truncated.las\""), "truncated.las"},
-      {variant("laz.json", "\"s1.las\"", "\"points.laz\""), "LAZ"},
+      {variant("laz.json", "\"s1.las\"", "\"points.laz\""), "points.laz:byte 104: the point format says compressed (LAZ)"},
       {variant("notlas.json", "\"s1.las\"", "\"notlas.las\""), "notlas.las"},
       {variant("unsorted.json", "\"traj.csv\"", "\"unsorted.csv\""), "unsorted.csv:line 3"},
       {variant("nan.json", "\"traj.csv\"", "\"nan.csv\""), "nan.csv:line 3"},

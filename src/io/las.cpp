@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <exception>
 #include <random>
+#include <thread>
 
 #include "mountcal/error.hpp"
 
@@ -62,16 +64,34 @@ void setScanAngleDeg(const LasHeader& h, double deg, LasPoint* p) {
 }
 
 // ------------------------------------------------------------------------------------------
+/// A LAZ file's decoding state: chunks are decoded a few at a time (one per core).
+struct LasReader::Laz {
+  LazVlr vlr;
+  std::vector<LazChunk> chunks;
+  std::size_t next_chunk = 0;
+  std::vector<std::uint8_t> decoded;  // records of the chunks decoded last
+  std::size_t decoded_points = 0, position = 0;
+};
+
+namespace {
+constexpr std::uint64_t kMaxChunkRecordBytes = 256ull << 20;  // a decoded chunk must fit in this
+unsigned decodeThreads() { return std::max(1u, std::min(8u, std::thread::hardware_concurrency())); }
+}  // namespace
+
+LasReader::~LasReader() = default;
+const LazVlr* LasReader::laz() const { return laz_ ? &laz_->vlr : nullptr; }
+const std::vector<LazChunk>& LasReader::lazChunks() const {
+  static const std::vector<LazChunk> none;
+  return laz_ ? laz_->chunks : none;
+}
+
 LasReader::LasReader(const std::string& path) : path_(path) {
-  if (path.size() >= 4) {
-    std::string ext = path.substr(path.size() - 4);
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (ext == ".laz") throw FileError(path, "", "LAZ is not supported; decompress it first (e.g. laszip or pdal translate)");
-  }
   in_.open(path, std::ios::binary);
   if (!in_) throw FileError(path, "", "cannot open for reading");
   in_.seekg(0, std::ios::end);
   const std::uint64_t file_size = static_cast<std::uint64_t>(in_.tellg());
+  if (!in_ || in_.tellg() < 0) throw FileError(path, "", "cannot determine the file size (not a regular file?)");
+  file_size_ = file_size;
   in_.seekg(0);
   char h[375] = {};
   if (file_size < 227) throw FileError(path, byteAt(file_size), "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
@@ -93,8 +113,8 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   point_offset_ = get<std::uint32_t>(h, 96);
   const std::uint32_t n_vlr = get<std::uint32_t>(h, 100);
   const std::uint8_t raw_format = get<std::uint8_t>(h, 104);
-  if (raw_format & 0xC0) throw FileError(path, byteAt(104), "point format has the compression bits set: this is a LAZ file; decompress it first");
-  header_.point_format = raw_format;
+  const bool compressed_bit = (raw_format & 0xC0) != 0;  // bit 7 (bit 6 in old LASzip files): LAZ
+  header_.point_format = raw_format & 0x3F;
   header_.point_record_length = get<std::uint16_t>(h, 105);
   std::uint64_t count = get<std::uint32_t>(h, 107);
   for (int r = 0; r < 5; ++r) header_.points_by_return[r] = get<std::uint32_t>(h, 111 + 4 * r);
@@ -155,8 +175,14 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     if (pos + kVlrHeader + len > point_offset_) throw FileError(path, byteAt(pos), "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
     vlr.data.resize(len);
     in_.read(reinterpret_cast<char*>(vlr.data.data()), len);
-    if (vlr.user_id == "laszip encoded") throw FileError(path, byteAt(pos), "this is a LAZ file (laszip VLR); LAZ is not supported, decompress it first");
-    header_.vlrs.push_back(std::move(vlr));
+    if (vlr.user_id == kLazVlrUserId && vlr.record_id == kLazVlrRecordId) {
+      // The LASzip VLR describes the compression; it is not part of the LAS content.
+      if (laz_) throw FileError(path, byteAt(pos), "a second LASzip VLR");
+      laz_ = std::make_unique<Laz>();
+      laz_->vlr = parseLazVlr(vlr.data, header_.point_format, header_.point_record_length, path);
+    } else {
+      header_.vlrs.push_back(std::move(vlr));
+    }
     pos += kVlrHeader + len;
   }
   if (pos < point_offset_) {
@@ -164,11 +190,12 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     in_.seekg(static_cast<std::streamoff>(pos));
     in_.read(reinterpret_cast<char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
   }
+  if (compressed_bit && !laz_) throw FileError(path, byteAt(104), "the point format says compressed (LAZ) but there is no LASzip VLR");
   // Checked by division: count · length can overflow 64 bits in a corrupt header.
-  if (point_offset_ > file_size || count > (file_size - point_offset_) / header_.point_record_length) {
+  if (!laz_ && (point_offset_ > file_size || count > (file_size - point_offset_) / header_.point_record_length)) {
     throw FileError(path, byteAt(file_size), "truncated: the header announces " + std::to_string(count) + " points of " + std::to_string(header_.point_record_length) + " bytes from byte " + std::to_string(point_offset_) + ", but the file has " + std::to_string(file_size) + " bytes");
   }
-  const std::uint64_t points_end = point_offset_ + count * header_.point_record_length;
+  const std::uint64_t points_end = laz_ ? point_offset_ : point_offset_ + count * header_.point_record_length;
   // EVLRs.
   if (n_evlr > 0) {
     if (evlr_start < points_end || evlr_start > file_size) throw FileError(path, byteAt(235), "start of the first EVLR is invalid");
@@ -190,8 +217,141 @@ LasReader::LasReader(const std::string& path) : path_(path) {
       pos += kEvlrHeader + len;
     }
   }
+  if (laz_) openLaz(n_evlr > 0 ? evlr_start : file_size);
   in_.clear();
   in_.seekg(static_cast<std::streamoff>(point_offset_));
+}
+
+void LasReader::openLaz(std::uint64_t data_end) {
+  const LazVlr& v = laz_->vlr;
+  const std::uint64_t count = header_.point_count, len = header_.point_record_length;
+  auto readAt = [&](std::uint64_t at, void* dst, std::size_t n) {
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(at));
+    in_.read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
+    return static_cast<std::size_t>(in_.gcount()) == n;
+  };
+  if (data_end < point_offset_ || data_end > file_size_) data_end = file_size_;
+  if (v.compressor == 1) {  // one stream from the point data to the EVLRs or the end
+    if (count > kMaxChunkRecordBytes / len)
+      throw FileError(path_, "", "point-wise compressed (compressor 1) file of " + std::to_string(count) + " points: one stream this large is not supported");
+    if (count > 0) laz_->chunks.push_back({point_offset_, data_end - point_offset_, count});
+    return;
+  }
+  if (file_size_ < point_offset_ + 8) throw FileError(path_, byteAt(point_offset_), "truncated: the chunk table offset is missing after the VLRs");
+  std::int64_t table = 0;
+  readAt(point_offset_, &table, 8);
+  if (table == -1) {  // a streaming writer puts the offset in the last 8 bytes of the file
+    if (!readAt(file_size_ - 8, &table, 8)) table = 0;
+  }
+  if (table < static_cast<std::int64_t>(point_offset_ + 8) || static_cast<std::uint64_t>(table) + 8 > file_size_) {
+    throw FileError(path_, byteAt(point_offset_), "the chunk table offset " + std::to_string(table) + " points outside the compressed data (bytes " +
+                                                      std::to_string(point_offset_ + 8) + " to " + std::to_string(file_size_) + "): missing or corrupt chunk table");
+  }
+  const std::uint64_t table_at = static_cast<std::uint64_t>(table);
+  std::uint32_t head[2] = {0, 0};
+  readAt(table_at, head, 8);
+  if (head[0] != 0) throw FileError(path_, byteAt(table_at), "chunk table version " + std::to_string(head[0]) + " (0 is defined)");
+  const std::uint32_t n = head[1];
+  const std::uint64_t body_end = data_end > table_at + 8 ? data_end : file_size_;
+  // An entry takes at most a few bytes: read no more than n of them can need.
+  const std::uint64_t body_size = std::min<std::uint64_t>(body_end - (table_at + 8), 16ull * n + 64);
+  std::vector<std::uint8_t> body(static_cast<std::size_t>(body_size));
+  readAt(table_at + 8, body.data(), body.size());
+  laz_->chunks = decodeLazChunkTable(body.data(), body.size(), n, v.variableChunks(), path_);
+  std::uint64_t at = point_offset_ + 8, total = 0;
+  for (std::size_t i = 0; i < laz_->chunks.size(); ++i) {
+    LazChunk& c = laz_->chunks[i];
+    c.offset = at;
+    if (c.bytes > table_at - at) {
+      throw FileError(path_, "chunk " + std::to_string(i) + " (byte " + std::to_string(at) + ")",
+                      "the chunk table gives it " + std::to_string(c.bytes) + " bytes, past the chunk table at byte " + std::to_string(table_at));
+    }
+    at += c.bytes;
+    if (!v.variableChunks()) c.points = std::min<std::uint64_t>(v.chunk_size, count - std::min(count, total));
+    if (c.points == 0 || c.points > kMaxChunkRecordBytes / len) {
+      throw FileError(path_, "chunk " + std::to_string(i), std::to_string(c.points) + " points in one chunk is not supported (1 to " + std::to_string(kMaxChunkRecordBytes / len) + ")");
+    }
+    total += c.points;
+  }
+  if (total != count) {
+    throw FileError(path_, "chunk table", "its " + std::to_string(n) + " chunks hold " + std::to_string(total) + " points; the header says " + std::to_string(count));
+  }
+}
+
+void LasReader::decodeNextChunks() {
+  Laz& z = *laz_;
+  const std::size_t len = header_.point_record_length;
+  // As many chunks as there are cores, within a memory budget, each decoded on its own thread.
+  std::size_t k = 0;
+  std::uint64_t points = 0;
+  while (z.next_chunk + k < z.chunks.size() && k < decodeThreads() &&
+         (k == 0 || (points + z.chunks[z.next_chunk + k].points) * len <= 2 * kMaxChunkRecordBytes)) {
+    points += z.chunks[z.next_chunk + k].points;
+    ++k;
+  }
+  if (k == 0) throw FileError(path_, "record " + std::to_string(next_), "the chunks end before the header's point count");
+  std::vector<std::vector<std::uint8_t>> compressed(k);
+  std::vector<std::size_t> first(k + 1, 0);
+  for (std::size_t i = 0; i < k; ++i) {
+    const LazChunk& c = z.chunks[z.next_chunk + i];
+    compressed[i].resize(static_cast<std::size_t>(c.bytes));
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(c.offset));
+    in_.read(reinterpret_cast<char*>(compressed[i].data()), static_cast<std::streamsize>(c.bytes));
+    if (static_cast<std::uint64_t>(in_.gcount()) != c.bytes)
+      throw FileError(path_, "chunk " + std::to_string(z.next_chunk + i), "read failed (file shrank or I/O error)");
+    first[i + 1] = first[i] + static_cast<std::size_t>(c.points);
+  }
+  z.decoded.resize(first[k] * len);
+  std::vector<std::exception_ptr> errors(k);
+  auto decode = [&](std::size_t i) {
+    try {
+      const std::size_t index = z.next_chunk + i;
+      const LazChunk& c = z.chunks[index];
+      decodeLazChunk(z.vlr, compressed[i].data(), compressed[i].size(), c.points, z.decoded.data() + first[i] * len, path_,
+                     "chunk " + std::to_string(index) + " (byte " + std::to_string(c.offset) + ")");
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> threads;
+  for (std::size_t i = 1; i < k; ++i) threads.emplace_back(decode, i);
+  decode(0);
+  for (std::thread& t : threads) t.join();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+  z.next_chunk += k;
+  z.decoded_points = first[k];
+  z.position = 0;
+}
+
+void LasReader::fillRecords(char* dst, std::size_t n) {
+  const std::size_t len = header_.point_record_length;
+  if (!laz_) {
+    in_.read(dst, static_cast<std::streamsize>(n * len));
+    if (static_cast<std::size_t>(in_.gcount()) != n * len) {
+      throw FileError(path_, "record " + std::to_string(next_), "read failed (file shrank or I/O error)");
+    }
+    return;
+  }
+  while (n > 0) {
+    if (laz_->position == laz_->decoded_points) decodeNextChunks();
+    const std::size_t take = std::min(n, laz_->decoded_points - laz_->position);
+    std::memcpy(dst, laz_->decoded.data() + laz_->position * len, take * len);
+    dst += take * len;
+    laz_->position += take;
+    n -= take;
+  }
+}
+
+std::size_t LasReader::readRaw(std::vector<std::uint8_t>* out, std::size_t max_points) {
+  const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_points, pointsLeft()));
+  out->resize(n * header_.point_record_length);
+  if (n == 0) return 0;
+  fillRecords(reinterpret_cast<char*>(out->data()), n);
+  next_ += n;
+  return n;
 }
 
 std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) {
@@ -200,10 +360,7 @@ std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) 
   if (n == 0) return 0;
   const std::size_t len = header_.point_record_length;
   buffer_.resize(n * len);
-  in_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-  if (static_cast<std::size_t>(in_.gcount()) != buffer_.size()) {
-    throw FileError(path_, "record " + std::to_string(next_), "read failed (file shrank or I/O error)");
-  }
+  fillRecords(buffer_.data(), n);
   const std::uint8_t f = header_.point_format;
   const std::size_t std_len = LasHeader::standardRecordLength(f);
   for (std::size_t k = 0; k < n; ++k) {
@@ -251,7 +408,19 @@ std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) 
 }
 
 // ------------------------------------------------------------------------------------------
-LasWriter::LasWriter(const std::string& path, const LasHeader& header) : path_(path), header_(header) {
+namespace {
+bool endsWithLaz(const std::string& path) {
+  if (path.size() < 4) return false;
+  std::string ext = path.substr(path.size() - 4);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".laz";
+}
+}  // namespace
+
+LasWriter::LasWriter(const std::string& path, const LasHeader& header) : LasWriter(path, header, endsWithLaz(path)) {}
+
+LasWriter::LasWriter(const std::string& path, const LasHeader& header, bool compress)
+    : path_(path), header_(header), compress_(compress) {
   const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
   if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
     throw FileError(path, "", "cannot write point format " + std::to_string(header_.point_format) + " (0-3 and 6-8 are supported)");
@@ -262,18 +431,37 @@ LasWriter::LasWriter(const std::string& path, const LasHeader& header) : path_(p
   for (int a = 0; a < 3; ++a) {
     if (!(header_.scale[a] > 0) || !std::isfinite(header_.offset[a])) throw FileError(path, "", "invalid scale or offset");
   }
+  expected_count_ = header_.point_count;
+  kept_min_ = header_.min;
+  kept_max_ = header_.max;
+  kept_by_return_ = header_.points_by_return;
   header_.point_count = 0;
   header_.points_by_return.fill(0);
+  // A LASzip VLR describes a compression: the one written (if any) is this writer's own.
+  header_.vlrs.erase(std::remove_if(header_.vlrs.begin(), header_.vlrs.end(),
+                                    [](const LasVlr& v) { return v.user_id == kLazVlrUserId && v.record_id == kLazVlrRecordId; }),
+                     header_.vlrs.end());
+  if (compress_) {
+    laz_vlr_ = lazVlrFor(header_.point_format, header_.point_record_length);
+    LasVlr v;
+    v.user_id = kLazVlrUserId;
+    v.record_id = kLazVlrRecordId;
+    v.description = "by mountcal (LASzip compatible)";
+    v.data = serializeLazVlr(laz_vlr_);
+    header_.vlrs.push_back(std::move(v));
+  }
   std::random_device rd;
   tmp_path_ = path + ".tmp-" + std::to_string(rd() % 1000000u);
   out_.open(tmp_path_, std::ios::binary | std::ios::trunc);
   if (!out_) throw FileError(path, "", "cannot create the output file (does the folder exist?)");
-  // Header and VLRs are written now (with zero counts) and rewritten by close().
+  // Header and VLRs are written now (with zero counts) and rewritten by close(); a LAZ file
+  // then has the 8-byte offset of its chunk table.
   const std::uint16_t hsize = headerSize(header_.version_minor);
   std::uint64_t offset = hsize + header_.header_padding.size();
   for (const LasVlr& v : header_.vlrs) offset += kVlrHeader + v.data.size();
   offset += header_.vlr_padding.size();
-  std::vector<char> head(static_cast<std::size_t>(offset), 0);
+  point_offset_ = offset;
+  std::vector<char> head(static_cast<std::size_t>(offset + (compress_ ? 8 : 0)), 0);
   out_.write(head.data(), static_cast<std::streamsize>(head.size()));
   record_.resize(header_.point_record_length);
 }
@@ -323,25 +511,91 @@ void LasWriter::write(const LasPoint& p) {
   }
   const std::size_t std_len = LasHeader::standardRecordLength(f);
   if (!p.extra.empty()) std::memcpy(r + std_len, p.extra.data(), std::min(p.extra.size(), record_.size() - std_len));
-  out_.write(r, static_cast<std::streamsize>(record_.size()));
-  const double xyz[3] = {p.X * header_.scale[0] + header_.offset[0], p.Y * header_.scale[1] + header_.offset[1], p.Z * header_.scale[2] + header_.offset[2]};
-  for (int a = 0; a < 3; ++a) {
-    if (!any_ || xyz[a] < header_.min[a]) header_.min[a] = xyz[a];
-    if (!any_ || xyz[a] > header_.max[a]) header_.max[a] = xyz[a];
-  }
-  any_ = true;
-  const int ret = p.return_number;
-  if (ret >= 1 && ret <= 15) ++header_.points_by_return[ret - 1];
-  ++header_.point_count;
+  account(r);
+  emit(r);
 }
 
 void LasWriter::write(const std::vector<LasPoint>& points) {
   for (const LasPoint& p : points) write(p);
 }
 
+void LasWriter::writeRaw(const std::uint8_t* records, std::size_t n) {
+  const std::size_t len = header_.point_record_length;
+  for (std::size_t i = 0; i < n; ++i) {
+    const char* r = reinterpret_cast<const char*>(records + i * len);
+    account(r);
+    emit(r);
+  }
+}
+
+void LasWriter::keepHeaderStatistics() { keep_statistics_ = true; }
+
+void LasWriter::account(const char* r) {
+  const double xyz[3] = {get<std::int32_t>(r, 0) * header_.scale[0] + header_.offset[0], get<std::int32_t>(r, 4) * header_.scale[1] + header_.offset[1],
+                         get<std::int32_t>(r, 8) * header_.scale[2] + header_.offset[2]};
+  for (int a = 0; a < 3; ++a) {
+    if (!any_ || xyz[a] < header_.min[a]) header_.min[a] = xyz[a];
+    if (!any_ || xyz[a] > header_.max[a]) header_.max[a] = xyz[a];
+  }
+  any_ = true;
+  const std::uint8_t b14 = get<std::uint8_t>(r, 14);
+  const int ret = header_.point_format < 6 ? (b14 & 7) : (b14 & 15);
+  if (ret >= 1 && ret <= 15) ++header_.points_by_return[static_cast<std::size_t>(ret - 1)];
+  ++header_.point_count;
+}
+
+void LasWriter::emit(const char* r) {
+  const std::size_t len = header_.point_record_length;
+  if (!compress_) {
+    out_.write(r, static_cast<std::streamsize>(len));
+    return;
+  }
+  pending_.insert(pending_.end(), reinterpret_cast<const std::uint8_t*>(r), reinterpret_cast<const std::uint8_t*>(r) + len);
+  if (pending_.size() >= static_cast<std::size_t>(decodeThreads()) * laz_vlr_.chunk_size * len) flushChunks(false);
+}
+
+void LasWriter::flushChunks(bool all) {
+  const std::size_t len = header_.point_record_length;
+  const std::size_t points = pending_.size() / len;
+  std::vector<std::size_t> first;  // first record of each chunk to encode
+  for (std::size_t p = 0; p < points && (all || points - p >= laz_vlr_.chunk_size); p += laz_vlr_.chunk_size) first.push_back(p);
+  if (first.empty()) return;
+  const std::size_t k = first.size();
+  first.push_back(std::min(points, first.back() + laz_vlr_.chunk_size));
+  std::vector<std::vector<std::uint8_t>> encoded(k);
+  auto encode = [&](std::size_t i) { encoded[i] = encodeLazChunk(laz_vlr_, pending_.data() + first[i] * len, first[i + 1] - first[i]); };
+  std::vector<std::thread> threads;
+  for (std::size_t i = 1; i < k; ++i) threads.emplace_back(encode, i);  // chunks are independent
+  encode(0);
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = 0; i < k; ++i) {
+    chunks_.push_back({0, encoded[i].size(), first[i + 1] - first[i]});
+    out_.write(reinterpret_cast<const char*>(encoded[i].data()), static_cast<std::streamsize>(encoded[i].size()));
+  }
+  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(first[k] * len));
+}
+
 void LasWriter::close() {
   if (closed_) return;
-  if (!any_) header_.min = header_.max = {0, 0, 0};
+  if (keep_statistics_) {
+    if (header_.point_count != expected_count_) {
+      throw FileError(path_, "", std::to_string(header_.point_count) + " points written; the header kept from the input says " + std::to_string(expected_count_));
+    }
+    header_.min = kept_min_;
+    header_.max = kept_max_;
+    header_.points_by_return = kept_by_return_;
+  } else if (!any_) {
+    header_.min = header_.max = {0, 0, 0};
+  }
+  std::uint64_t chunk_table_at = 0;
+  if (compress_) {
+    flushChunks(true);
+    chunk_table_at = static_cast<std::uint64_t>(out_.tellp());
+    const std::uint32_t table_head[2] = {0, static_cast<std::uint32_t>(chunks_.size())};
+    out_.write(reinterpret_cast<const char*>(table_head), 8);
+    const std::vector<std::uint8_t> body = encodeLazChunkTable(chunks_, false);
+    out_.write(reinterpret_cast<const char*>(body.data()), static_cast<std::streamsize>(body.size()));
+  }
   const std::uint64_t evlr_start = static_cast<std::uint64_t>(out_.tellp());
   for (const LasVlr& v : header_.evlrs) {
     char vh[kEvlrHeader] = {};
@@ -365,12 +619,9 @@ void LasWriter::close() {
   put<std::uint16_t>(h.data(), 90, header_.creation_day);
   put<std::uint16_t>(h.data(), 92, header_.creation_year);
   put<std::uint16_t>(h.data(), 94, static_cast<std::uint16_t>(hsize + header_.header_padding.size()));
-  std::uint64_t offset = hsize + header_.header_padding.size();
-  for (const LasVlr& v : header_.vlrs) offset += kVlrHeader + v.data.size();
-  offset += header_.vlr_padding.size();
-  put<std::uint32_t>(h.data(), 96, static_cast<std::uint32_t>(offset));
+  put<std::uint32_t>(h.data(), 96, static_cast<std::uint32_t>(point_offset_));
   put<std::uint32_t>(h.data(), 100, static_cast<std::uint32_t>(header_.vlrs.size()));
-  put<std::uint8_t>(h.data(), 104, header_.point_format);
+  put<std::uint8_t>(h.data(), 104, static_cast<std::uint8_t>(header_.point_format | (compress_ ? 0x80 : 0)));
   put<std::uint16_t>(h.data(), 105, header_.point_record_length);
   // Legacy counts: zero when they cannot represent the file (LAS 1.4 rule).
   const bool legacy_ok = header_.point_format < 6 && header_.point_count <= 0xFFFFFFFFull;
@@ -401,6 +652,10 @@ void LasWriter::close() {
     out_.write(reinterpret_cast<const char*>(v.data.data()), static_cast<std::streamsize>(v.data.size()));
   }
   out_.write(reinterpret_cast<const char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
+  if (compress_) {
+    const std::int64_t at = static_cast<std::int64_t>(chunk_table_at);
+    out_.write(reinterpret_cast<const char*>(&at), 8);
+  }
   out_.flush();
   const bool ok = static_cast<bool>(out_);
   out_.close();

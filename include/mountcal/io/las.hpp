@@ -5,7 +5,9 @@
 /// Coordinates are kept as the stored integers with the header's scale and offset, so a point
 /// read and written back unchanged is bit-identical. VLRs, EVLRs and per-point extra bytes are
 /// preserved as opaque bytes. Reading and writing stream in chunks: a strip larger than memory
-/// can be processed. LAZ (compressed) files are refused with a clear error.
+/// can be processed. LAZ (LASzip-compressed) files read and write the same way (io/laz.hpp):
+/// the reader decodes chunk by chunk, on every core; the writer compresses when the output path
+/// ends in `.laz`.
 
 #include <array>
 #include <cstdint>
@@ -13,6 +15,8 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "mountcal/io/laz.hpp"
 
 namespace mountcal::io {
 
@@ -82,40 +86,60 @@ double scanAngleDeg(const LasHeader& header, const LasPoint& p);
 /// Sets the scan angle of `p` from degrees (rounded to the format's unit, clamped to range).
 void setScanAngleDeg(const LasHeader& header, double deg, LasPoint* p);
 
-/// Streams the points of a LAS file. Throws FileError naming the file and the byte or record
-/// for anything malformed: a wrong signature, a .laz file, an unsupported version or format,
-/// a record length shorter than the format, counts that disagree with the file size.
+/// Streams the points of a LAS or LAZ file. Throws FileError naming the file and the byte,
+/// record or chunk for anything malformed: a wrong signature, an unsupported version or format,
+/// a record length shorter than the format, counts that disagree with the file size, a LAZ
+/// file whose LASzip VLR, chunk table or compressed data is corrupt.
 class LasReader {
  public:
   explicit LasReader(const std::string& path);
-  const LasHeader& header() const { return header_; }
+  ~LasReader();
+  const LasHeader& header() const { return header_; }  ///< without the LASzip VLR; format bits clean
   const std::string& path() const { return path_; }
   std::uint64_t pointsLeft() const { return header_.point_count - next_; }
   /// Reads up to `max_points` points into `out` (replacing its content); returns the number
   /// read (0 at the end).
   std::size_t read(std::vector<LasPoint>* out, std::size_t max_points = 1u << 20);
+  /// Reads up to `max_points` point records as stored (point_record_length bytes each, LAZ
+  /// decoded) into `out`; returns the number read (0 at the end).
+  std::size_t readRaw(std::vector<std::uint8_t>* out, std::size_t max_points = 1u << 20);
+  /// The LASzip VLR of a LAZ file; null for an uncompressed file.
+  const LazVlr* laz() const;
+  /// The chunks of a LAZ file (empty for LAS).
+  const std::vector<LazChunk>& lazChunks() const;
   /// Coordinates of a point [m].
   double x(const LasPoint& p) const { return p.X * header_.scale[0] + header_.offset[0]; }
   double y(const LasPoint& p) const { return p.Y * header_.scale[1] + header_.offset[1]; }
   double z(const LasPoint& p) const { return p.Z * header_.scale[2] + header_.offset[2]; }
 
  private:
+  struct Laz;
+  void openLaz(std::uint64_t data_end);
+  void fillRecords(char* dst, std::size_t n);
+  void decodeNextChunks();
+
   std::string path_;
   std::ifstream in_;
   LasHeader header_;
+  std::uint64_t file_size_ = 0;
   std::uint64_t point_offset_ = 0;
   std::uint64_t next_ = 0;
   std::vector<char> buffer_;
+  std::unique_ptr<Laz> laz_;
 };
 
-/// Writes a LAS file through a temporary name, renamed over `path` only by close(): a failed
-/// run never leaves a half file over a good one. Counts, bounds and points-by-return in the
-/// header are computed from the points written.
+/// Writes a LAS or LAZ file through a temporary name, renamed over `path` only by close(): a
+/// failed run never leaves a half file over a good one. Counts, bounds and points-by-return in
+/// the header are computed from the points written (unless keepHeaderStatistics()).
 class LasWriter {
  public:
   /// `header.point_format` and `header.point_record_length` define the records; version 1.2
-  /// and 1.3 files are written with their shorter header blocks.
+  /// and 1.3 files are written with their shorter header blocks. The file is LAZ-compressed
+  /// (LASzip compressor 2 for formats 0–3, 3 for 6–8; chunks of 50,000 points) when `path`
+  /// ends in ".laz" (any case); a LASzip VLR in `header.vlrs` is replaced.
   LasWriter(const std::string& path, const LasHeader& header);
+  /// As above with compression chosen explicitly.
+  LasWriter(const std::string& path, const LasHeader& header, bool compress);
   ~LasWriter();  ///< removes the temporary file when close() was not reached
   LasWriter(const LasWriter&) = delete;
   LasWriter& operator=(const LasWriter&) = delete;
@@ -125,16 +149,36 @@ class LasWriter {
   std::int32_t quantize(int axis, double value) const;
   void write(const LasPoint& p);
   void write(const std::vector<LasPoint>& points);
+  /// Writes `n` point records as stored (point_record_length bytes each).
+  void writeRaw(const std::uint8_t* records, std::size_t n);
+  /// Keeps the bounds and point counts of the header given to the constructor instead of
+  /// computing them (a conversion that must not change the header); close() then checks that
+  /// the number of points written equals the header's count.
+  void keepHeaderStatistics();
+  bool compressed() const { return compress_; }
   /// Writes the EVLRs, finalises the header and renames the file into place.
   void close();
 
  private:
+  void account(const char* record);
+  void emit(const char* record);
+  void flushChunks(bool all);
+
   std::string path_, tmp_path_;
   std::ofstream out_;
   LasHeader header_;
   std::vector<char> record_;
   bool closed_ = false;
   bool any_ = false;
+  bool compress_ = false;
+  bool keep_statistics_ = false;
+  std::uint64_t expected_count_ = 0;
+  std::array<double, 3> kept_min_{}, kept_max_{};
+  std::array<std::uint64_t, 15> kept_by_return_{};
+  LazVlr laz_vlr_;
+  std::uint64_t point_offset_ = 0;
+  std::vector<std::uint8_t> pending_;  // records not yet compressed
+  std::vector<LazChunk> chunks_;
 };
 
 /// One attribute of the Extra Bytes VLR (user "LASF_Spec", record 4; or its EVLR): a named,
