@@ -7,6 +7,7 @@
 #include <cmath>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "mountcal/error.hpp"
@@ -28,7 +29,7 @@ void progress(const char* what) {
 }
 
 int runSimulate(const std::string& scenario, const std::string& preset, std::uint64_t seed,
-                const std::string& out, bool no_noise, const std::string& crs, bool no_ties) {
+                const std::string& out, bool no_noise, const std::string& crs, bool no_ties, bool laz) {
   using namespace mountcal::simulation;
   SurveyConfig config;
   Scene scene;
@@ -43,6 +44,7 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   SurveyWriteOptions write_options;
   write_options.crs = crs;
   write_options.ties = !no_ties;
+  write_options.laz = laz;
   writeSurvey(survey, out, write_options);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;
@@ -84,13 +86,14 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   return 0;
 }
 
-int runApply(const std::string& job_path, const std::string& result_path, const std::string& out) {
+int runApply(const std::string& job_path, const std::string& result_path, const std::string& out, const std::string& format) {
   using namespace mountcal;
   const Job job = readJob(job_path);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
   const std::vector<double> lasers = readResultLaserElevation(result_path);
   progress("rewriting the strips");
-  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers);
+  const StripFormat f = format == "las" ? StripFormat::las : format == "laz" ? StripFormat::laz : StripFormat::same_as_input;
+  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f);
   std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
               "largest shift %.3f m; wrote %s\n",
               m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
@@ -150,6 +153,20 @@ int runInfo(const std::string& path) {
     std::printf("  scale (%g, %g, %g), offset (%.3f, %.3f, %.3f)\n", h.scale[0], h.scale[1], h.scale[2], h.offset[0], h.offset[1], h.offset[2]);
     std::printf("  bounds x [%.3f, %.3f] y [%.3f, %.3f] z [%.3f, %.3f]\n", h.min[0], h.max[0], h.min[1], h.max[1], h.min[2], h.max[2]);
     std::printf("  GPS time: %s\n", h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
+    if (const io::LazVlr* z = r.laz()) {
+      static const char* kCompressor[] = {"none", "point-wise", "point-wise chunked", "layered chunked"};
+      std::string items;
+      for (const io::LazItem& it : z->items)
+        items += (items.empty() ? "" : ", ") + io::lazItemName(it.type) + "(" + std::to_string(it.size) + ") v" + std::to_string(it.version);
+      std::printf("  LAZ: compressor %d (%s), LASzip %d.%d r%d%s; items %s\n", z->compressor, kCompressor[z->compressor], z->version_major,
+                  z->version_minor, z->version_revision, (z->options & 1) ? ", LAS 1.4 compatibility mode" : "", items.c_str());
+      const auto& chunks = r.lazChunks();
+      std::uint64_t bytes = 0;
+      for (const auto& c : chunks) bytes += c.bytes;
+      if (z->compressor == 1) std::printf("  one stream of %llu bytes (no chunks)\n", static_cast<unsigned long long>(bytes));
+      else if (z->variableChunks()) std::printf("  %zu chunks of variable size, %llu bytes\n", chunks.size(), static_cast<unsigned long long>(bytes));
+      else std::printf("  %zu chunks of %u points, %llu bytes\n", chunks.size(), z->chunk_size, static_cast<unsigned long long>(bytes));
+    }
     for (const auto& v : h.vlrs) std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
     for (const auto& v : h.evlrs) std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
     for (const auto& a : io::extraBytesAttributes(h, path)) {
@@ -183,6 +200,29 @@ int runInfo(const std::string& path) {
               rec.back().time_s, span > 0 ? static_cast<double>(rec.size() - 1) / span : 0.0);
   std::printf("  latitude [%.7f, %.7f] deg, longitude [%.7f, %.7f] deg, height [%.3f, %.3f] m\n", rad2deg(lat0), rad2deg(lat1),
               rad2deg(lon0), rad2deg(lon1), h0, h1);
+  return 0;
+}
+
+/// LAS to LAZ and back by the output's extension: every point record, VLR and EVLR kept; the
+/// header changes only where compression requires (the format's compression bit, offsets, the
+/// LASzip VLR).
+int runConvert(const std::string& in, const std::string& out) {
+  using namespace mountcal;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(out, ec) && fs::equivalent(in, out, ec)) throw FileError(out, "", "is the input; convert writes a new file");
+  io::LasReader reader(in);
+  io::LasWriter writer(out, reader.header());
+  writer.keepHeaderStatistics();
+  std::vector<std::uint8_t> records;
+  std::size_t n;
+  while ((n = reader.readRaw(&records, 1u << 18)) > 0) writer.writeRaw(records.data(), n);
+  writer.close();
+  const auto in_size = fs::file_size(in, ec), out_size = fs::file_size(out, ec);
+  std::printf("%s -> %s: %llu points, %s, %llu -> %llu bytes (%.1f %%)\n", in.c_str(), out.c_str(),
+              static_cast<unsigned long long>(reader.header().point_count), writer.compressed() ? "LAZ" : "LAS",
+              static_cast<unsigned long long>(in_size), static_cast<unsigned long long>(out_size),
+              in_size ? 100.0 * static_cast<double>(out_size) / static_cast<double>(in_size) : 0.0);
   return 0;
 }
 
@@ -220,6 +260,8 @@ int main(int argc, char** argv) {
   sim->add_flag("--no-ties", no_ties, "Write no ties file: the job calibrates automatically (method \"correspondences\")");
   std::string crs;
   sim->add_option("--crs", crs, "Write the survey in this CRS (e.g. EPSG:32611) with an SBET trajectory");
+  bool sim_laz = false;
+  sim->add_flag("--laz", sim_laz, "Write the strips as LAZ (strip_ID.laz)");
 
   std::string job_path;
   bool quiet = false;
@@ -232,12 +274,19 @@ int main(int argc, char** argv) {
   apply->add_option("job", job_path, "Job JSON file")->required();
   apply->add_option("--result", result_path, "Result JSON file of mountcal calibrate")->required();
   apply->add_option("--out", apply_out, "Output folder (the strips keep their file names)")->required();
+  std::string apply_format;
+  apply->add_option("--format", apply_format, "las or laz: write this format whatever the input's (default: the input's)")
+      ->check(CLI::IsMember({"las", "laz"}));
   CLI::App* evaluate = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
   evaluate->add_option("job", job_path, "Job JSON file")->required();
   evaluate->add_option("--result", result_path, "Result JSON file")->required();
   std::string info_path;
-  CLI::App* info = app.add_subcommand("info", "Summary of a LAS or SBET file");
-  info->add_option("file", info_path, "LAS or SBET file")->required();
+  CLI::App* info = app.add_subcommand("info", "Summary of a LAS, LAZ or SBET file");
+  info->add_option("file", info_path, "LAS, LAZ or SBET file")->required();
+  std::string convert_in, convert_out;
+  CLI::App* convert = app.add_subcommand("convert", "LAS to LAZ or LAZ to LAS, by the output's extension; every record, VLR and EVLR kept");
+  convert->add_option("in", convert_in, "Input LAS or LAZ file")->required();
+  convert->add_option("out", convert_out, "Output file (.laz compresses, anything else writes LAS)")->required();
   std::string curves_out;
   double curves_deg = 0.1;
   CLI::App* curves = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
@@ -255,12 +304,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "mountcal simulate: give either a SCENARIO file or --preset NAME\n");
         return 2;
       }
-      return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties);
+      return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties, sim_laz);
     }
     if (cal->parsed()) return runCalibrate(job_path, quiet);
-    if (apply->parsed()) return runApply(job_path, result_path, apply_out);
+    if (apply->parsed()) return runApply(job_path, result_path, apply_out, apply_format);
     if (evaluate->parsed()) return runEvaluate(job_path, result_path);
     if (info->parsed()) return runInfo(info_path);
+    if (convert->parsed()) return runConvert(convert_in, convert_out);
     if (curves->parsed()) return runCurves(curves_out, curves_deg);
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());

@@ -26,7 +26,7 @@ bool samePath(const std::string& a, const std::string& b) {
 }  // namespace
 
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad) {
+                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad, StripFormat format) {
   if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
     throw FileError(job.path, "field 'sensor.laser_field'", "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
   }
@@ -41,7 +41,9 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
   std::map<std::string, std::string> by_name;
   std::vector<std::string> outputs;
   for (const std::string& in : inputs) {
-    const std::string name = fs::path(in).filename().string();
+    fs::path file = fs::path(in).filename();
+    if (format != StripFormat::same_as_input) file.replace_extension(format == StripFormat::laz ? ".laz" : ".las");
+    const std::string name = file.string();
     auto [it, fresh] = by_name.emplace(name, in);
     if (!fresh) throw FileError(in, "", "has the same file name as " + it->second + "; apply would write both to " + (fs::path(out_dir) / name).string());
     outputs.push_back((fs::path(out_dir) / name).string());

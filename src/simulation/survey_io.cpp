@@ -120,9 +120,10 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   }
   for (std::size_t k = 0; k < survey.strips.size(); ++k) {
     const SimulatedStrip& s = survey.strips[k];
-    writeStripLas(dir + "/strip_" + s.id + ".las", survey, s, static_cast<int>(k + 1), frame);
+    const std::string strip_file = "strip_" + s.id + (options.laz ? ".laz" : ".las");
+    writeStripLas(dir + "/" + strip_file, survey, s, static_cast<int>(k + 1), frame);
     io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
-    job.strips.push_back({s.id, at("strip_" + s.id + ".las"), "las", {}});
+    job.strips.push_back({s.id, at(strip_file), "las", {}});
   }
   auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;

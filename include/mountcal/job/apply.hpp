@@ -16,7 +16,11 @@ struct ApplyStats {
   double max_shift_m = 0.0;  ///< largest point displacement [m]
 };
 
-/// Rewrites every LAS file of `job`'s strips into `out_dir` (same file names; one output per
+/// The file format `applyMounting` writes: the input's (a LAZ input gives a LAZ output), or
+/// LAS or LAZ whatever the input (the output then takes the extension .las or .laz).
+enum class StripFormat { same_as_input, las, laz };
+
+/// Rewrites every LAS or LAZ file of `job`'s strips into `out_dir` (same file names, or the extension of `format`; one output per
 /// input file, even when several strips are split from one file, and every record of it) with
 /// `mounting` in place of `mounting_used`: each point is inverse-georeferenced with the used
 /// mounting and georeferenced again with the new one, at its pose (the trajectory at its time,
@@ -28,6 +32,7 @@ struct ApplyStats {
 /// `laser_elevation_rad` (by laser id, a result's intrinsics) turns each laser vector by its
 /// laser's elevation offset before georeferencing; it needs the job's `sensor.laser_field`.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {});
+                         std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {},
+                         StripFormat format = StripFormat::same_as_input);
 
 }  // namespace mountcal

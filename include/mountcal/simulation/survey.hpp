@@ -178,6 +178,8 @@ struct SurveyWriteOptions {
   /// Write ties.csv and a VTPM job. False: no ties file, and a job.json that calibrates
   /// automatically (method "correspondences").
   bool ties = true;
+  /// Write the strips as LAZ (strip_ID.laz) instead of LAS.
+  bool laz = false;
 };
 
 /// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
