@@ -251,3 +251,33 @@ TEST(PerPointPoses, ApplyWritesWhatCalibrateEvaluated) {
   EXPECT_NEAR(got.p90_m, want.p90_m, 0.003);
   fs::remove_all(out);
 }
+
+// ARMO's LAZ originals (SPEC §5 laz/) calibrate and apply exactly as the LAS files: the same
+// mounting to the last bit, and apply writes LAZ for a LAZ input, with the records apply writes
+// from the LAS file.
+TEST(PerPointPoses, TruckFromLazCalibratesAndAppliesAsFromLas) {
+  REQUIRE_DATA("gravity/Truck.las");
+  REQUIRE_DATA("laz/Truck.adc.laz");
+  const Job las = readJob(exampleJob("truck")), laz = readJob(exampleJob("truck_laz"));
+  ASSERT_NE(las.strips[0].path, laz.strips[0].path);
+  const MountingCalibrator::Summary A = MountingCalibrator(las.options).calibrate(loadJob(las).data);
+  const MountingCalibrator::Summary B = MountingCalibrator(laz.options).calibrate(loadJob(laz).data);
+  ASSERT_TRUE(A.IsSolutionUsable());
+  EXPECT_EQ(A.mounting.boresight, B.mounting.boresight);
+  EXPECT_EQ(A.mounting.a_b, B.mounting.a_b);
+  const fs::path out_las = fs::temp_directory_path() / "mountcal_gravity_las", out_laz = fs::temp_directory_path() / "mountcal_gravity_laz";
+  fs::remove_all(out_las);
+  fs::remove_all(out_laz);
+  applyMounting(las, A.mounting, out_las.string());
+  applyMounting(laz, A.mounting, out_laz.string());
+  io::LasReader ra((out_las / "Truck.las").string()), rb((out_laz / "Truck.adc.laz").string());
+  EXPECT_EQ(ra.laz(), nullptr);
+  ASSERT_NE(rb.laz(), nullptr);
+  std::vector<std::uint8_t> a, b;
+  while (ra.readRaw(&a, 1u << 20) > 0 && rb.readRaw(&b, 1u << 20) > 0) ASSERT_TRUE(a == b);
+  EXPECT_EQ(ra.pointsLeft(), 0u);
+  EXPECT_EQ(rb.pointsLeft(), 0u);
+  EXPECT_LT(fs::file_size(out_laz / "Truck.adc.laz"), fs::file_size(out_las / "Truck.las") / 3);
+  fs::remove_all(out_las);
+  fs::remove_all(out_laz);
+}

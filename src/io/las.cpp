@@ -75,7 +75,10 @@ struct LasReader::Laz {
 
 namespace {
 constexpr std::uint64_t kMaxChunkRecordBytes = 256ull << 20;  // a decoded chunk must fit in this
-unsigned decodeThreads() { return std::max(1u, std::min(8u, std::thread::hardware_concurrency())); }
+unsigned decodeThreads() {  // hardware_concurrency() reads /sys on every call: once is enough
+  static const unsigned n = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
+  return n;
+}
 }  // namespace
 
 LasReader::~LasReader() = default;
