@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of the LAS and SBET readers with clang (ASan + UBSan) and runs
+# Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder and the SBET reader with clang (ASan + UBSan) and runs
 # each for a bounded time (default 60 s). Seeds come from ../shared/data when it is there.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
@@ -9,20 +9,37 @@ source "$root/scripts/deps.sh"
 mountcal_ensure_deps clang libclang-rt-14-dev
 seconds="${1:-60}"
 out="$root/build-fuzz"
-mkdir -p "$out/corpus_las" "$out/corpus_sbet"
+mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I"$root/include" -I/usr/include/eigen3)
-clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/src/io/las.cpp" "$root/src/error.cpp"
+laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
+clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/src/io/las.cpp" "${laz_sources[@]}" "$root/src/error.cpp" -lpthread
+clang++ "${flags[@]}" -o "$out/fuzz_laz" "$root/tests/fuzz/fuzz_laz.cpp" "${laz_sources[@]}" "$root/src/error.cpp"
 clang++ "${flags[@]}" -o "$out/fuzz_sbet" "$root/tests/fuzz/fuzz_sbet.cpp" "$root/src/io/sbet.cpp" \
   "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/error.cpp"
 data="$root/../shared/data"
 if [ -d "$data" ]; then
   cp -f "$data/leeward/points.las" "$out/corpus_las/" 2>/dev/null || true
+  # Whole small LAZ files for the reader; their first chunks, behind the selector bytes, for the
+  # chunk decoder (format 3 v2 and v1, format 0, format 6, format 7 from the COPC file).
+  for f in simple.laz point10.las.laz 1_4_w_evlr.laz 1.2-with-color.copc.laz no-points-1.3.laz; do
+    cp -f "$data/laz/$f" "$out/corpus_las/" 2>/dev/null || true
+  done
+  chunk_seed() {  # FILE SELECTOR-BYTES SKIP-AFTER-OFFSET NAME
+    local off
+    off=$(od -An -tu4 -j96 -N4 "$data/laz/$1" | tr -d ' ')
+    { printf "$2"; dd if="$data/laz/$1" bs=1 skip=$((off + $3)) count=16384 2>/dev/null; } > "$out/corpus_laz/$4"
+  }
+  chunk_seed simple.laz '\x03\x00\x28\x04' 8 simple || true
+  chunk_seed simple-laszip-compressor-version-1.2r0.laz '\x0b\x00\x28\x04' 0 simple_v1 || true
+  chunk_seed point10.las.laz '\x00\x00\x28\x04' 8 point10 || true
+  chunk_seed 1_4_w_evlr.laz '\x04\x00\xe7\x03' 8 format6 || true
+  chunk_seed 1.2-with-color.copc.laz '\x05\x00\x00\x00' 8 format7 || true
   cp -f "$data/pdal/2-points.sbet" "$data/pdal/badfile.sbet" "$data/leeward/sbet.out" "$out/corpus_sbet/" 2>/dev/null || true
 else
   echo "fuzz: ../shared/data not found; starting from empty corpora"
 fi
-for target in las sbet; do
+for target in las laz sbet; do
   echo "fuzz: $target for ${seconds} s"
   "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/" \
