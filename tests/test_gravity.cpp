@@ -281,3 +281,30 @@ TEST(PerPointPoses, TruckFromLazCalibratesAndAppliesAsFromLas) {
   fs::remove_all(out_las);
   fs::remove_all(out_laz);
 }
+
+// Car and Tent from ARMO's LAZ load to exactly the data the LAS jobs load (every time, laser
+// vector, pose and laser id), so their calibrations are the LAS ones (shown in full for Truck).
+TEST(PerPointPoses, CarAndTentFromLazLoadAsFromLas) {
+  for (const std::string name : {"car", "tent"}) {
+    const std::string las_file = name == "car" ? "Car" : "Tent";
+    REQUIRE_DATA("gravity/" + las_file + ".las");
+    REQUIRE_DATA("laz/" + las_file + ".adc.laz");
+    const Job las = readJob(exampleJob(name));
+    Job laz = las;
+    for (JobStrip& s : laz.strips) s.path = dataFile("laz/" + las_file + ".adc.laz");
+    const CalibrationData a = loadJob(las).data, b = loadJob(laz).data;
+    ASSERT_EQ(a.strips.size(), b.strips.size());
+    for (std::size_t k = 0; k < a.strips.size(); ++k) {
+      const StripData &sa = a.strips[k], &sb = b.strips[k];
+      EXPECT_EQ(sa.time_s, sb.time_s) << name;
+      EXPECT_EQ(sa.laser, sb.laser) << name;
+      ASSERT_EQ(sa.r_s.size(), sb.r_s.size());
+      ASSERT_EQ(sa.poses.size(), sb.poses.size());
+      for (std::size_t i = 0; i < sa.r_s.size(); ++i) {
+        ASSERT_EQ(sa.r_s[i], sb.r_s[i]) << name << " point " << i;
+        ASSERT_EQ(sa.poses[i].p_m, sb.poses[i].p_m) << name << " point " << i;
+        ASSERT_EQ(sa.poses[i].R_mb, sb.poses[i].R_mb) << name << " point " << i;
+      }
+    }
+  }
+}

@@ -463,6 +463,8 @@ TEST(Laz, MalformedFilesAreRefusedNamingWhere) {
     b.insert(b.end(), body.begin(), body.end());
     expect(errorOf(b), "chunk 0 (byte");
   }
+  const std::uint32_t chunks = 1000000;
+  expect(errorOf(with(static_cast<std::size_t>(good.table) + 4, &chunks, 4)), "the chunk table announces 1000000 chunks");
   // A chunk the table makes shorter than its data: the decoder runs out before the last point.
   {
     const std::uint64_t size = static_cast<std::uint64_t>(good.table) - good.offset_to_points - 8;

@@ -256,6 +256,11 @@ void LasReader::openLaz(std::uint64_t data_end) {
   readAt(table_at, head, 8);
   if (head[0] != 0) throw FileError(path_, byteAt(table_at), "chunk table version " + std::to_string(head[0]) + " (0 is defined)");
   const std::uint32_t n = head[1];
+  // Every chunk stores its first record raw: the chunks' bytes bound how many there can be.
+  if (n > (table_at - (point_offset_ + 8)) / len) {
+    throw FileError(path_, byteAt(table_at), "the chunk table announces " + std::to_string(n) + " chunks; the " + std::to_string(table_at - point_offset_ - 8) +
+                                                 " bytes of compressed data before it hold at most " + std::to_string((table_at - point_offset_ - 8) / len));
+  }
   const std::uint64_t body_end = data_end > table_at + 8 ? data_end : file_size_;
   // An entry takes at most a few bytes: read no more than n of them can need.
   const std::uint64_t body_size = std::min<std::uint64_t>(body_end - (table_at + 8), 16ull * n + 64);
@@ -566,11 +571,20 @@ void LasWriter::flushChunks(bool all) {
   const std::size_t k = first.size();
   first.push_back(std::min(points, first.back() + laz_vlr_.chunk_size));
   std::vector<std::vector<std::uint8_t>> encoded(k);
-  auto encode = [&](std::size_t i) { encoded[i] = encodeLazChunk(laz_vlr_, pending_.data() + first[i] * len, first[i + 1] - first[i]); };
+  std::vector<std::exception_ptr> errors(k);
+  auto encode = [&](std::size_t i) {
+    try {
+      encoded[i] = encodeLazChunk(laz_vlr_, pending_.data() + first[i] * len, first[i + 1] - first[i]);
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  };
   std::vector<std::thread> threads;
   for (std::size_t i = 1; i < k; ++i) threads.emplace_back(encode, i);  // chunks are independent
   encode(0);
   for (std::thread& t : threads) t.join();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
   for (std::size_t i = 0; i < k; ++i) {
     chunks_.push_back({0, encoded[i].size(), first[i + 1] - first[i]});
     out_.write(reinterpret_cast<const char*>(encoded[i].data()), static_cast<std::streamsize>(encoded[i].size()));

@@ -255,10 +255,10 @@ void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t siz
       // The first record starts every item; the POINT14 item hands its scanner channel on.
       std::uint32_t context = 0;
       std::size_t layer = 0, offset = 0;
-      for (auto& item : items) {
-        item->initDecode(records + offset, context, layer_data.data() + layer, layer_size.data() + layer);
-        layer += item->layers();
-        offset += vlr.items[static_cast<std::size_t>(&item - items.data())].size;
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        items[i]->initDecode(records + offset, context, layer_data.data() + layer, layer_size.data() + layer);
+        layer += items[i]->layers();
+        offset += vlr.items[i].size;
       }
       for (std::uint64_t p = 1; p < points; ++p) {
         std::uint8_t* record = records + p * len;
@@ -267,6 +267,10 @@ void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t siz
         for (std::size_t i = 0; i < items.size(); ++i) {
           items[i]->read(record + offset, context);
           offset += vlr.items[i].size;
+        }
+        if ((p & 63) == 0) {  // a valid layer is never read past its end: stop garbage early
+          for (const auto& item : items)
+            if (item->overrun()) throw laz::Corrupt{"a layer ends at point " + std::to_string(p) + " of " + std::to_string(points)};
         }
       }
       for (const auto& item : items)
