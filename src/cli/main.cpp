@@ -12,6 +12,7 @@
 
 #include "mountcal/error.hpp"
 #include "mountcal/error_curves.hpp"
+#include "mountcal/io/crs.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
@@ -39,6 +40,9 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
     makePreset(preset, seed, &config, &scene);
   }
   if (no_noise) config.noise = NoiseModel::none();
+  if (!crs.empty() && mountcal::io::CrsTransform::isGeographic(crs)) {  // refused before the survey is simulated
+    throw mountcal::InvalidInput("--crs " + crs + " is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const SimulatedSurvey survey = simulate(config, scene);
   SurveyWriteOptions write_options;
@@ -66,6 +70,7 @@ std::vector<double> laserElevationOf(const mountcal::MountingCalibrator::Summary
 int runCalibrate(const std::string& job_path, bool quiet) {
   using namespace mountcal;
   const Job job = readJob(job_path);
+  checkJobOutputs(job);  // before anything is computed: an output never replaces an input
   progress("reading the trajectory and strips");
   const LoadedJob loaded = loadJob(job);
   const CalibrationData& data = loaded.data;
@@ -73,10 +78,10 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
   const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting, false, laserElevationOf(S));
   const bool any_eval = ev.any();
-  if (!job.result_path.empty()) io::writeFileAtomically(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
-  if (!job.report_path.empty()) {
-    io::writeFileAtomically(job.report_path, htmlReport(S, any_eval ? &ev : nullptr, "mountcal calibration — " + job_path));
-  }
+  std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
+  if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
+  if (!job.report_path.empty()) outputs.emplace_back(job.report_path, htmlReport(S, any_eval ? &ev : nullptr, "mountcal calibration — " + job_path));
+  io::writeFilesAtomically(outputs);
   if (!quiet) std::printf("%s", S.FullReport().c_str());
   if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
   if (!S.IsSolutionUsable()) {
@@ -93,7 +98,7 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
   const std::vector<double> lasers = readResultLaserElevation(result_path);
   progress("rewriting the strips");
   const StripFormat f = format == "las" ? StripFormat::las : format == "laz" ? StripFormat::laz : StripFormat::same_as_input;
-  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f);
+  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f, {result_path});
   std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
               "largest shift %.3f m; wrote %s\n",
               m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,

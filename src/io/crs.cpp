@@ -29,6 +29,20 @@ CrsTransform::CrsTransform(const std::string& crs) : impl_(std::make_unique<Impl
 
 CrsTransform::~CrsTransform() = default;
 
+bool CrsTransform::isGeographic(const std::string& crs) {
+  PJ_CONTEXT* ctx = proj_context_create();
+  proj_log_level(ctx, PJ_LOG_NONE);
+  PJ* p = proj_create(ctx, crs.c_str());
+  if (!p) {
+    proj_context_destroy(ctx);
+    throw InvalidInput("unknown or unsupported CRS '" + crs + "'");
+  }
+  const PJ_TYPE type = proj_get_type(p);
+  proj_destroy(p);
+  proj_context_destroy(ctx);
+  return type == PJ_TYPE_GEOGRAPHIC_CRS || type == PJ_TYPE_GEOGRAPHIC_2D_CRS || type == PJ_TYPE_GEOGRAPHIC_3D_CRS;
+}
+
 Geodetic CrsTransform::toGeodetic(const Vec3& x) const {
   const PJ_COORD out = proj_trans(impl_->pj, PJ_FWD, proj_coord(x.x(), x.y(), x.z(), 0));
   if (!std::isfinite(out.xyz.x)) throw InvalidInput("CRS conversion failed for a point");

@@ -3,14 +3,17 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "mountcal/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
+#include "plausible.hpp"
 
 namespace mountcal::io {
 
@@ -36,33 +39,74 @@ std::string lineRef(std::size_t line) { return "line " + std::to_string(line); }
 
 }  // namespace
 
+namespace {
+
+/// True when `s` is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, ≤ U+10FFFF).
+bool validUtf8(const std::string& s) {
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const std::size_t n = s.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = p[i];
+    std::size_t len;
+    std::uint32_t cp;
+    if (c < 0x80) { ++i; continue; }
+    if ((c & 0xE0) == 0xC0) len = 2, cp = c & 0x1Fu;
+    else if ((c & 0xF0) == 0xE0) len = 3, cp = c & 0x0Fu;
+    else if ((c & 0xF8) == 0xF0) len = 4, cp = c & 0x07u;
+    else return false;
+    if (i + len > n) return false;
+    for (std::size_t k = 1; k < len; ++k) {
+      if ((p[i + k] & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (p[i + k] & 0x3Fu);
+    }
+    if ((len == 2 && cp < 0x80) || (len == 3 && cp < 0x800) || (len == 4 && cp < 0x10000) || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    i += len;
+  }
+  return true;
+}
+
+constexpr std::size_t kMaxLineBytes = 1u << 20;  // no CSV line of mountcal's is near this
+
+}  // namespace
+
 CsvTable CsvTable::read(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw FileError(path, "", std::string("cannot open for reading: ") + std::strerror(errno));
   CsvTable t;
   t.path_ = path;
-  std::string line;
+  std::vector<char> buffer(kMaxLineBytes + 1);
   std::size_t n = 0;
-  while (std::getline(in, line)) {
+  // Lines are read with a bounded buffer: an endless stream without line breaks (/dev/zero)
+  // is refused at its first megabyte instead of filling the memory.
+  for (;;) {
+    in.getline(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0 && (in.eof() || in.fail())) break;
     ++n;
+    if (in.fail() && !in.eof()) throw FileError(path, lineRef(n), "longer than " + std::to_string(kMaxLineBytes) + " bytes: not a CSV file of mountcal's");
+    std::string line(buffer.data(), in.eof() ? got : got - 1);  // without the line break
+    if (n == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // a byte-order mark, as spreadsheets write
+    if (!validUtf8(line)) throw FileError(path, lineRef(n), "not valid UTF-8 text");
     const std::string s = trim(line);
-    if (s.empty() || s[0] == '#') continue;
-    if (t.header_.empty()) {
-      t.header_ = split(s);
-      for (const std::string& h : t.header_) {
-        if (h.empty()) throw FileError(path, lineRef(n), "empty column name in the header");
-        bool numeric = !h.empty();
-        for (char c : h) numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' || c == 'e');
-        if (numeric) throw FileError(path, lineRef(n), "the first line must be a header naming the columns, got '" + s.substr(0, 60) + "'");
+    if (!s.empty() && s[0] != '#') {
+      if (t.header_.empty()) {
+        t.header_ = split(s);
+        for (const std::string& h : t.header_) {
+          if (h.empty()) throw FileError(path, lineRef(n), "empty column name in the header");
+          bool numeric = !h.empty();
+          for (char c : h) numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' || c == 'e');
+          if (numeric) throw FileError(path, lineRef(n), "the first line must be a header naming the columns, got '" + s.substr(0, 60) + "'");
+        }
+      } else {
+        std::vector<std::string> cells = split(s);
+        if (cells.size() != t.header_.size()) {
+          throw FileError(path, lineRef(n), "expected " + std::to_string(t.header_.size()) + " fields (as in the header), got " + std::to_string(cells.size()));
+        }
+        t.cells_.push_back(std::move(cells));
+        t.lines_.push_back(n);
       }
-      continue;
     }
-    std::vector<std::string> cells = split(s);
-    if (cells.size() != t.header_.size()) {
-      throw FileError(path, lineRef(n), "expected " + std::to_string(t.header_.size()) + " fields (as in the header), got " + std::to_string(cells.size()));
-    }
-    t.cells_.push_back(std::move(cells));
-    t.lines_.push_back(n);
+    if (in.eof()) break;
   }
   if (t.header_.empty()) throw FileError(path, "", "empty file: a header line is required");
   return t;
@@ -114,9 +158,11 @@ Trajectory readTrajectoryCsv(const std::string& path, double time_offset_s, Posi
     s.roll = deg2rad(t.number(r, cr));
     s.pitch = deg2rad(t.number(r, cp));
     s.heading = deg2rad(t.number(r, ch));
+    detail::checkAttitude(s.roll, s.pitch, s.heading, path, lineRef(t.lineOf(r)));
     if (r > 0 && !(s.time_s > samples[r - 1].time_s)) {
       throw FileError(path, lineRef(t.lineOf(r)), "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
     }
+    if (r > 0) detail::checkSpeed(samples[r - 1].time_s, samples[r - 1].p_m, s.time_s, s.p_m, path, lineRef(t.lineOf(r)));
   }
   if (samples.size() < 2) throw FileError(path, "", "a trajectory needs at least 2 records");
   return Trajectory(std::move(samples), interpolation);
@@ -144,6 +190,15 @@ std::vector<TieObservation> readTiesCsv(const std::string& path) {
     out[r].x_m = t.number(r, cx);
     out[r].y_m = t.number(r, cy);
     out[r].line = t.lineOf(r);
+  }
+  // A tie is picked once per strip: a second pick, identical or metres away, would count twice.
+  std::map<std::pair<std::string, std::string>, std::size_t> seen;
+  for (const TieObservation& o : out) {
+    const auto [it, fresh] = seen.emplace(std::make_pair(o.tie_id, o.strip_id), o.line);
+    if (!fresh) {
+      throw FileError(path, "lines " + std::to_string(it->second) + " and " + std::to_string(o.line),
+                      "tie '" + o.tie_id + "' is picked twice on strip '" + o.strip_id + "'; keep one pick per tie and strip");
+    }
   }
   return out;
 }

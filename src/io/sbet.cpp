@@ -3,12 +3,35 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 
 #include "mountcal/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/csv.hpp"
+#include "plausible.hpp"
 
 namespace mountcal::io {
+
+namespace {
+
+/// Physical ranges of SBET-like records: attitudes, heights, and the speed between records
+/// (positions to metres on a sphere of the Earth's mean radius — ample for this check).
+void checkRecords(const std::vector<SbetRecord>& recs, const std::string& path, const std::function<std::string(std::size_t)>& where) {
+  constexpr double R = 6371000.0;
+  for (std::size_t i = 0; i < recs.size(); ++i) {
+    const SbetRecord& s = recs[i];
+    detail::checkAttitude(s.roll_rad, s.pitch_rad, s.platform_heading_rad, path, where(i));
+    detail::checkAttitude(0.0, 0.0, s.wander_rad, path, where(i));
+    if (!(std::abs(s.h_m) <= detail::kMaxAbsHeight)) throw FileError(path, where(i), "height " + std::to_string(s.h_m) + " m is out of range");
+    if (i > 0) {
+      const SbetRecord& p = recs[i - 1];
+      const Vec3 a(0, 0, p.h_m), b(R * (s.lat_rad - p.lat_rad), R * std::cos(s.lat_rad) * std::remainder(s.lon_rad - p.lon_rad, 2 * kPi), s.h_m);
+      detail::checkSpeed(p.time_s, a, s.time_s, b, path, where(i));
+    }
+  }
+}
+
+}  // namespace
 
 std::vector<SbetRecord> readSbet(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -33,6 +56,7 @@ std::vector<SbetRecord> readSbet(const std::string& path) {
       throw FileError(path, "record " + std::to_string(i), "latitude/longitude out of range (are they in radians?)");
     }
   }
+  checkRecords(out, path, [](std::size_t i) { return "record " + std::to_string(i); });
   return out;
 }
 
@@ -57,6 +81,7 @@ std::vector<SbetRecord> readGeodeticTrajectoryCsv(const std::string& path) {
     s.pitch_rad = deg2rad(t.number(r, cp));
     s.platform_heading_rad = deg2rad(t.number(r, chd));
   }
+  checkRecords(out, path, [&](std::size_t i) { return "line " + std::to_string(t.lineOf(i)); });
   return out;
 }
 

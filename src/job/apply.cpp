@@ -6,6 +6,7 @@
 
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
+#include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/job/load.hpp"
@@ -15,18 +16,10 @@ namespace mountcal {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-bool samePath(const std::string& a, const std::string& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
-  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
-}
-
-}  // namespace
 
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad, StripFormat format) {
+                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad, StripFormat format,
+                         const std::vector<std::string>& also_inputs) {
   if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
     throw FileError(job.path, "field 'sensor.laser_field'", "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
   }
@@ -35,7 +28,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
   for (const JobStrip& js : job.strips) {
     if (js.format != "las") throw FileError(js.path, "", "apply rewrites LAS strips; this strip is a raw CSV");
     bool seen = false;
-    for (const std::string& in : inputs) seen = seen || samePath(in, js.path);
+    for (const std::string& in : inputs) seen = seen || io::samePath(in, js.path);
     if (!seen) inputs.push_back(js.path);
   }
   std::map<std::string, std::string> by_name;
@@ -47,9 +40,10 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     auto [it, fresh] = by_name.emplace(name, in);
     if (!fresh) throw FileError(in, "", "has the same file name as " + it->second + "; apply would write both to " + (fs::path(out_dir) / name).string());
     outputs.push_back((fs::path(out_dir) / name).string());
-    if (samePath(outputs.back(), job.path)) throw FileError(job.path, "", "apply would overwrite the job file");
-    for (const std::string& other : inputs) {
-      if (samePath(outputs.back(), other)) throw FileError(outputs.back(), "", "apply would overwrite an input of the job; choose another --out folder");
+    std::vector<std::string> every_input = jobInputPaths(job);
+    every_input.insert(every_input.end(), also_inputs.begin(), also_inputs.end());
+    for (const std::string& other : every_input) {
+      if (io::samePath(outputs.back(), other)) throw FileError(outputs.back(), "", "apply would overwrite an input (" + other + "); choose another --out folder");
     }
   }
   std::error_code ec;

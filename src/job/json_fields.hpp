@@ -7,6 +7,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include "mountcal/error.hpp"
@@ -50,6 +51,17 @@ class Fields {
     return v;
   }
   double num(const std::string& k, double def) const { return has(k) ? num(k) : def; }
+  /// A number in [lo, hi] (a physical range: a radius of 1e6 m or a σ of 1e300 is refused).
+  double num(const std::string& k, double def, double lo, double hi) const {
+    if (!has(k)) return def;
+    const double v = num(k);
+    if (!(v >= lo && v <= hi)) {
+      std::ostringstream range;
+      range << "expected a number in [" << lo << ", " << hi << "]";
+      fail(k, range.str());
+    }
+    return v;
+  }
   /// An integer in [lo, hi]: 2.5 or 1e300 is an error, not a truncation.
   int integer(const std::string& k, int def, int lo, int hi) const {
     if (!has(k)) return def;

@@ -2,6 +2,7 @@
 
 #include <flann/flann.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -153,6 +154,48 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
   return s;
 }
 
+/// Refuses a point outside the header's bounds (with a margin for writers that round them):
+/// a scale or offset that puts points kilometres away. Headers with all-zero bounds (left
+/// unset by some writers) are not checked.
+class BoundsCheck {
+ public:
+  BoundsCheck(const io::LasHeader& h, const std::string& path) : h_(h), path_(path) {
+    for (int a = 0; a < 3; ++a) active_ = active_ || h.min[a] != 0.0 || h.max[a] != 0.0;
+  }
+  void check(const Vec3& x, std::uint64_t record) const {
+    if (!active_) return;
+    for (int a = 0; a < 3; ++a) {
+      const double margin = std::max(1.0, 1e-3 * (h_.max[a] - h_.min[a])) + 2 * h_.scale[a];
+      if (!(x[a] >= h_.min[a] - margin && x[a] <= h_.max[a] + margin)) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "the point's %c = %.6g lies outside the header's bounds [%.3f, %.3f]: a wrong scale or offset in the header?",
+                      "xyz"[a], x[a], h_.min[a], h_.max[a]);
+        throw FileError(path_, "record " + std::to_string(record), buf);
+      }
+    }
+  }
+
+ private:
+  const io::LasHeader& h_;
+  std::string path_;
+  bool active_ = false;
+};
+
+/// The laser ranges a strip's points imply: a scanner measures metres to kilometres; ranges of
+/// tens of kilometres mean that strips and trajectory do not describe the same place.
+void checkRanges(const StripData& s, const std::string& path) {
+  constexpr double kMaxRange = 20000.0;  // m: beyond any airborne or terrestrial scanner
+  for (std::size_t i = 0; i < s.r_s.size(); ++i) {
+    const double r = s.r_s[i].norm();
+    if (!(r <= kMaxRange)) {
+      char buf[240];
+      std::snprintf(buf, sizeof buf, "the point at GPS time %.6f s lies %.3g m from the sensor: strips and trajectory do not agree in space "
+                    "(a wrong CRS or zone, another trajectory, or wrong lever arm units?)", s.time_s[i], r);
+      throw FileError(path, "strip '" + s.id + "'", buf);
+    }
+  }
+}
+
 StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceModel& model, const JobFrame& frame,
                        std::vector<double>* xyz_crs) {
   io::LasReader reader(js.path);
@@ -171,6 +214,7 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
   std::vector<io::LasPoint> chunk;
   const Trajectory& T = model.trajectory();
   const bool traj_week = looksLikeWeekSeconds(T.startTime());
+  const BoundsCheck bounds(h, js.path);
   std::uint64_t record = 0;
   while (reader.read(&chunk) > 0) {
     for (const io::LasPoint& p : chunk) {
@@ -194,12 +238,19 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
       s.time_s.push_back(t);
       if (laser) s.laser.push_back(laser->id(p, record));
       const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
+      bounds.check(x, record);
       if (xyz_crs) xyz_crs->insert(xyz_crs->end(), {x.x(), x.y(), x.z()});
       s.x_m.push_back(frame.toLocal(x));
       ++record;
     }
   }
   if (js.split.active() && s.time_s.empty()) emptySplit(job, js, filter);
+  if (s.time_s.empty()) throw FileError(js.path, "", "strip '" + js.id + "' has no points");
+  // The pulse times place the points on the trajectory: one time for every point is no time.
+  if (s.time_s.size() > 1 && std::all_of(s.time_s.begin(), s.time_s.end(), [&](double t) { return t == s.time_s.front(); })) {
+    throw FileError(js.path, "", "every point of strip '" + js.id + "' has the GPS time " + std::to_string(s.time_s.front()) +
+                                     " s: the times are not the pulse times");
+  }
   // Inverse georeferencing (SPEC §2): the raw vectors that, with mounting_used, gave x_m.
   const std::size_t n = s.time_s.size();
   std::vector<double> x(3 * n), r(3 * n);
@@ -207,6 +258,7 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
   model.inverse(s.time_s.data(), x.data(), r.data(), n);
   s.r_s.resize(n);
   for (std::size_t i = 0; i < n; ++i) s.r_s[i] = Eigen::Map<const Vec3>(&r[3 * i]);
+  checkRanges(s, js.path);
   return s;
 }
 

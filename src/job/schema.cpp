@@ -6,6 +6,8 @@
 
 #include "json_fields.hpp"
 #include "mountcal/error.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/crs.hpp"
 
 namespace mountcal {
 
@@ -99,7 +101,16 @@ Job readJob(const std::string& path) {
   if (frame_type == "local") job.frame_type = JobFrameType::kLocal;
   else if (frame_type == "crs") job.frame_type = JobFrameType::kCrs;
   else frame.fail("type", "expected \"local\" or \"crs\"");
-  if (job.frame_type == JobFrameType::kCrs) job.crs = frame.str("crs");
+  if (job.frame_type == JobFrameType::kCrs) {
+    job.crs = frame.str("crs");
+    bool geographic = false;
+    try {
+      geographic = io::CrsTransform::isGeographic(job.crs);
+    } catch (const InvalidInput& e) {
+      frame.fail("crs", e.what());
+    }
+    if (geographic) frame.fail("crs", "'" + job.crs + "' is geographic (degrees); the strips and the job need a projected CRS in metres (e.g. a UTM zone)");
+  }
 
   if (top.has("poses")) {
     if (top.has("trajectory")) top.fail("poses", "a job takes either a \"trajectory\" or per-point \"poses\", not both");
@@ -223,12 +234,14 @@ Job readJob(const std::string& path) {
   if (top.has("vtpm")) {
     const Fields v = top.sub("vtpm", {"radius_m", "max_radius_m", "ransac_threshold_m", "tie_sigma_xy_m", "tie_sigma_z_m",
                                       "strip_offset_sigma_m"});
-    o.vtp.radius_m = v.num("radius_m", o.vtp.radius_m);
-    o.vtp.max_radius_m = v.num("max_radius_m", std::max(o.vtp.max_radius_m, o.vtp.radius_m));
-    o.vtp.ransac_threshold_m = v.num("ransac_threshold_m", o.vtp.ransac_threshold_m);
-    o.tie_sigma_xy_m = v.num("tie_sigma_xy_m", o.tie_sigma_xy_m);
-    o.tie_sigma_z_m = v.num("tie_sigma_z_m", o.tie_sigma_z_m);
-    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m);
+    // Physical ranges: a virtual tie point is a local plane of metres, picks are good to
+    // centimetres or metres, not kilometres.
+    o.vtp.radius_m = v.num("radius_m", o.vtp.radius_m, 0.01, 100.0);
+    o.vtp.max_radius_m = v.num("max_radius_m", std::max(o.vtp.max_radius_m, o.vtp.radius_m), 0.01, 100.0);
+    o.vtp.ransac_threshold_m = v.num("ransac_threshold_m", o.vtp.ransac_threshold_m, 1e-4, 10.0);
+    o.tie_sigma_xy_m = v.num("tie_sigma_xy_m", o.tie_sigma_xy_m, 1e-4, 100.0);
+    o.tie_sigma_z_m = v.num("tie_sigma_z_m", o.tie_sigma_z_m, 1e-4, 100.0);
+    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
   }
   if (top.has("plane")) {
     const Fields p = top.sub("plane", {"sigma_m", "ransac_threshold_m", "ransac_iterations", "min_points_per_strip",
@@ -397,6 +410,34 @@ std::string jobJson(const Job& job) {
   if (!job.report_path.empty()) out["report"] = rel(job.report_path);
   if (!out.empty()) j["output"] = out;
   return j.dump(2) + "\n";
+}
+
+std::vector<std::string> jobInputPaths(const Job& job) {
+  std::vector<std::string> in = {job.path};
+  for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path, &job.planes_path})
+    if (!p->empty()) in.push_back(*p);
+  for (const JobStrip& s : job.strips) in.push_back(s.path);
+  return in;
+}
+
+void checkJobOutputs(const Job& job, const std::vector<std::string>& also_inputs) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> inputs = jobInputPaths(job);
+  inputs.insert(inputs.end(), also_inputs.begin(), also_inputs.end());
+  const std::vector<std::pair<std::string, std::string>> outputs = {{"output.result", job.result_path}, {"output.report", job.report_path}};
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const auto& [field, out] = outputs[i];
+    if (out.empty()) continue;
+    const std::string where = "field '" + field + "'";
+    for (const std::string& in : inputs)
+      if (io::samePath(out, in)) throw FileError(job.path, where, out + " is also an input of the job (" + in + "); choose another output file");
+    for (std::size_t k = 0; k < i; ++k)
+      if (!outputs[k].second.empty() && io::samePath(out, outputs[k].second)) throw FileError(job.path, where, out + " is also " + outputs[k].first);
+    std::error_code ec;
+    if (fs::is_directory(out, ec)) throw FileError(job.path, where, out + " is a folder");
+    const fs::path folder = fs::path(out).parent_path();
+    if (!folder.empty() && !fs::is_directory(folder, ec)) throw FileError(job.path, where, "the folder " + folder.string() + " does not exist");
+  }
 }
 
 }  // namespace mountcal

@@ -86,6 +86,9 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
   // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
   const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
+  if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
+    throw InvalidInput("CRS '" + options.crs + "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+  }
   const io::CrsTransform placement(placement_crs);
   const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
   // SBET: position through WGS84; attitude relative to the true NED frame at each sample:
@@ -235,7 +238,11 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
     };
     mounting("true_mounting", &config->true_mounting);
     mounting("nominal_mounting", &config->nominal_mounting);
-    if (j.contains("roi_radius_m")) config->roi_radius_m = j["roi_radius_m"].get<double>();
+    if (j.contains("roi_radius_m")) {
+      config->roi_radius_m = j["roi_radius_m"].get<double>();
+      if (!(config->roi_radius_m >= 0 && config->roi_radius_m <= 1e4))
+        throw FileError(path, "field 'roi_radius_m'", "expected a radius in [0, 10000] m (0: whole strips)");
+    }
     if (j.contains("noise")) {
       const auto& n = j["noise"];
       if (n.is_string()) {
@@ -247,6 +254,7 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
         for (auto it = n.begin(); it != n.end(); ++it) {
           const std::string& k = it.key();
           const double v = it.value().get<double>();
+          if (!(v >= 0 && v <= 1e4)) throw FileError(path, "field 'noise." + k + "'", "expected a number in [0, 10000]");
           if (k == "range_sigma_m") m.range_sigma_m = v;
           else if (k == "scan_angle_sigma_deg") m.scan_angle_sigma_rad = deg2rad(v);
           else if (k == "gnss_sigma_m") m.gnss_sigma_m = v;

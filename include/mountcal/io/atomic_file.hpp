@@ -3,6 +3,8 @@
 /// Writing files so that a failed run never leaves a half file over a good one.
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace mountcal::io {
 
@@ -10,5 +12,15 @@ namespace mountcal::io {
 /// renamed over `path`. Throws FileError naming `path` when any step fails; the previous
 /// content of `path`, if any, is then untouched.
 void writeFileAtomically(const std::string& path, const std::string& content);
+
+/// Writes several files all or nothing: every temporary file is written first, then each is
+/// renamed over its path; when any step fails the files renamed so far get their previous
+/// content back (or are removed when they did not exist) and FileError names the file that
+/// failed. Two entries naming the same file are refused before anything is written.
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files);
+
+/// True when `a` and `b` name the same file: the same inode when both exist (links resolved),
+/// otherwise the same absolute, normalised path (links of the existing part resolved).
+bool samePath(const std::string& a, const std::string& b);
 
 }  // namespace mountcal::io

@@ -19,6 +19,10 @@ class CrsTransform {
   CrsTransform(const CrsTransform&) = delete;
   CrsTransform& operator=(const CrsTransform&) = delete;
 
+  /// True for a geographic CRS (coordinates in degrees, such as EPSG:4326): strips and jobs
+  /// need a projected one in metres. Throws InvalidInput when PROJ does not know the CRS.
+  static bool isGeographic(const std::string& crs);
+
   Geodetic toGeodetic(const Vec3& x_crs) const;
   Vec3 fromGeodetic(const Geodetic& g) const;
 

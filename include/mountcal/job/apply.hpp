@@ -28,11 +28,12 @@ enum class StripFormat { same_as_input, las, laz };
 /// extra bytes are kept byte for byte; the files are streamed in chunks of `chunk_points`, so
 /// memory does not grow with the strip. Files are written through a temporary name. Throws
 /// FileError, before anything is written, for raw CSV strips (they cannot be rewritten), two
-/// inputs with the same file name, or an output that would be one of the inputs.
+/// inputs with the same file name, or an output that would be one of the job's inputs
+/// (`jobInputPaths`) or of `also_inputs` (e.g. the result file read).
 /// `laser_elevation_rad` (by laser id, a result's intrinsics) turns each laser vector by its
 /// laser's elevation offset before georeferencing; it needs the job's `sensor.laser_field`.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
                          std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {},
-                         StripFormat format = StripFormat::same_as_input);
+                         StripFormat format = StripFormat::same_as_input, const std::vector<std::string>& also_inputs = {});
 
 }  // namespace mountcal

@@ -78,4 +78,14 @@ Job readJob(const std::string& path);
 /// The job as SPEC §4 JSON, paths relative to `job.path`'s folder where they lie below it.
 std::string jobJson(const Job& job);
 
+/// Every file the job reads: the job file, the trajectory, the strips, the ties, GCP, check
+/// and plane files it names.
+std::vector<std::string> jobInputPaths(const Job& job);
+
+/// Checks, before anything is computed or written, the job's outputs (`output.result`,
+/// `output.report`) against every input of the job, `also_inputs` and each other (links
+/// resolved), and that their folders exist. Throws FileError naming the output and what it
+/// would overwrite.
+void checkJobOutputs(const Job& job, const std::vector<std::string>& also_inputs = {});
+
 }  // namespace mountcal
