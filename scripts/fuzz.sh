@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder and the SBET reader with clang (ASan + UBSan) and runs
+# Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder, the SBET reader
+# and the CSV readers with clang (ASan + UBSan) and runs
 # each for a bounded time (default 60 s). Seeds come from ../shared/data when it is there.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
@@ -9,7 +10,7 @@ source "$root/scripts/deps.sh"
 mountcal_ensure_deps clang libclang-rt-14-dev
 seconds="${1:-60}"
 out="$root/build-fuzz"
-mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet"
+mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I"$root/include" -I/usr/include/eigen3)
 laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
@@ -17,6 +18,8 @@ clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/
 clang++ "${flags[@]}" -o "$out/fuzz_laz" "$root/tests/fuzz/fuzz_laz.cpp" "${laz_sources[@]}" "$root/src/error.cpp"
 clang++ "${flags[@]}" -o "$out/fuzz_sbet" "$root/tests/fuzz/fuzz_sbet.cpp" "$root/src/io/sbet.cpp" \
   "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/error.cpp"
+clang++ "${flags[@]}" -o "$out/fuzz_csv" "$root/tests/fuzz/fuzz_csv.cpp" "$root/src/io/sbet.cpp" "$root/src/io/csv.cpp" \
+  "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/sensor_model.cpp" "$root/src/error.cpp"
 data="$root/../shared/data"
 if [ -d "$data" ]; then
   cp -f "$data/leeward/points.las" "$out/corpus_las/" 2>/dev/null || true
@@ -39,7 +42,16 @@ if [ -d "$data" ]; then
 else
   echo "fuzz: ../shared/data not found; starting from empty corpora"
 fi
-for target in las laz sbet; do
+# CSV seeds: a few lines of each kind behind the reader-selector byte (written here, no data needed).
+printf '\x08tie_id,strip_id,x,y\na,1,0.5,2\na,2,0.6,2.1\n' > "$out/corpus_csv/ties"
+printf '\x01time,x,y,z,roll_deg,pitch_deg,heading_deg\n1,0,0,100,0.1,0.2,90\n2,50,0,100,0.1,0.2,90\n' > "$out/corpus_csv/trajectory"
+printf '\x02gcp_id,x,y,z,sigma_xy_m,sigma_z_m\ng1,1,2,3,0.02,0.03\n' > "$out/corpus_csv/gcps"
+printf '\x03plane_id,xmin,ymin,xmax,ymax\np,0,0,10,10\n' > "$out/corpus_csv/planes"
+printf '\x04time,scan_angle_deg,range_m,intensity\n1.5,10,800,40\n' > "$out/corpus_csv/raw_line"
+printf '\x05time,laser_id,azimuth_deg,range_m,intensity\n1.5,3,10,40,7\n' > "$out/corpus_csv/raw_multibeam"
+printf '\x06time,xs,ys,zs,intensity\n1.5,1,2,30,7\n' > "$out/corpus_csv/raw_vector"
+printf '\x07time,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,heading_deg\n1,34,-118,100,0,0,0\n2,34.0001,-118,100,0,0,0\n' > "$out/corpus_csv/geodetic"
+for target in las laz sbet csv; do
   echo "fuzz: $target for ${seconds} s"
   "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/" \

@@ -291,6 +291,19 @@ StripData loadRawStrip(const JobStrip& js, const SensorModel& sensor, const Geor
 
 /// Picks are plan positions in the strips' CRS; in the tangent frame a plan position moves with
 /// height, so each is lifted with the height of the nearest strip point before conversion.
+/// Ties or check points, each naming a strip of the job (else FileError naming the line).
+std::vector<TieObservation> readPicks(const Job& job, const std::string& path, const std::string& what) {
+  std::vector<TieObservation> picks = io::readTiesCsv(path);
+  std::set<std::string> ids;
+  for (const JobStrip& js : job.strips) ids.insert(js.id);
+  for (const TieObservation& t : picks) {
+    if (!ids.count(t.strip_id)) {
+      throw FileError(path, "line " + std::to_string(t.line), what + " '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
+    }
+  }
+  return picks;
+}
+
 std::vector<TieObservation> liftPicks(std::vector<TieObservation> ties, const LoadedJob& loaded) {
   if (loaded.frame.isLocal()) return ties;
   for (TieObservation& t : ties) {
@@ -370,17 +383,7 @@ LoadedJob loadJob(const Job& job) {
     }
   }
   if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
-  std::set<std::string> ids;
-  for (const JobStrip& js : job.strips) ids.insert(js.id);
-  if (!job.ties_path.empty()) {
-    std::vector<TieObservation> ties = io::readTiesCsv(job.ties_path);
-    for (const TieObservation& t : ties) {
-      if (!ids.count(t.strip_id)) {
-        throw FileError(job.ties_path, "line " + std::to_string(t.line), "tie '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
-      }
-    }
-    d.ties = liftPicks(std::move(ties), out);
-  }
+  if (!job.ties_path.empty()) d.ties = liftPicks(readPicks(job, job.ties_path, "tie"), out);
   if (!job.planes_path.empty()) d.plane_regions = liftRegions(io::readPlanesCsv(job.planes_path), out);
   if (!job.gcps_path.empty()) {
     d.gcps = io::readGcpCsv(job.gcps_path);
@@ -398,7 +401,7 @@ CalibrationData loadJobData(const Job& job) { return loadJob(job).data; }
 
 std::vector<TieObservation> loadCheckPoints(const Job& job, const LoadedJob& loaded) {
   if (job.check_points_path.empty()) return {};
-  return liftPicks(io::readTiesCsv(job.check_points_path), loaded);
+  return liftPicks(readPicks(job, job.check_points_path, "check point"), loaded);
 }
 
 std::vector<PlaneRegion> loadCheckPlanes(const Job& job, const LoadedJob& loaded) {

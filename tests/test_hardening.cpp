@@ -1,0 +1,287 @@
+// A hostile but realistic user (issue "Nothing lost, nothing absurd accepted"): one regression
+// test per class of bad input. Each case must end with exit 2 and one line naming the file and
+// the place — or a correct result where the input is valid — and never change an input or a
+// good output.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "mountcal/error.hpp"
+#include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/sbet.hpp"
+
+using namespace mountcal;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+void spit(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary) << s; }
+
+struct CliRun {
+  int code;
+  std::string err;
+};
+CliRun cli(const std::string& args) {
+  const std::string err = (fs::temp_directory_path() / ("mountcal_hard_err_" + std::to_string(::getpid()))).string();
+  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > /dev/null 2> " + err).c_str());
+  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+  fs::remove(err);
+  return r;
+}
+
+/// A simulated survey (local frame, and the same in UTM zone 11 with an SBET), made once.
+class Hardening : public ::testing::Test {
+ protected:
+  static fs::path dir() { return fs::temp_directory_path() / ("mountcal_hardening_" + std::to_string(::getpid())); }
+  static fs::path field() { return dir() / "field"; }
+  static fs::path utm() { return dir() / "utm"; }
+  static void SetUpTestSuite() {
+    fs::remove_all(dir());
+    fs::create_directories(dir());
+    ASSERT_EQ(cli("simulate --preset paper-calibration-field --seed 2 --out " + field().string()).code, 0);
+    ASSERT_EQ(cli("simulate --preset paper-calibration-field --seed 2 --crs EPSG:32611 --out " + utm().string()).code, 0);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir()); }
+
+  /// Every file of the field folder, to prove that nothing was changed.
+  static std::map<std::string, std::string> snapshot() {
+    std::map<std::string, std::string> m;
+    for (const auto& e : fs::directory_iterator(field()))
+      if (e.is_regular_file()) m[e.path().filename().string()] = slurp(e.path());
+    return m;
+  }
+  /// A job variant of field/job.json written next to it.
+  static std::string variant(const std::string& name, const std::function<void(json&)>& edit, const fs::path& base = field()) {
+    json j = json::parse(slurp(base / "job.json"));
+    edit(j);
+    spit(base / name, j.dump(1));
+    return (base / name).string();
+  }
+  /// Exit 2, one line, naming `file` and containing `what`; the field folder unchanged.
+  static void expectRefused(const std::string& args, const std::string& file, const std::string& what) {
+    const auto before = snapshot();
+    const CliRun r = cli(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(file), std::string::npos) << "the message does not name " << file << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+    const auto after = snapshot();
+    for (const auto& [name, content] : before) {
+      auto it = after.find(name);
+      EXPECT_TRUE(it != after.end() && it->second == content) << name << " changed by: " << args;
+    }
+  }
+  static std::string withLine(const std::string& csv, int line, const std::function<std::string(const std::string&)>& edit) {
+    std::istringstream in(csv);
+    std::string out, l;
+    for (int n = 1; std::getline(in, l); ++n) out += (n == line ? edit(l) : l) + "\n";
+    return out;
+  }
+};
+
+std::string replaceField(const std::string& line, int field, const std::string& value) {
+  std::vector<std::string> f;
+  std::stringstream ss(line);
+  for (std::string c; std::getline(ss, c, ',');) f.push_back(c);
+  f[static_cast<std::size_t>(field)] = value;
+  std::string out;
+  for (std::size_t i = 0; i < f.size(); ++i) out += (i ? "," : "") + f[i];
+  return out;
+}
+
+}  // namespace
+
+// Outputs never replace inputs or each other, and a failed run writes nothing.
+TEST_F(Hardening, OutputsNeverReplaceInputs) {
+  for (const std::string target : {"ties.csv", "strip_1.las", "trajectory.csv", "o_self.json"}) {
+    const std::string job = variant("o_self.json", [&](json& j) { j["output"] = {{"result", target}}; });
+    expectRefused("calibrate --quiet " + job, "o_self.json:field 'output.result'", "is also an input of the job");
+  }
+  const std::string same = variant("o_same.json", [](json& j) { j["output"] = {{"result", "x.out"}, {"report", "./x.out"}}; });
+  expectRefused("calibrate --quiet " + same, "field 'output.report'", "is also output.result");
+  // A report that cannot be written: refused before the solve, and the result not written.
+  const std::string nofolder = variant("o_nofolder.json", [](json& j) { j["output"] = {{"result", "r_nofolder.json"}, {"report", "/nonexistent/r.html"}}; });
+  expectRefused("calibrate --quiet " + nofolder, "field 'output.report'", "does not exist");
+  EXPECT_FALSE(fs::exists(field() / "r_nofolder.json"));
+  // apply: onto the inputs' own folder, and onto the result file it reads.
+  ASSERT_EQ(cli("calibrate --quiet " + (field() / "job.json").string()).code, 0);
+  expectRefused("apply " + (field() / "job.json").string() + " --result " + (field() / "result.json").string() + " --out " + field().string(),
+                "strip_1.las", "apply would overwrite an input");
+  spit(dir() / "strip_1.las", "a result file that looks like a strip's output");
+  fs::copy_file(field() / "result.json", dir() / "strip_1.las", fs::copy_options::overwrite_existing);
+  const CliRun r = cli("apply " + (field() / "job.json").string() + " --result " + (dir() / "strip_1.las").string() + " --out " + dir().string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("apply would overwrite an input"), std::string::npos) << r.err;
+}
+
+// writeFilesAtomically: when the second file fails, the first keeps its previous content.
+TEST_F(Hardening, SeveralOutputsAllOrNothing) {
+  const fs::path a = dir() / "a.txt";
+  spit(a, "previous");
+  EXPECT_THROW(io::writeFilesAtomically({{a.string(), "new"}, {(dir() / "no" / "b.txt").string(), "b"}}), FileError);
+  EXPECT_EQ(slurp(a), "previous");
+  EXPECT_THROW(io::writeFilesAtomically({{a.string(), "1"}, {(dir() / "." / "a.txt").string(), "2"}}), FileError);
+  EXPECT_EQ(slurp(a), "previous");
+  io::writeFilesAtomically({{a.string(), "new"}, {(dir() / "b.txt").string(), "b"}});
+  EXPECT_EQ(slurp(a), "new");
+  EXPECT_EQ(slurp(dir() / "b.txt"), "b");
+  for (const auto& e : fs::directory_iterator(dir())) EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+}
+
+// Finite but absurd values: refused with the file and the place.
+TEST_F(Hardening, AbsurdValuesAreRefused) {
+  const std::string traj = slurp(field() / "trajectory.csv");
+  spit(field() / "t_att.csv", withLine(traj, 100, [](const std::string& l) { return replaceField(l, 4, "1e300"); }));
+  expectRefused("calibrate --quiet " + variant("a_att.json", [](json& j) { j["trajectory"]["path"] = "t_att.csv"; }), "t_att.csv:line 100", "attitude");
+  spit(field() / "t_pos.csv", withLine(traj, 100, [](const std::string& l) { return replaceField(l, 1, "1e300"); }));
+  expectRefused("calibrate --quiet " + variant("a_pos.json", [](json& j) { j["trajectory"]["path"] = "t_pos.csv"; }), "t_pos.csv:line 100", "no platform flies");
+  expectRefused("calibrate --quiet " + variant("a_rad.json", [](json& j) { j["vtpm"]["radius_m"] = 1e6; }), "field 'vtpm.radius_m'", "expected a number in");
+  expectRefused("calibrate --quiet " + variant("a_sig.json", [](json& j) { j["vtpm"]["tie_sigma_xy_m"] = 1e300; }), "field 'vtpm.tie_sigma_xy_m'", "expected a number in");
+  expectRefused("calibrate --quiet " + variant("a_neg.json", [](json& j) { j["vtpm"]["strip_offset_sigma_m"] = -1; }), "field 'vtpm.strip_offset_sigma_m'", "expected a number in");
+  // A LAS scale that puts points 1e305 m away while the header bounds say a few hundred metres.
+  std::string las = slurp(field() / "strip_1.las");
+  const double scale = 1e296;
+  std::memcpy(&las[131], &scale, 8);
+  spit(field() / "s_scale.las", las);
+  expectRefused("calibrate --quiet " + variant("a_scale.json", [](json& j) { j["strips"][0]["path"] = "s_scale.las"; }), "s_scale.las:record 0", "outside the header's bounds");
+  // Every GPS time of a strip equal.
+  las = slurp(field() / "strip_1.las");
+  std::uint32_t offset;
+  std::uint64_t count;
+  std::memcpy(&offset, &las[96], 4);
+  std::memcpy(&count, &las[247], 8);
+  const double t = 1.0e5;
+  for (std::uint64_t i = 0; i < count; ++i) std::memcpy(&las[offset + i * 30 + 22], &t, 8);
+  spit(field() / "s_time.las", las);
+  expectRefused("calibrate --quiet " + variant("a_time.json", [](json& j) { j["strips"][0]["path"] = "s_time.las"; }), "s_time.las", "the times are not the pulse times");
+  // Strips in another UTM zone than the trajectory (SBET): the laser ranges give it away.
+  const std::string zone = variant("zone.json", [](json& j) { j["frame"]["crs"] = "EPSG:32612"; }, utm());
+  const CliRun z = cli("calibrate --quiet " + zone);
+  EXPECT_EQ(z.code, 2) << z.err;
+  EXPECT_NE(z.err.find("strips and trajectory do not agree in space"), std::string::npos) << z.err;
+  // An SBET attitude of 1e300 rad.
+  std::vector<io::SbetRecord> sbet = io::readSbet((utm() / "trajectory.sbet").string());
+  sbet[7].roll_rad = 1e300;
+  io::writeSbet((utm() / "bad.sbet").string(), sbet);
+  const std::string badsbet = variant("badsbet.json", [](json& j) { j["trajectory"]["path"] = "bad.sbet"; }, utm());
+  const CliRun s = cli("calibrate --quiet " + badsbet);
+  EXPECT_EQ(s.code, 2) << s.err;
+  EXPECT_NE(s.err.find("bad.sbet:record 7: attitude"), std::string::npos) << s.err;
+}
+
+// The same tie picked twice on one strip, identically or metres apart.
+TEST_F(Hardening, DuplicateTiesAreRefusedNamingBothLines) {
+  const std::string ties = slurp(field() / "ties.csv");
+  std::istringstream in(ties);
+  std::string header, first;
+  std::getline(in, header);
+  std::getline(in, first);
+  const int last_line = static_cast<int>(std::count(ties.begin(), ties.end(), '\n')) + 1;
+  spit(field() / "ties_dup.csv", ties + first + "\n");
+  expectRefused("calibrate --quiet " + variant("d1.json", [](json& j) { j["ties"] = "ties_dup.csv"; }),
+                "ties_dup.csv:lines 2 and " + std::to_string(last_line), "is picked twice on strip");
+  std::stringstream ss(first);
+  std::string id, strip;
+  std::getline(ss, id, ',');
+  std::getline(ss, strip, ',');
+  spit(field() / "ties_dup2.csv", ties + id + "," + strip + ",0.0,0.0\n");
+  expectRefused("calibrate --quiet " + variant("d2.json", [](json& j) { j["ties"] = "ties_dup2.csv"; }), "ties_dup2.csv:lines 2 and", "is picked twice");
+}
+
+// Inputs that used to end as internal errors (exit 3) are bad input naming the file.
+TEST_F(Hardening, MalformedJobsAreBadInputNotInternalErrors) {
+  std::string j = slurp(field() / "job.json");
+  const auto at = j.find("\"max_iterations\": 100");
+  ASSERT_NE(at, std::string::npos);
+  spit(field() / "i_big.json", j.replace(at, 21, "\"max_iterations\": 1e999"));
+  expectRefused("calibrate --quiet " + (field() / "i_big.json").string(), "i_big.json", "invalid JSON");
+  fs::create_directories(field() / "adir");
+  expectRefused("calibrate --quiet " + (field() / "adir").string(), "adir", "is a folder");
+  fs::remove(field() / "adir");
+  const std::string ties = slurp(field() / "ties.csv");
+  spit(field() / "ties_utf.csv", withLine(ties, 2, [](const std::string& l) { return "\xff\xfe" + l; }));
+  expectRefused("calibrate --quiet " + variant("i_utf.json", [](json& v) { v["ties"] = "ties_utf.csv"; }), "ties_utf.csv:line 2", "not valid UTF-8");
+  expectRefused("calibrate --quiet " + variant("i_25.json", [](json& v) { v["solver"]["max_iterations"] = 2.5; }), "field 'solver.max_iterations'", "expected an integer");
+  expectRefused("calibrate --quiet " + variant("i_300.json", [](json& v) { v["solver"]["max_iterations"] = 1e300; }), "field 'solver.max_iterations'", "expected an integer");
+}
+
+// Endless or absurd sizes: bounded, refused.
+TEST_F(Hardening, ResourcesStayBounded) {
+  expectRefused("calibrate --quiet " + variant("r_zero.json", [](json& j) { j["ties"] = "/dev/zero"; }), "/dev/zero:line 1", "longer than");
+  spit(dir() / "neg_roi.json", R"({"preset": "paper-calibration-field", "roi_radius_m": -5})");
+  const CliRun r = cli("simulate " + (dir() / "neg_roi.json").string() + " --out " + (dir() / "neg").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("neg_roi.json:field 'roi_radius_m'"), std::string::npos) << r.err;
+  spit(dir() / "neg_noise.json", R"({"preset": "paper-calibration-field", "noise": {"range_sigma_m": -1}})");
+  const CliRun n = cli("simulate " + (dir() / "neg_noise.json").string() + " --out " + (dir() / "neg").string());
+  EXPECT_EQ(n.code, 2);
+  EXPECT_NE(n.err.find("field 'noise.range_sigma_m'"), std::string::npos) << n.err;
+}
+
+// Messages that name the file and where.
+TEST_F(Hardening, MessagesSayWhere) {
+  const std::string cps = slurp(field() / "check_points.csv");
+  spit(field() / "cp_bad.csv", withLine(cps, 2, [](const std::string& l) { return replaceField(l, 1, "99"); }));
+  expectRefused("calibrate --quiet " + variant("m_cp.json", [](json& j) { j["check_points"] = "cp_bad.csv"; }), "cp_bad.csv:line 2", "99");
+  const std::string las = slurp(field() / "strip_1.las");
+  std::uint32_t offset;
+  std::memcpy(&offset, &las[96], 4);
+  std::string empty = las.substr(0, offset);
+  const std::uint64_t zero = 0;
+  std::memcpy(&empty[247], &zero, 8);
+  std::memcpy(&empty[107], &zero, 4);
+  spit(field() / "s_empty.las", empty);
+  expectRefused("calibrate --quiet " + variant("m_empty.json", [](json& j) { j["strips"][0]["path"] = "s_empty.las"; }), "s_empty.las", "has no points");
+  fs::create_directories(dir() / "adir");
+  const CliRun d = cli("info " + (dir() / "adir").string());
+  EXPECT_EQ(d.code, 2);
+  EXPECT_NE(d.err.find("adir"), std::string::npos) << d.err;
+  spit(dir() / "sc_type.json", R"({"preset": "paper-calibration-field", "roi_radius_m": "big"})");
+  const CliRun t = cli("simulate " + (dir() / "sc_type.json").string() + " --out " + (dir() / "t").string());
+  EXPECT_EQ(t.code, 2);
+  EXPECT_NE(t.err.find("sc_type.json"), std::string::npos) << t.err;
+}
+
+// A UTF-8 byte-order mark (as spreadsheets write) is accepted, with the same result.
+TEST_F(Hardening, ByteOrderMarkIsAccepted) {
+  spit(field() / "ties_bom.csv", "\xEF\xBB\xBF" + slurp(field() / "ties.csv"));
+  spit(field() / "traj_bom.csv", "\xEF\xBB\xBF" + slurp(field() / "trajectory.csv"));
+  const std::string plain = variant("bom0.json", [](json& j) { j["output"] = {{"result", "bom0.result.json"}}; });
+  const std::string bom = variant("bom1.json", [](json& j) {
+    j["ties"] = "ties_bom.csv";
+    j["trajectory"]["path"] = "traj_bom.csv";
+    j["output"] = {{"result", "bom1.result.json"}};
+  });
+  ASSERT_EQ(cli("calibrate --quiet " + plain).code, 0);
+  const CliRun r = cli("calibrate --quiet " + bom);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const json a = json::parse(slurp(field() / "bom0.result.json")), b = json::parse(slurp(field() / "bom1.result.json"));
+  EXPECT_EQ(a["mounting"], b["mounting"]);
+}
+
+// Geographic CRSs (degrees) for strips: refused by the simulator and in jobs.
+TEST_F(Hardening, GeographicCrsIsRefused) {
+  const CliRun r = cli("simulate --preset paper-calibration-field --crs EPSG:4326 --out " + (dir() / "geo").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("geographic"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir() / "geo" / "job.json"));
+  const std::string job = variant("geo.json", [](json& j) { j["frame"]["crs"] = "EPSG:4326"; }, utm());
+  const CliRun g = cli("calibrate --quiet " + job);
+  EXPECT_EQ(g.code, 2);
+  EXPECT_NE(g.err.find("geo.json:field 'frame.crs'"), std::string::npos) << g.err;
+}
