@@ -1,6 +1,8 @@
 // VTPM self-calibration on simulated data with known truth (issue: VTPM self-calibration).
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <set>
@@ -289,4 +291,51 @@ TEST(VirtualTiePoint, RuleOneIsSeedEquationFiveAndRuleTwoIsRigid) {
   fitRigidTransform(p, q, 3, &R_est, &t_est);
   EXPECT_LT((R_est - R).norm(), 1e-12);
   EXPECT_LT((t_est - t).norm(), 1e-12);
+}
+
+// DISABLED — it fails today, and stays here as the open part of issue 12 ("σ honesty"), run with
+// --gtest_also_run_disabled_tests --gtest_filter='*SigmasAreHonest*' (68 s in Release). Measured
+// (2026-11-22): roll 0.97, pitch 0.97, lever x 0.97, lever y 0.93, heading 0.67 (20 of 30) within
+// 2σ; mean σ₀² 1.61 over a mean redundancy of 525. The heading σ ignores the within-strip GNSS
+// drift that the one-offset-per-strip model cannot absorb; σ₀² scaling alone (×1.27) would not
+// reach 0.85.
+//
+// σ honesty over 30 seeds, with survey noise whose model differs from the calibrator's: the
+// GNSS error drifts within a strip (Gauss–Markov, 20 s — the calibrator assumes one constant
+// offset per strip) and the picks scatter 4 cm while the calibrator assumes 3 cm. A stated σ is
+// honest when about 95 % of the errors fall within 2σ: between 0.85 and 0.99 of them for every
+// estimated parameter; and the mean σ₀² of the 30 solves lies within its χ² 99 % range.
+TEST(VtpmCalibration, DISABLED_SigmasAreHonestOverThirtySeeds) {
+  std::array<int, 6> within{};
+  std::array<int, 6> counted{};
+  double vf_sum = 0, redundancy = 0;
+  const int seeds = 30;
+  for (int seed = 101; seed < 101 + seeds; ++seed) {
+    Scene scene;
+    SurveyConfig c;
+    makePreset("paper-calibration-field", static_cast<std::uint64_t>(seed), &c, &scene);
+    c.noise = surveyGrade();
+    c.noise.gnss_correlation_s = 20.0;
+    c.noise.pick_sigma_m = 0.04;
+    c.roi_radius_m = 8.0;
+    const SimulatedSurvey s = simulate(c, scene);
+    const auto S = calibrate(toCalibrationData(s), surveyGradeOptions());
+    ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << "\n" << S.FullReport();
+    const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
+    for (int j = 0; j < 6; ++j) {
+      if (!S.estimated[static_cast<std::size_t>(j)] || !(S.sigma[j] > 0)) continue;
+      ++counted[static_cast<std::size_t>(j)];
+      if (std::abs(e[j] - t[j]) <= 2 * S.sigma[j]) ++within[static_cast<std::size_t>(j)];
+    }
+    vf_sum += S.variance_factor;
+    redundancy += S.degrees_of_freedom;
+  }
+  for (int j = 0; j < 6; ++j) {
+    if (counted[static_cast<std::size_t>(j)] == 0) continue;
+    const double frac = static_cast<double>(within[static_cast<std::size_t>(j)]) / counted[static_cast<std::size_t>(j)];
+    std::printf("param %d: %d of %d within 2 sigma (%.2f)\n", j, within[static_cast<std::size_t>(j)], counted[static_cast<std::size_t>(j)], frac);
+    EXPECT_GE(frac, 0.85) << "parameter " << j;
+    EXPECT_LE(frac, 0.99) << "parameter " << j;
+  }
+  std::printf("mean variance factor %.3f, mean redundancy %.1f\n", vf_sum / seeds, redundancy / seeds);
 }

@@ -3,6 +3,7 @@
 #include <random>
 
 #include "mountcal/error.hpp"
+#include "mountcal/geodesy.hpp"
 #include "mountcal/georeference_model.hpp"
 
 using namespace mountcal;
@@ -143,4 +144,42 @@ TEST(Georeference, TimesOutsideTheTrajectoryThrow) {
   EXPECT_THROW(model.forward(t, r, x, 2), TimeOutOfRange);
   EXPECT_THROW(GeoreferenceModel(std::shared_ptr<const Trajectory>(), MountingParameters{}),
                InvalidInput);
+}
+
+// A committed fixture with every angle and the lever arm non-zero, derived outside mountcal:
+// SPEC §2 eq. (1), x_m = p_m + R_mn R_nb (R_bore R_nom r_s + a_b), evaluated with
+// R_mn = [[0,1,0],[1,0,0],[0,0,-1]], R_nb = Rz(135°) Ry(−1.5°) Rx(2.5°),
+// R_bore = Rz(0.5°) Ry(−0.2°) Rx(0.3°), R_nom = I, a_b = (0.12, −0.35, 0.80) m,
+// r_s = (12, −150, 790) m, p_m = (500, 1200, 800) m, by a separate 20-line Python script of
+// plain 3×3 products (math.cos/sin only). mountcal must reproduce it and invert it.
+TEST(Georeference, CommittedFixtureWithEveryAngleNonZero) {
+  std::vector<TrajectorySample> s(2);
+  for (int i = 0; i < 2; ++i) {
+    s[static_cast<std::size_t>(i)].time_s = i;
+    s[static_cast<std::size_t>(i)].p_m = Vec3(500.0, 1200.0, 800.0);
+    s[static_cast<std::size_t>(i)].roll = deg2rad(2.5);
+    s[static_cast<std::size_t>(i)].pitch = deg2rad(-1.5);
+    s[static_cast<std::size_t>(i)].heading = deg2rad(135.0);
+  }
+  const GeoreferenceModel model(std::make_shared<const Trajectory>(s),
+                                MountingParameters::fromDegrees(Vec3(0.12, -0.35, 0.80), Vec3(0.3, -0.2, 0.5)));
+  const Vec3 expected(626.524880988322, 1340.354124179978, 17.433637571924);
+  const Vec3 r_s(12.0, -150.0, 790.0);
+  EXPECT_LT((model.forward(0.5, r_s) - expected).norm(), 1e-9);
+  EXPECT_LT((model.inverse(0.5, expected) - r_s).norm(), 1e-9);
+}
+
+// Meridian convergence in a geodetic job: east of the project origin in the northern
+// hemisphere, local north leans west (towards the origin's meridian) by Δλ·sin φ — here
+// 1° · sin 45° = 0.7071° (Lambert; the exact angle on the ellipsoid differs in the 4th digit).
+TEST(Georeference, MeridianConvergenceLeansNorthTowardsTheOrigin) {
+  const LocalTangentFrame frame({deg2rad(45.0), 0.0, 0.0});
+  const Vec3 north_east = frame.R_mn(deg2rad(45.0), deg2rad(1.0)) * Vec3::UnitX();  // NED north at 1° E
+  const Vec3 north_west = frame.R_mn(deg2rad(45.0), deg2rad(-1.0)) * Vec3::UnitX();
+  const double gamma_east = rad2deg(std::atan2(north_east.x(), north_east.y()));  // clockwise from grid north
+  const double gamma_west = rad2deg(std::atan2(north_west.x(), north_west.y()));
+  EXPECT_LT(gamma_east, 0.0);
+  EXPECT_GT(gamma_west, 0.0);
+  EXPECT_NEAR(gamma_east, -0.7071, 0.002);
+  EXPECT_NEAR(gamma_west, 0.7071, 0.002);
 }
