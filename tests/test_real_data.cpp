@@ -2,6 +2,9 @@
 // developer's machine, a failure when absent in CI (CI=true, as `.ci/run` runs).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+
 #include "real_data.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -21,29 +24,37 @@ using namespace mountcal;
 namespace fs = std::filesystem;
 
 
+// Both records against PDAL's own published values (PDAL test/unit/io/SbetReaderTest.cpp,
+// checkPoint: the 17 fields in SI units and radians, 16 significant digits) — to those digits.
+// (SPEC §5 restates record 0 in degrees; its latitude 32.545149° is a slip: PDAL's
+// 0.5680211852972264 rad is 32.5452166°, and the other fields of the SPEC agree with PDAL's.)
 TEST(RealData, PdalTwoPointSbetReproducesTheExpectedValues) {
   REQUIRE_DATA("pdal/2-points.sbet");
   const auto r = io::readSbet(dataFile("pdal/2-points.sbet"));
   ASSERT_EQ(r.size(), 2u);
+  const double pdal[2][17] = {
+      {1.516310028360710e+05, 5.680211852972264e-01, -2.041654392303940e+00, 1.077152953296560e+02, -2.332420866600025e+00,
+       -3.335067504871401e-01, -3.093961631767838e-02, -2.813407149321339e-02, -2.429905393889139e-02, 3.046773230278662e+00,
+       -2.198414736922658e-02, 7.859639737752390e-01, 7.849084719295495e-01, -2.978807916450262e-01, 6.226807982589819e-05,
+       9.312162756440178e-03, 7.217812320996525e-02},
+      {1.516310078318641e+05, 5.680211834722869e-01, -2.041654392034053e+00, 1.077151424357507e+02, -2.336228229691271e+00,
+       -3.324663118952635e-01, -3.022948961008987e-02, -2.813856631423094e-02, -2.425215669392169e-02, 3.047131105236811e+00,
+       -2.198416007932108e-02, 8.397590491636475e-01, 3.252165276637165e-01, -1.558883225990844e-01, 8.379685112283802e-04,
+       7.372886784718076e-03, 7.179027672314571e-02}};
+  for (int k = 0; k < 2; ++k) {
+    const io::SbetRecord& a = r[static_cast<std::size_t>(k)];
+    const double got[17] = {a.time_s, a.lat_rad, a.lon_rad, a.h_m, a.vx, a.vy, a.vz, a.roll_rad, a.pitch_rad, a.platform_heading_rad,
+                            a.wander_rad, a.ax, a.ay, a.az, a.wx, a.wy, a.wz};
+    for (int f = 0; f < 17; ++f) EXPECT_NEAR(got[f], pdal[k][f], 1e-15 * std::max(1.0, std::abs(pdal[k][f]))) << "record " << k << " field " << f;
+  }
+  // The SPEC's degrees for record 0 (stated to 6 decimals), latitude aside.
   const io::SbetRecord& a = r[0];
-  EXPECT_NEAR(a.time_s, 151631.0028360710, 1e-4);
-  EXPECT_NEAR(rad2deg(a.lat_rad), 32.545149, 1e-4);
-  EXPECT_NEAR(rad2deg(a.lon_rad), -116.978180, 1e-4);
-  EXPECT_NEAR(a.h_m, 107.7152953296560, 1e-4);
-  EXPECT_NEAR(a.vx, -2.332420866600025, 1e-4);
-  EXPECT_NEAR(a.vy, -0.3335067504871401, 1e-4);
-  EXPECT_NEAR(a.vz, -0.03093961631767838, 1e-4);
-  EXPECT_NEAR(rad2deg(a.roll_rad), -1.611964, 1e-4);
-  EXPECT_NEAR(rad2deg(a.pitch_rad), -1.392233, 1e-4);
-  EXPECT_NEAR(rad2deg(a.platform_heading_rad), 174.567247, 1e-4);
-  EXPECT_NEAR(rad2deg(a.wander_rad), -1.259599, 1e-4);
-  EXPECT_NEAR(a.ax, 0.7859639737752390, 1e-4);
-  EXPECT_NEAR(a.ay, 0.7849084719295495, 1e-4);
-  EXPECT_NEAR(a.az, -0.2978807916450262, 1e-4);
-  EXPECT_NEAR(rad2deg(a.wx), 0.003568, 1e-4);
-  EXPECT_NEAR(rad2deg(a.wy), 0.533548, 1e-4);
-  EXPECT_NEAR(rad2deg(a.wz), 4.135502, 1e-4);
-  EXPECT_NEAR(rad2deg(a.trueHeading()), 174.567247 + 1.259599, 1e-4);
+  EXPECT_NEAR(rad2deg(a.lon_rad), -116.978180, 5e-7);
+  EXPECT_NEAR(rad2deg(a.roll_rad), -1.611964, 5e-7);
+  EXPECT_NEAR(rad2deg(a.pitch_rad), -1.392233, 5e-7);
+  EXPECT_NEAR(rad2deg(a.platform_heading_rad), 174.567247, 5e-7);
+  EXPECT_NEAR(rad2deg(a.wander_rad), -1.259599, 5e-7);
+  EXPECT_NEAR(rad2deg(a.trueHeading()), 174.567247 + 1.259599, 1e-6);
 }
 
 TEST(RealData, TruncatedSbetIsRefusedNamingTheFile) {
@@ -88,18 +99,28 @@ TEST(RealData, LeewardBodyVectorsLieInOneScanPlaneRotated14DegreesInYaw) {
   double ss = 0;
   for (const Vec3& v : u) ss += std::pow(rad2deg(std::asin(n.dot(v))), 2);
   const double sigma_deg = std::sqrt(ss / static_cast<double>(u.size()));
-  EXPECT_LE(sigma_deg, 0.02);
+  EXPECT_LE(sigma_deg, 0.012);  // SPEC §5: σ ≈ 0.01°
   // The body y–z plane has normal +x; the scan plane's normal is turned by the yaw.
   const double yaw_deg = rad2deg(std::atan2(n.y(), n.x()));
   EXPECT_NEAR(yaw_deg, 14.0, 1.0) << "normal " << n.transpose();
   // Across-track angles in the scan plane against the LAS scan-angle rank (positive right).
   const Mat3 R_sb = Rz(deg2rad(yaw_deg)).transpose();
-  double diff = 0;
+  std::vector<double> d;
   for (std::size_t i = 0; i < u.size(); ++i) {
     const Vec3 s = R_sb * u[i];
-    diff += rad2deg(std::atan2(s.y(), s.z())) - rank[i];
+    d.push_back(rad2deg(std::atan2(s.y(), s.z())) - rank[i]);
   }
-  EXPECT_LT(std::abs(diff / static_cast<double>(u.size())), 1.0);
+  double mean = 0, ss_d = 0;
+  for (double x : d) mean += x / static_cast<double>(d.size());
+  for (double x : d) ss_d += (x - mean) * (x - mean);
+  const double rms = std::sqrt(ss_d / static_cast<double>(d.size()));
+  EXPECT_LT(std::abs(mean), 1.0);
+  // Point by point, not only on average. The rank is rounded to whole degrees (a uniform ±0.5°
+  // rounding alone gives an RMS of 0.289°); measured: mean 0.17°, RMS 0.52° — the part beyond
+  // the rounding is not explained here (the aircraft's roll, which the rank includes, changes
+  // it by < 0.01° over this second). The bound holds the measured agreement.
+  EXPECT_LT(rms, 0.6) << "mean " << mean;
+  std::printf("leeward: scan-plane sigma %.4f deg, yaw %.3f deg, scan angle - rank: mean %.3f, RMS %.3f deg\n", sigma_deg, yaw_deg, mean, rms);
 }
 
 TEST(RealData, LasRoundTripKeepsEveryFieldBitIdentical) {
