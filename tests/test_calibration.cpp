@@ -224,13 +224,15 @@ TEST(VtpmCalibration, MisPickedTieUnderRobustLossIsFlaggedAndHarmless) {
     const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
     for (int j : {kBoresightRoll, kBoresightPitch, kBoresightHeading}) EXPECT_LT(std::abs(e[j] - t[j]), 0.003 * kDeg) << j;
     for (int j : {kLeverX, kLeverY}) EXPECT_LT(std::abs(e[j] - t[j]), 0.05) << j;
-    int flagged = 0;
+    int flagged = 0, found = 0;
     for (const TieResidual& r : S.residuals) {
       if (r.tie_id == d.ties[victim].tie_id && r.strip_id == d.ties[victim].strip_id) {
+        ++found;
         EXPECT_TRUE(r.outlier);
       }
       flagged += r.outlier;
     }
+    EXPECT_EQ(found, 1) << "the mis-picked tie must be in the residuals for its flag to be checked";
     EXPECT_LE(flagged, 3);
   }
 }
