@@ -708,6 +708,44 @@ struct P14 {
   }
 };
 
+/// The layers of one layered item: a decoder or an encoder per layer, and whether the layer
+/// changes within the chunk (a layer stored empty repeats the chunk's first value).
+struct LayerStreams {
+  explicit LayerStreams(std::size_t n) : dec(n), enc(n), out(n), changed(n, 0) {}
+  void startDecode(const std::uint8_t* const* data, const std::uint32_t* size) {
+    for (std::size_t i = 0; i < dec.size(); ++i) {
+      dec[i].init(data[i], data[i] + size[i]);
+      changed[i] = size[i] > 0;
+    }
+  }
+  void startEncode() {
+    for (std::size_t i = 0; i < enc.size(); ++i) {
+      out[i].clear();
+      enc[i].init(&out[i]);  // `out` never grows: the pointer stays valid
+      changed[i] = 0;
+    }
+  }
+  bool overrun() const {
+    for (std::size_t i = 0; i < dec.size(); ++i)
+      if (changed[i] && dec[i].overrun() > 0) return true;
+    return false;
+  }
+  /// One byte vector per layer, empty for a layer that never changed.
+  std::vector<std::vector<std::uint8_t>> finish() {
+    std::vector<std::vector<std::uint8_t>> layers(enc.size());
+    for (std::size_t i = 0; i < enc.size(); ++i) {
+      if (!changed[i]) continue;
+      enc[i].done();
+      layers[i] = std::move(out[i]);
+    }
+    return layers;
+  }
+  std::vector<Decoder> dec;
+  std::vector<Encoder> enc;
+  std::vector<std::vector<std::uint8_t>> out;
+  std::vector<char> changed;
+};
+
 class Point14V3 final : public LayeredItem {
  public:
   static constexpr std::size_t kLayers = 9;  // XY+returns, Z, classification, flags, intensity, scan angle, user data, source, GPS time
@@ -716,31 +754,22 @@ class Point14V3 final : public LayeredItem {
   void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
                   const std::uint32_t* size) override {
     decoder_ = true;
-    for (std::size_t i = 0; i < kLayers; ++i) {
-      dec_[i].init(data[i], data[i] + size[i]);
-      changed_[i] = i == 0 || size[i] > 0;  // an empty layer: the value never changes in the chunk
-    }
+    io_.startDecode(data, size);
+    io_.changed[0] = 1;  // the XY layer always decodes (an empty one is read past its end)
     start(item, context);
   }
   void initEncode(const std::uint8_t* item, std::uint32_t& context) override {
     decoder_ = false;
-    for (std::size_t i = 0; i < kLayers; ++i) {
-      out_[i].clear();
-      enc_[i].init(&out_[i]);
-      changed_[i] = i <= 1;  // the XY and Z layers are always written
-    }
+    io_.startEncode();
+    io_.changed[0] = io_.changed[1] = 1;  // the XY and Z layers are always written
     start(item, context);
   }
-  bool overrun() const override {
-    for (std::size_t i = 0; i < kLayers; ++i)
-      if (changed_[i] && dec_[i].overrun() > 0) return true;
-    return false;
-  }
+  bool overrun() const override { return io_.overrun(); }
 
   void read(std::uint8_t* item, std::uint32_t& context) override {
     Ctx* c = &ctx_[current_];
     P14* last = &c->last;
-    Decoder& xy = dec_[0];
+    Decoder& xy = io_.dec[0];
     const std::uint32_t changed = xy.decodeSymbol(*c->changed_values[lastReturnContext(*last)]);
     if (changed & 64) {  // another scanner channel: its own models and last point
       const std::uint32_t channel = (current_ + xy.decodeSymbol(*c->scanner_channel) + 1) % 4;
@@ -776,33 +805,33 @@ class Point14V3 final : public LayeredItem {
     diff = c->dy.decompress(xy, c->last_y_diff[mi].get(), (n == 1) + evenBelow(k, 20));
     last->y = wrapAdd(last->y, diff);
     c->last_y_diff[mi].add(diff);
-    if (changed_[1]) {
+    if (io_.changed[1]) {
       k = (c->dx.k() + c->dy.k()) / 2;
-      last->z = c->z.decompress(dec_[1], c->last_z[l], (n == 1) + evenBelow(k, 18));
+      last->z = c->z.decompress(io_.dec[1], c->last_z[l], (n == 1) + evenBelow(k, 18));
       c->last_z[l] = last->z;
     }
-    if (changed_[2]) {
+    if (io_.changed[2]) {
       const std::uint32_t ccc = ((last->classification & 0x1F) << 1) + (cpr == 3 ? 1 : 0);
-      last->classification = dec_[2].decodeSymbol(lazyModel(c->classification, ccc, 256, true));
+      last->classification = io_.dec[2].decodeSymbol(lazyModel(c->classification, ccc, 256, true));
     }
-    if (changed_[3]) {
+    if (io_.changed[3]) {
       const std::uint32_t last_flags = (last->edge << 5) | (last->scan_dir << 4) | last->class_flags;
-      const std::uint32_t flags = dec_[3].decodeSymbol(lazyModel(c->flags, last_flags, 64, true));
+      const std::uint32_t flags = io_.dec[3].decodeSymbol(lazyModel(c->flags, last_flags, 64, true));
       last->edge = (flags >> 5) & 1u;
       last->scan_dir = (flags >> 4) & 1u;
       last->class_flags = flags & 15u;
     }
-    if (changed_[4]) {
+    if (io_.changed[4]) {
       const std::uint32_t ii = (cpr << 1) | gps_change;
-      last->intensity = static_cast<std::uint16_t>(c->intensity.decompress(dec_[4], c->last_intensity[ii], cpr));
+      last->intensity = static_cast<std::uint16_t>(c->intensity.decompress(io_.dec[4], c->last_intensity[ii], cpr));
       c->last_intensity[ii] = last->intensity;
     }
-    if (changed_[5] && angle_change)
-      last->scan_angle = static_cast<std::int16_t>(static_cast<std::uint16_t>(c->scan_angle.decompress(dec_[5], last->scan_angle, gps_change)));
-    if (changed_[6]) last->user_data = dec_[6].decodeSymbol(lazyModel(c->user_data, last->user_data / 4, 256, true));
-    if (changed_[7] && source_change) last->source = static_cast<std::uint16_t>(c->source.decompress(dec_[7], last->source));
-    if (changed_[8] && gps_change) {
-      readGpsTime(c->gps, dec_[8], *c->gps_multi, *c->gps_0diff, c->gpstime, true);
+    if (io_.changed[5] && angle_change)
+      last->scan_angle = static_cast<std::int16_t>(static_cast<std::uint16_t>(c->scan_angle.decompress(io_.dec[5], last->scan_angle, gps_change)));
+    if (io_.changed[6]) last->user_data = io_.dec[6].decodeSymbol(lazyModel(c->user_data, last->user_data / 4, 256, true));
+    if (io_.changed[7] && source_change) last->source = static_cast<std::uint16_t>(c->source.decompress(io_.dec[7], last->source));
+    if (io_.changed[8] && gps_change) {
+      readGpsTime(c->gps, io_.dec[8], *c->gps_multi, *c->gps_0diff, c->gpstime, true);
       last->gps = c->gps.time[c->gps.last];
     }
     last->pack(item);
@@ -820,7 +849,7 @@ class Point14V3 final : public LayeredItem {
     const std::uint32_t last_n = last->returns, last_r = last->return_number, n = p.returns, r = p.return_number;
     std::uint32_t changed = (channel_change << 6) | (source_change << 5) | (gps_change << 4) | (angle_change << 3) | ((n != last_n) << 2);
     if (r != last_r) changed |= r == (last_r + 1) % 16 ? 1u : r == (last_r + 15) % 16 ? 2u : 3u;
-    Encoder& xy = enc_[0];
+    Encoder& xy = io_.enc[0];
     xy.encodeSymbol(*c->changed_values[lpr], changed);
     if (channel_change) {
       xy.encodeSymbol(*c->scanner_channel, (p.channel + 4 - current_) % 4 - 1);
@@ -848,45 +877,37 @@ class Point14V3 final : public LayeredItem {
     c->dy.compress(xy, c->last_y_diff[mi].get(), diff, (n == 1) + evenBelow(k, 20));
     c->last_y_diff[mi].add(diff);
     k = (c->dx.k() + c->dy.k()) / 2;
-    c->z.compress(enc_[1], c->last_z[l], p.z, (n == 1) + evenBelow(k, 18));
+    c->z.compress(io_.enc[1], c->last_z[l], p.z, (n == 1) + evenBelow(k, 18));
     c->last_z[l] = p.z;
-    if (p.classification != last->classification) changed_[2] = true;
-    enc_[2].encodeSymbol(lazyModel(c->classification, ((last->classification & 0x1F) << 1) + (cpr == 3 ? 1 : 0), 256, false), p.classification);
+    if (p.classification != last->classification) io_.changed[2] = true;
+    io_.enc[2].encodeSymbol(lazyModel(c->classification, ((last->classification & 0x1F) << 1) + (cpr == 3 ? 1 : 0), 256, false), p.classification);
     const std::uint32_t last_flags = (last->edge << 5) | (last->scan_dir << 4) | last->class_flags;
     const std::uint32_t flags = (p.edge << 5) | (p.scan_dir << 4) | p.class_flags;
-    if (flags != last_flags) changed_[3] = true;
-    enc_[3].encodeSymbol(lazyModel(c->flags, last_flags, 64, false), flags);
-    if (p.intensity != last->intensity) changed_[4] = true;
+    if (flags != last_flags) io_.changed[3] = true;
+    io_.enc[3].encodeSymbol(lazyModel(c->flags, last_flags, 64, false), flags);
+    if (p.intensity != last->intensity) io_.changed[4] = true;
     const std::uint32_t ii = (cpr << 1) | gps_change;
-    c->intensity.compress(enc_[4], c->last_intensity[ii], p.intensity, cpr);
+    c->intensity.compress(io_.enc[4], c->last_intensity[ii], p.intensity, cpr);
     c->last_intensity[ii] = p.intensity;
     if (angle_change) {
-      changed_[5] = true;
-      c->scan_angle.compress(enc_[5], last->scan_angle, p.scan_angle, gps_change);
+      io_.changed[5] = true;
+      c->scan_angle.compress(io_.enc[5], last->scan_angle, p.scan_angle, gps_change);
     }
-    if (p.user_data != last->user_data) changed_[6] = true;
-    enc_[6].encodeSymbol(lazyModel(c->user_data, last->user_data / 4, 256, false), p.user_data);
+    if (p.user_data != last->user_data) io_.changed[6] = true;
+    io_.enc[6].encodeSymbol(lazyModel(c->user_data, last->user_data / 4, 256, false), p.user_data);
     if (source_change) {
-      changed_[7] = true;
-      c->source.compress(enc_[7], last->source, p.source);
+      io_.changed[7] = true;
+      c->source.compress(io_.enc[7], last->source, p.source);
     }
     if (gps_change) {
-      changed_[8] = true;
-      writeGpsTime(c->gps, enc_[8], *c->gps_multi, *c->gps_0diff, c->gpstime, true, p.gps);
+      io_.changed[8] = true;
+      writeGpsTime(c->gps, io_.enc[8], *c->gps_multi, *c->gps_0diff, c->gpstime, true, p.gps);
     }
     *last = p;
     last->gps_change = gps_change;
   }
 
-  std::vector<std::vector<std::uint8_t>> finish() override {
-    std::vector<std::vector<std::uint8_t>> layers(kLayers);
-    for (std::size_t i = 0; i < kLayers; ++i) {
-      if (!changed_[i]) continue;
-      enc_[i].done();
-      layers[i] = std::move(out_[i]);
-    }
-    return layers;
-  }
+  std::vector<std::vector<std::uint8_t>> finish() override { return io_.finish(); }
 
  private:
   struct Ctx {
@@ -940,56 +961,42 @@ class Point14V3 final : public LayeredItem {
   bool decoder_ = true;
   Ctx ctx_[4];
   std::uint32_t current_ = 0;
-  Decoder dec_[kLayers];
-  Encoder enc_[kLayers];
-  std::vector<std::uint8_t> out_[kLayers];
-  bool changed_[kLayers] = {};
+  LayerStreams io_{kLayers};
 };
 
 /// RGB14 and RGBNIR14 (layer RGB, and NIR for the latter). As in the reference, switching to a
 /// scanner channel seen before keeps predicting from the previous channel's last colour.
 class Rgb14V3 final : public LayeredItem {
  public:
-  explicit Rgb14V3(bool nir) : nir_(nir) {}
+  explicit Rgb14V3(bool nir) : nir_(nir), io_(nir ? 2 : 1) {}
   std::size_t layers() const override { return nir_ ? 2 : 1; }
   void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
                   const std::uint32_t* size) override {
     decoder_ = true;
-    for (std::size_t i = 0; i < layers(); ++i) {
-      dec_[i].init(data[i], data[i] + size[i]);
-      changed_[i] = size[i] > 0;
-    }
+    io_.startDecode(data, size);
     start(item, context);
   }
   void initEncode(const std::uint8_t* item, std::uint32_t& context) override {
     decoder_ = false;
-    for (std::size_t i = 0; i < layers(); ++i) {
-      out_[i].clear();
-      enc_[i].init(&out_[i]);
-      changed_[i] = false;
-    }
+    io_.startEncode();
     start(item, context);
   }
-  bool overrun() const override {
-    for (std::size_t i = 0; i < layers(); ++i)
-      if (changed_[i] && dec_[i].overrun() > 0) return true;
-    return false;
-  }
+  bool overrun() const override { return io_.overrun(); }
   void read(std::uint8_t* item, std::uint32_t& context) override {
     std::uint16_t* last = switchContext(context);
     Ctx& c = ctx_[current_];
     std::uint16_t v[4];
-    if (changed_[0]) {
-      c.rgb.read(dec_[0], last, v);
+    if (io_.changed[0]) {
+      c.rgb.read(io_.dec[0], last, v);
       std::memcpy(last, v, 6);
     } else {
       std::memcpy(v, last, 6);
     }
     if (nir_) {
-      if (changed_[1]) {
-        const std::uint32_t sym = dec_[1].decodeSymbol(*c.nir_used);
-        v[3] = (sym & 1) ? fold(static_cast<int>(dec_[1].decodeSymbol(*c.nir_diff[0])) + (last[3] & 255)) : (last[3] & 0xFF);
-        v[3] |= (sym & 2) ? static_cast<std::uint16_t>(fold(static_cast<int>(dec_[1].decodeSymbol(*c.nir_diff[1])) + (last[3] >> 8)) << 8)
+      if (io_.changed[1]) {
+        const std::uint32_t sym = io_.dec[1].decodeSymbol(*c.nir_used);
+        v[3] = (sym & 1) ? fold(static_cast<int>(io_.dec[1].decodeSymbol(*c.nir_diff[0])) + (last[3] & 255)) : (last[3] & 0xFF);
+        v[3] |= (sym & 2) ? static_cast<std::uint16_t>(fold(static_cast<int>(io_.dec[1].decodeSymbol(*c.nir_diff[1])) + (last[3] >> 8)) << 8)
                           : (last[3] & 0xFF00);
         last[3] = v[3];
       } else {
@@ -1003,25 +1010,17 @@ class Rgb14V3 final : public LayeredItem {
     Ctx& c = ctx_[current_];
     std::uint16_t v[4] = {};
     loadU16(item, v, nir_ ? 4 : 3);
-    if (c.rgb.write(enc_[0], last, v) != 0) changed_[0] = true;
+    if (c.rgb.write(io_.enc[0], last, v) != 0) io_.changed[0] = true;
     if (nir_) {
       const std::uint32_t sym = ((last[3] & 0x00FF) != (v[3] & 0x00FF)) | (((last[3] & 0xFF00) != (v[3] & 0xFF00)) << 1);
-      enc_[1].encodeSymbol(*c.nir_used, sym);
-      if (sym & 1) enc_[1].encodeSymbol(*c.nir_diff[0], fold((v[3] & 255) - (last[3] & 255)));
-      if (sym & 2) enc_[1].encodeSymbol(*c.nir_diff[1], fold((v[3] >> 8) - (last[3] >> 8)));
-      if (sym) changed_[1] = true;
+      io_.enc[1].encodeSymbol(*c.nir_used, sym);
+      if (sym & 1) io_.enc[1].encodeSymbol(*c.nir_diff[0], fold((v[3] & 255) - (last[3] & 255)));
+      if (sym & 2) io_.enc[1].encodeSymbol(*c.nir_diff[1], fold((v[3] >> 8) - (last[3] >> 8)));
+      if (sym) io_.changed[1] = true;
     }
     std::memcpy(last, v, nir_ ? 8 : 6);
   }
-  std::vector<std::vector<std::uint8_t>> finish() override {
-    std::vector<std::vector<std::uint8_t>> layers(this->layers());
-    for (std::size_t i = 0; i < layers.size(); ++i) {
-      if (!changed_[i]) continue;
-      enc_[i].done();
-      layers[i] = std::move(out_[i]);
-    }
-    return layers;
-  }
+  std::vector<std::vector<std::uint8_t>> finish() override { return io_.finish(); }
 
  private:
   struct Ctx {
@@ -1062,46 +1061,32 @@ class Rgb14V3 final : public LayeredItem {
   bool decoder_ = true;
   Ctx ctx_[4];
   std::uint32_t current_ = 0;
-  Decoder dec_[2];
-  Encoder enc_[2];
-  std::vector<std::uint8_t> out_[2];
-  bool changed_[2] = {};
+  LayerStreams io_;
 };
 
 /// BYTE14: one layer per extra byte, each a difference to the last value of its context (with
 /// the reference's channel-switch behaviour, as for RGB14).
 class Byte14V3 final : public LayeredItem {
  public:
-  explicit Byte14V3(std::size_t n) : n_(n), dec_(n), enc_(n), out_(n), changed_(n, false) {}
+  explicit Byte14V3(std::size_t n) : n_(n), io_(n) {}
   std::size_t layers() const override { return n_; }
   void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
                   const std::uint32_t* size) override {
     decoder_ = true;
-    for (std::size_t i = 0; i < n_; ++i) {
-      dec_[i].init(data[i], data[i] + size[i]);
-      changed_[i] = size[i] > 0;
-    }
+    io_.startDecode(data, size);
     start(item, context);
   }
   void initEncode(const std::uint8_t* item, std::uint32_t& context) override {
     decoder_ = false;
-    for (std::size_t i = 0; i < n_; ++i) {
-      out_[i].clear();
-      enc_[i].init(&out_[i]);
-      changed_[i] = false;
-    }
+    io_.startEncode();
     start(item, context);
   }
-  bool overrun() const override {
-    for (std::size_t i = 0; i < n_; ++i)
-      if (changed_[i] && dec_[i].overrun() > 0) return true;
-    return false;
-  }
+  bool overrun() const override { return io_.overrun(); }
   void read(std::uint8_t* item, std::uint32_t& context) override {
     std::uint8_t* last = switchContext(context);
     Ctx& c = ctx_[current_];
     for (std::size_t i = 0; i < n_; ++i) {
-      if (changed_[i]) last[i] = fold(last[i] + static_cast<int>(dec_[i].decodeSymbol(*c.models[i])));
+      if (io_.changed[i]) last[i] = fold(last[i] + static_cast<int>(io_.dec[i].decodeSymbol(*c.models[i])));
       item[i] = last[i];
     }
   }
@@ -1109,20 +1094,12 @@ class Byte14V3 final : public LayeredItem {
     std::uint8_t* last = switchContext(context);
     Ctx& c = ctx_[current_];
     for (std::size_t i = 0; i < n_; ++i) {
-      if (item[i] != last[i]) changed_[i] = true;
-      enc_[i].encodeSymbol(*c.models[i], fold(item[i] - last[i]));
+      if (item[i] != last[i]) io_.changed[i] = true;
+      io_.enc[i].encodeSymbol(*c.models[i], fold(item[i] - last[i]));
       last[i] = item[i];
     }
   }
-  std::vector<std::vector<std::uint8_t>> finish() override {
-    std::vector<std::vector<std::uint8_t>> layers(n_);
-    for (std::size_t i = 0; i < n_; ++i) {
-      if (!changed_[i]) continue;
-      enc_[i].done();
-      layers[i] = std::move(out_[i]);
-    }
-    return layers;
-  }
+  std::vector<std::vector<std::uint8_t>> finish() override { return io_.finish(); }
 
  private:
   struct Ctx {
@@ -1159,10 +1136,7 @@ class Byte14V3 final : public LayeredItem {
   bool decoder_ = true;
   Ctx ctx_[4];
   std::uint32_t current_ = 0;
-  std::vector<Decoder> dec_;
-  std::vector<Encoder> enc_;
-  std::vector<std::vector<std::uint8_t>> out_;
-  std::vector<bool> changed_;
+  LayerStreams io_;
 };
 
 }  // namespace
