@@ -53,8 +53,27 @@ class Hardening : public ::testing::Test {
   static void SetUpTestSuite() {
     fs::remove_all(dir());
     fs::create_directories(dir());
-    ASSERT_EQ(cli("simulate --preset paper-calibration-field --seed 2 --out " + field().string()).code, 0);
-    ASSERT_EQ(cli("simulate --preset paper-calibration-field --seed 2 --crs EPSG:32611 --out " + utm().string()).code, 0);
+    // CTest runs every test in its own process: the surveys are simulated once per build of the
+    // command (keyed by its modification time) and each process works on its own copy.
+    const fs::path cache = surveyCache();
+    ASSERT_FALSE(cache.empty());
+    fs::copy(cache / "field", field(), fs::copy_options::recursive);
+    fs::copy(cache / "utm", utm(), fs::copy_options::recursive);
+  }
+  static fs::path surveyCache() {
+    const std::string stamp = std::to_string(std::hash<std::string>{}(MOUNTCAL_CLI)) + "_" +
+                              std::to_string(fs::last_write_time(MOUNTCAL_CLI).time_since_epoch().count());
+    const fs::path cache = fs::temp_directory_path() / ("mountcal_hardening_surveys_" + stamp);
+    if (fs::exists(cache / "complete")) return cache;
+    const fs::path tmp = cache.string() + ".tmp-" + std::to_string(::getpid());
+    fs::remove_all(tmp);
+    if (cli("simulate --preset paper-calibration-field --seed 2 --out " + (tmp / "field").string()).code != 0) return {};
+    if (cli("simulate --preset paper-calibration-field --seed 2 --crs EPSG:32611 --out " + (tmp / "utm").string()).code != 0) return {};
+    spit(tmp / "complete", "");
+    std::error_code ec;
+    fs::rename(tmp, cache, ec);  // fails when another process got there first: use theirs
+    if (ec) fs::remove_all(tmp);
+    return fs::exists(cache / "complete") ? cache : fs::path();
   }
   static void TearDownTestSuite() { fs::remove_all(dir()); }
 
