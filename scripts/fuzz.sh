@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder, the SBET reader
-# and the CSV readers with clang (ASan + UBSan) and runs
+# Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder, the SBET reader,
+# the CSV readers and the job-file parser with clang (ASan + UBSan) and runs
 # each for a bounded time (default 60 s). Seeds come from ../shared/data when it is there.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
@@ -10,7 +10,7 @@ source "$root/scripts/deps.sh"
 mountcal_ensure_deps clang libclang-rt-14-dev
 seconds="${1:-60}"
 out="$root/build-fuzz"
-mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv"
+mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv" "$out/corpus_job"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I"$root/include" -I/usr/include/eigen3)
 laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
@@ -20,6 +20,14 @@ clang++ "${flags[@]}" -o "$out/fuzz_sbet" "$root/tests/fuzz/fuzz_sbet.cpp" "$roo
   "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/error.cpp"
 clang++ "${flags[@]}" -o "$out/fuzz_csv" "$root/tests/fuzz/fuzz_csv.cpp" "$root/src/io/sbet.cpp" "$root/src/io/csv.cpp" \
   "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/sensor_model.cpp" "$root/src/error.cpp"
+# The job parser validates settings through the calibrator's options: it is instrumented, the rest
+# of the library comes from the release build (scripts/test.sh builds it; built here if missing).
+if [ ! -f "$root/build/src/libmountcal.a" ]; then
+  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
+  cmake --build "$root/build" --target mountcal -j "$(nproc)" > /dev/null
+fi
+clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_job" "$root/tests/fuzz/fuzz_job.cpp" "$root/src/job/schema.cpp" \
+  "$root/build/src/libmountcal.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
 data="$root/../shared/data"
 if [ -d "$data" ]; then
   cp -f "$data/leeward/points.las" "$out/corpus_las/" 2>/dev/null || true
@@ -51,7 +59,10 @@ printf '\x04time,scan_angle_deg,range_m,intensity\n1.5,10,800,40\n' > "$out/corp
 printf '\x05time,laser_id,azimuth_deg,range_m,intensity\n1.5,3,10,40,7\n' > "$out/corpus_csv/raw_multibeam"
 printf '\x06time,xs,ys,zs,intensity\n1.5,1,2,30,7\n' > "$out/corpus_csv/raw_vector"
 printf '\x07time,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,heading_deg\n1,34,-118,100,0,0,0\n2,34.0001,-118,100,0,0,0\n' > "$out/corpus_csv/geodetic"
-for target in las laz sbet csv; do
+# Job seeds: SPEC §4's example and the committed gravity jobs (geodetic frame, pose fields, LAZ).
+printf '{"frame":{"type":"local"},"trajectory":{"path":"trajectory.csv","format":"csv","time_offset_s":0.0},"sensor":{"type":"line","nominal_rotation_deg":[0,0,0]},"mounting_used":{"lever_arm_m":[0,0,0],"boresight_deg":[0,0,0]},"strips":[{"id":"1","path":"strip1.las"},{"id":"2","path":"strip2.las"}],"ties":"ties.csv","method":"vtpm","estimate":{"lever_arm":[true,true,false],"boresight":[true,true,true]},"vtpm":{"radius_m":1.0,"ransac_threshold_m":0.05},"solver":{"max_iterations":100,"loss":"trivial"},"output":{"result":"result.json","report":"report.html"}}\n' > "$out/corpus_job/spec"
+cp -f "$root"/examples/gravity/*.json "$out/corpus_job/"
+for target in las laz sbet csv job; do
   echo "fuzz: $target for ${seconds} s"
   "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/" \

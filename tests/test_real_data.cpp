@@ -12,12 +12,15 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <vector>
 #include <sstream>
 
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/geodesy.hpp"
 #include "mountcal/io/sbet.hpp"
 
 using namespace mountcal;
@@ -55,6 +58,112 @@ TEST(RealData, PdalTwoPointSbetReproducesTheExpectedValues) {
   EXPECT_NEAR(rad2deg(a.platform_heading_rad), 174.567247, 5e-7);
   EXPECT_NEAR(rad2deg(a.wander_rad), -1.259599, 5e-7);
   EXPECT_NEAR(rad2deg(a.trueHeading()), 174.567247 + 1.259599, 1e-6);
+}
+
+// The external anchor of the conventions (SPEC §5): `pdal/sample.csd` holds Optech raw pulses
+// (range, scan angle, attitude, GNSS position, boresight), and PDAL's readers.optech
+// georeferences the first one to lon −82.554028877408555°, lat 36.534611447321907°,
+// h 344.80889224602356 m — a value no mountcal code computed.
+//
+// The CSD layout (little endian, PDAL io/OptechCommon.hpp): a 2048-byte header ("CSD\0", vendor,
+// software, float version, u16 header size, u16 GPS week, f64 min/max time, u32 records, u16
+// strips, 256 u32 strip pointers, f64 misalignment[3] and IMU offsets[3] [rad], temperature,
+// pressure, 830 free bytes), then 69-byte pulses: f64 time, u8 returns, f32 range[4],
+// u16 intensity[4], f32 scan angle, roll, pitch, heading [rad], f64 lat, lon [rad], f32 h.
+//
+// Optech's frames, translated by hand into ours: its body frame is (right, forward, up) and its
+// local level ENU; with S = [[0,1,0],[1,0,0],[0,0,−1]] (which is also our R_mn for ENU ← NED),
+// S·M_optech(r, p, h)·S = Rz(h)·Ry(p)·Rx(r) exactly, so its roll, pitch, heading are our
+// R_nb's, its boresight matrix M_optech(misalignment + IMU offsets) is our R_bore of those sums,
+// and its scanner vector (ρ sin θ, 0, −ρ cos θ) is our r_s = (0, ρ sin θ, ρ cos θ). No lever arm.
+// PDAL then adds the ENU offset to the GNSS point to first order (E/(N cos φ), N/M, U);
+// mountcal's geodetic frame is exact, and differs from that by the flat-earth error.
+namespace {
+template <typename T>
+T csdField(const std::vector<char>& bytes, std::size_t offset) {
+  T value;
+  std::memcpy(&value, bytes.data() + offset, sizeof(T));
+  return value;
+}
+}  // namespace
+
+TEST(RealData, OptechCsdFirstPulseGeoreferencesToPdalsPoint) {
+  REQUIRE_DATA("pdal/sample.csd");
+  std::ifstream in(dataFile("pdal/sample.csd"), std::ios::binary);
+  const std::vector<char> csd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(csd.size(), 71048u);
+  ASSERT_EQ(std::string(csd.data(), 3), "CSD");
+  const std::size_t header_size = csdField<std::uint16_t>(csd, 104);
+  const std::uint32_t records = csdField<std::uint32_t>(csd, 124);
+  ASSERT_EQ(header_size, 2048u);
+  ASSERT_EQ(header_size + 69u * records, csd.size());
+  Vec3 boresight;
+  for (int k = 0; k < 3; ++k)
+    boresight[k] = csdField<double>(csd, 1154 + 8 * static_cast<std::size_t>(k)) +
+                   csdField<double>(csd, 1178 + 8 * static_cast<std::size_t>(k));
+
+  struct Pulse {
+    double time, range, scan, roll, pitch, heading, lat, lon, h;
+  };
+  const auto pulse = [&](std::size_t i) {
+    const std::size_t o = header_size + 69 * i;
+    Pulse p{};
+    p.time = csdField<double>(csd, o);
+    p.range = csdField<float>(csd, o + 9);  // first return
+    p.scan = csdField<float>(csd, o + 33);
+    p.roll = csdField<float>(csd, o + 37);
+    p.pitch = csdField<float>(csd, o + 41);
+    p.heading = csdField<float>(csd, o + 45);
+    p.lat = csdField<double>(csd, o + 49);
+    p.lon = std::remainder(csdField<double>(csd, o + 57), 2.0 * kPi);  // stored as lon − 2π
+    p.h = csdField<float>(csd, o + 65);
+    return p;
+  };
+  const Pulse p0 = pulse(0), p1 = pulse(1);
+  ASSERT_EQ(csd[static_cast<std::ptrdiff_t>(header_size) + 8], 1);  // one return
+
+  // The trajectory of the first two pulses' poses, in a tangent frame at the first GNSS point.
+  const LocalTangentFrame frame({p0.lat, p0.lon, p0.h});
+  std::vector<TrajectorySample> samples;
+  for (const Pulse& p : {p0, p1}) {
+    TrajectorySample s;
+    s.time_s = p.time;
+    s.p_m = frame.toLocal({p.lat, p.lon, p.h});
+    s.roll = p.roll;
+    s.pitch = p.pitch;
+    s.heading = p.heading;
+    s.R_mn = frame.R_mn(p.lat, p.lon);
+    samples.push_back(s);
+  }
+  MountingParameters mounting;
+  mounting.boresight = boresight;
+  const GeoreferenceModel model(std::make_shared<const Trajectory>(samples), mounting);
+  const Vec3 r_s(0.0, p0.range * std::sin(p0.scan), p0.range * std::cos(p0.scan));
+  const Vec3 x_m = model.forward(p0.time, r_s);  // ENU at the GNSS point [m]
+
+  const double lon_expected = -82.554028877408555, lat_expected = 36.534611447321907, h_expected = 344.80889224602356;
+  // 1. The same first-order step from ENU to (φ, λ, h) as PDAL: our pulse geometry, frames and
+  //    boresight must give its point to rounding (1e-11° ≈ 1 µm).
+  const double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2.0 - f);
+  const double w = std::sqrt(1.0 - e2 * std::sin(p0.lat) * std::sin(p0.lat));
+  const double n_radius = a / w, m_radius = a * (1.0 - e2) / (w * w * w);
+  EXPECT_NEAR(rad2deg(p0.lon + x_m.x() / (n_radius * std::cos(p0.lat))), lon_expected, 1e-11);
+  EXPECT_NEAR(rad2deg(p0.lat + x_m.y() / m_radius), lat_expected, 1e-11);
+  EXPECT_NEAR(p0.h + x_m.z(), h_expected, 1e-6);
+
+  // 2. mountcal's exact geodetic point differs from PDAL's by what the first-order step leaves
+  //    out: in height the earth curvature d²/(2R) (the tangent plane rises above the ellipsoid)
+  //    for the horizontal distance d from the GNSS point (≈ 4 mm here); horizontally the scale
+  //    of the point's height and the curvature, bounded by d·(h + d)/R (≈ 18 mm; 14 mm measured).
+  const Geodetic g = frame.toGeodetic(x_m);
+  const double d = std::hypot(x_m.x(), x_m.y());
+  const double radius = std::sqrt(m_radius * n_radius);
+  const double flat_earth = d * d / (2.0 * radius);
+  EXPECT_GT(d, 150.0);  // the anchor is not a nadir pulse: the scan angle and attitude matter
+  EXPECT_NEAR(g.h - h_expected, flat_earth, 0.01 * flat_earth);  // 4.019 mm measured, 4.021 predicted
+  const double east_m = deg2rad(rad2deg(g.lon) - lon_expected) * n_radius * std::cos(g.lat);
+  const double north_m = deg2rad(rad2deg(g.lat) - lat_expected) * m_radius;
+  EXPECT_LT(std::hypot(east_m, north_m), d * (h_expected + d) / radius);
 }
 
 TEST(RealData, TruncatedSbetIsRefusedNamingTheFile) {
