@@ -93,6 +93,9 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
       S.residuals = t.residuals;
       S.rms_before_m = t.rms_before_m;
       S.rms_after_m = t.rms_after_m;
+      S.tie_sigma_xy_m = t.sigma_xy_m;
+      S.tie_sigma_z_m = t.sigma_z_m;
+      S.tie_sigma_estimated = t.sigma_estimated;
     }
     if (control) S.control = control->section();
     if (planes) S.planes = planes->section();
@@ -204,6 +207,9 @@ std::string MountingCalibrator::Summary::FullReport() const {
   if (uses(CalibrationMethod::kVtpm)) {
     std::snprintf(buf, sizeof buf, "\nTies: RMS before (%.4f, %.4f, %.4f) m, after (%.4f, %.4f, %.4f) m\n", rms_before_m.x(),
                   rms_before_m.y(), rms_before_m.z(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z());
+    r << buf;
+    std::snprintf(buf, sizeof buf, "Tie sigma %s: horizontal %.4f m, vertical %.4f m\n",
+                  tie_sigma_estimated ? "estimated from the residuals (variance components)" : "as stated", tie_sigma_xy_m, tie_sigma_z_m);
     r << buf;
     for (const RejectedTie& t : rejected) r << "rejected tie " << t.tie_id << " on strip " << t.strip_id << ": " << t.reason << "\n";
     for (const TieResidual& t : residuals)

@@ -295,49 +295,180 @@ TEST(VirtualTiePoint, RuleOneIsSeedEquationFiveAndRuleTwoIsRigid) {
   EXPECT_LT((t_est - t).norm(), 1e-12);
 }
 
-// DISABLED — it fails today, and stays here as the open part of issue 12 ("σ honesty"), run with
-// --gtest_also_run_disabled_tests --gtest_filter='*SigmasAreHonest*' (68 s in Release). Measured
-// (2026-11-22): roll 0.97, pitch 0.97, lever x 0.97, lever y 0.93, heading 0.67 (20 of 30) within
-// 2σ; mean σ₀² 1.61 over a mean redundancy of 525. The heading σ ignores the within-strip GNSS
-// drift that the one-offset-per-strip model cannot absorb; σ₀² scaling alone (×1.27) would not
-// reach 0.85.
-//
-// σ honesty over 30 seeds, with survey noise whose model differs from the calibrator's: the
-// GNSS error drifts within a strip (Gauss–Markov, 20 s — the calibrator assumes one constant
-// offset per strip) and the picks scatter 4 cm while the calibrator assumes 3 cm. A stated σ is
-// honest when about 95 % of the errors fall within 2σ: between 0.85 and 0.99 of them for every
-// estimated parameter; and the mean σ₀² of the 30 solves lies within its χ² 99 % range.
-TEST(VtpmCalibration, DISABLED_SigmasAreHonestOverThirtySeeds) {
-  std::array<int, 6> within{};
-  std::array<int, 6> counted{};
-  double vf_sum = 0, redundancy = 0;
-  const int seeds = 30;
-  for (int seed = 101; seed < 101 + seeds; ++seed) {
+// σ honesty over many seeds (issue 12). The survey's noise differs from what the calibrator is
+// told: the GNSS error drifts within a strip (Gauss–Markov, 20 s; the calibrator assumes one
+// offset per strip), the picks scatter 4 cm where 3 cm is stated (the calibrator estimates the
+// tie σ from the residuals: variance components), the range noise is per pulse while a virtual
+// tie point is modelled with its barycentric weights. The navigation and scanner noise are
+// stated (PulseNoise) as the simulator's. The checks, per estimated parameter over the seeds:
+//  - the fraction of errors within 2σ at least 0.85 (0.954 for an honest σ);
+//  - the RMS of e/σ within the 99 % range of √(χ²_n / n) for n seeds — the two-sided test of
+//    the same claim (the issue's upper bound of 0.99 on the fraction is not a sound test with
+//    30 seeds: an honest σ puts all 30 within 2σ in 24 % of the runs);
+//  - the mean σ₀² within the 99 % range of χ² for the pooled redundancy.
+namespace {
+
+struct HonestyResult {
+  std::array<int, 6> within{}, counted{};
+  std::array<double, 6> z2{};
+  double variance_factor_sum = 0, redundancy_sum = 0;
+  int seeds = 0;
+};
+
+HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correlation_s, double model_attitude_correlation_s) {
+  HonestyResult h;
+  h.seeds = seeds;
+  for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
     Scene scene;
     SurveyConfig c;
     makePreset("paper-calibration-field", static_cast<std::uint64_t>(seed), &c, &scene);
     c.noise = surveyGrade();
     c.noise.gnss_correlation_s = 20.0;
     c.noise.pick_sigma_m = 0.04;
+    c.noise.attitude_correlation_s = attitude_correlation_s;
     c.roi_radius_m = 8.0;
     const SimulatedSurvey s = simulate(c, scene);
-    const auto S = calibrate(toCalibrationData(s), surveyGradeOptions());
-    ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << "\n" << S.FullReport();
+    MountingCalibrator::Options o = surveyGradeOptions();  // picks 3 cm
+    o.tie_sigma_z_m = 0.01;
+    o.estimate_tie_sigma = true;
+    o.pulse_noise.range_m = c.noise.range_sigma_m;
+    o.pulse_noise.beam_deg = rad2deg(c.noise.scan_angle_sigma_rad);
+    o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.attitude_sigma_rad);
+    o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.attitude_sigma_rad);
+    o.pulse_noise.attitude_correlation_s = model_attitude_correlation_s;
+    const auto S = calibrate(toCalibrationData(s), o);
+    EXPECT_TRUE(S.IsSolutionUsable()) << "seed " << seed << "\n" << S.FullReport();
+    if (!S.IsSolutionUsable()) continue;
     const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
-    for (int j = 0; j < 6; ++j) {
-      if (!S.estimated[static_cast<std::size_t>(j)] || !(S.sigma[j] > 0)) continue;
-      ++counted[static_cast<std::size_t>(j)];
-      if (std::abs(e[j] - t[j]) <= 2 * S.sigma[j]) ++within[static_cast<std::size_t>(j)];
+    for (std::size_t j = 0; j < 6; ++j) {
+      if (!S.estimated[j] || !(S.sigma[j] > 0)) continue;
+      const double z = (e[j] - t[j]) / S.sigma[j];
+      ++h.counted[j];
+      h.within[j] += std::abs(z) <= 2.0;
+      h.z2[j] += z * z;
     }
-    vf_sum += S.variance_factor;
-    redundancy += S.degrees_of_freedom;
+    h.variance_factor_sum += S.variance_factor;
+    h.redundancy_sum += S.degrees_of_freedom;
   }
-  for (int j = 0; j < 6; ++j) {
-    if (counted[static_cast<std::size_t>(j)] == 0) continue;
-    const double frac = static_cast<double>(within[static_cast<std::size_t>(j)]) / counted[static_cast<std::size_t>(j)];
-    std::printf("param %d: %d of %d within 2 sigma (%.2f)\n", j, within[static_cast<std::size_t>(j)], counted[static_cast<std::size_t>(j)], frac);
-    EXPECT_GE(frac, 0.85) << "parameter " << j;
-    EXPECT_LE(frac, 0.99) << "parameter " << j;
+  return h;
+}
+
+void expectHonest(const HonestyResult& h) {
+  // √(χ²_n/n) 99 % range for n = 30: χ²_30 quantiles 13.79 and 53.67.
+  ASSERT_EQ(h.seeds, 30);
+  const double rms_lo = std::sqrt(13.79 / 30), rms_hi = std::sqrt(53.67 / 30);
+  for (std::size_t j = 0; j < 6; ++j) {
+    if (h.counted[j] == 0) continue;
+    EXPECT_EQ(h.counted[j], h.seeds) << "parameter " << j;
+    const double frac = static_cast<double>(h.within[j]) / h.counted[j];
+    const double rms = std::sqrt(h.z2[j] / h.counted[j]);
+    std::printf("%-20s %d of %d within 2 sigma (%.2f), RMS of error/sigma %.2f\n", mountingParameterNames()[j].c_str(), h.within[j], h.counted[j], frac, rms);
+    EXPECT_GE(frac, 0.85) << mountingParameterNames()[j].c_str();
+    EXPECT_GE(rms, rms_lo) << mountingParameterNames()[j].c_str() << ": sigma overstated";
+    EXPECT_LE(rms, rms_hi) << mountingParameterNames()[j].c_str() << ": sigma understated";
   }
-  std::printf("mean variance factor %.3f, mean redundancy %.1f\n", vf_sum / seeds, redundancy / seeds);
+  const double vf = h.variance_factor_sum / h.seeds;
+  const double band = 2.576 * std::sqrt(2.0 / h.redundancy_sum);  // σ₀² of the pooled redundancy
+  std::printf("mean variance factor %.4f (chi-square 99 %% range 1 +- %.4f), mean redundancy %.1f\n", vf, band,
+              h.redundancy_sum / h.seeds);
+  EXPECT_NEAR(vf, 1.0, band);
+}
+
+}  // namespace
+
+// White attitude noise (the simulator's 0.001°/0.002° redrawn every 5 ms), stated as such.
+// Measured (2026-11-22, seeds 101–130): fractions 0.93–1.00, RMS of e/σ 0.87–1.03, σ₀² 1.010
+// (other blocks of 30 seeds: 131–160 RMS 0.80–1.11, σ₀² 1.001; 161–190 RMS 0.86–1.16, σ₀² 1.013).
+// About 45 s in Release; the sanitizer build runs 4 seeds for memory errors only.
+TEST(VtpmCalibration, SigmasAreHonestOverThirtySeeds) {
+#ifdef MOUNTCAL_SANITIZE_BUILD
+  const HonestyResult h = honestyOverSeeds(101, 4, 0.005, 0.0);
+  EXPECT_EQ(h.counted[5], 4);
+#else
+  expectHonest(honestyOverSeeds(101, 30, 0.005, 0.0));
+#endif
+}
+
+// DISABLED — it fails today: the open part of issue 12's σ honesty. Attitude noise correlated
+// over 0.1 s (an INS), modelled as a Gauss–Markov random effect per strip with the same τ
+// (PulseNoise::attitude_correlation_s). Run with --gtest_also_run_disabled_tests
+// --gtest_filter='*CorrelatedAttitude*'. Measured (2026-11-22): lever arm, roll and pitch
+// 0.97–1.00 within 2σ with RMS of e/σ 0.74–1.03, but the boresight heading 0.90 (seeds 101–130)
+// and 0.83 (161–190), RMS 1.25 and 1.33; σ₀² 1.16. Without the random effect (attitude in Σ
+// as white noise) heading was 0.67 (RMS 1.47); with white simulated attitude noise it is honest
+// (the test above). What makes the heading's error larger than its σ under correlated attitude
+// noise is not found yet (bins of 0.1–2 s and the exact Gauss–Markov chain give the same).
+TEST(VtpmCalibration, DISABLED_SigmasAreHonestUnderCorrelatedAttitudeNoise) {
+  expectHonest(honestyOverSeeds(101, 30, 0.1, 0.1));
+}
+
+// The pulse noise's point covariance against a hand derivation: a point H = 1000 m below the
+// IMU — tilts t move it by H·t horizontally, heading not at all, range along the beam (z),
+// pointing β across it (ρβ); a point 300 m to the side — heading κ moves it by 300·κ along y.
+TEST(StochasticModel, PulseNoiseCovarianceIsTheHandDerivation) {
+  PulseNoise n;
+  n.roll_pitch_deg = 0.001;
+  n.heading_deg = 0.002;
+  n.range_m = 0.02;
+  n.beam_deg = 0.003;
+  const double t = deg2rad(0.001), k = deg2rad(0.002), b = deg2rad(0.003);
+  const Vec3 below(0, 0, -1000);
+  Mat3 expected = Mat3::Zero();
+  expected(0, 0) = expected(1, 1) = std::pow(1000 * t, 2) + std::pow(1000 * b, 2);
+  expected(2, 2) = 0.02 * 0.02;
+  EXPECT_LT((n.pointCovariance(below, below) - expected).norm(), 1e-15);
+  // Interpolated from pulses with Σ w² = 0.4: range and pointing scale, attitude does not.
+  Mat3 expected_w = Mat3::Zero();
+  expected_w(0, 0) = expected_w(1, 1) = std::pow(1000 * t, 2) + 0.4 * std::pow(1000 * b, 2);
+  expected_w(2, 2) = 0.4 * 0.02 * 0.02;
+  EXPECT_LT((n.pointCovariance(below, below, 0.4) - expected_w).norm(), 1e-15);
+  PulseNoise heading_only;
+  heading_only.heading_deg = 0.002;
+  const Mat3 side = heading_only.pointCovariance(Vec3(300, 0, -1000), Vec3(300, 0, -1000));
+  EXPECT_NEAR(side(1, 1), std::pow(300 * k, 2), 1e-18);
+  EXPECT_NEAR(side(0, 0), 0.0, 1e-18);
+  EXPECT_NEAR(side(2, 2), 0.0, 1e-18);
+  // As a random effect (correlation time > 0) the attitude leaves Σ_x.
+  heading_only.attitude_correlation_s = 0.1;
+  EXPECT_LT(heading_only.pointCovariance(Vec3(300, 0, -1000), Vec3(300, 0, -1000)).norm(), 1e-20);
+  std::string why;
+  PulseNoise bad;
+  bad.range_m = -1;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("range_m"), std::string::npos);
+}
+
+// Variance components recover the picking precision the data show, whatever was stated:
+// picks scatter 4 cm, the job states 2 cm.
+TEST(VtpmCalibration, EstimatedTieSigmaIsThePickingPrecision) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 7, &c, &scene);
+  c.noise = surveyGrade();
+  c.noise.pick_sigma_m = 0.04;
+  c.noise.attitude_correlation_s = 0.005;
+  c.roi_radius_m = 8.0;
+  const SimulatedSurvey s = simulate(c, scene);
+  MountingCalibrator::Options o = surveyGradeOptions();
+  o.tie_sigma_xy_m = 0.02;
+  o.tie_sigma_z_m = 0.01;
+  o.pulse_noise.range_m = c.noise.range_sigma_m;
+  o.pulse_noise.beam_deg = rad2deg(c.noise.scan_angle_sigma_rad);
+  o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.attitude_sigma_rad);
+  o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.attitude_sigma_rad);
+  const auto stated = calibrate(toCalibrationData(s), o);
+  o.estimate_tie_sigma = true;
+  const auto S = calibrate(toCalibrationData(s), o);
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
+  EXPECT_TRUE(S.tie_sigma_estimated);
+  EXPECT_FALSE(stated.tie_sigma_estimated);
+  EXPECT_DOUBLE_EQ(stated.tie_sigma_xy_m, 0.02);
+  // ≈ 500 observations: the estimate is good to a few per cent; 10 % allowed.
+  EXPECT_NEAR(S.tie_sigma_xy_m, 0.04, 0.004) << S.FullReport();
+  // With the σ the data show, σ₀² is 1; with the stated 2 cm it was 1.76 (the horizontal
+  // residuals (4/2)² = 4 times their variance, diluted by the vertical ones and the pulse noise).
+  EXPECT_GT(stated.variance_factor, 1.5);
+  EXPECT_NEAR(S.variance_factor, 1.0, 0.15);
+  EXPECT_GT(S.rematch_rounds, 1);
+  EXPECT_NE(S.FullReport().find("estimated from the residuals"), std::string::npos);
 }

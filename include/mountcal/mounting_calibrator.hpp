@@ -49,6 +49,9 @@ class MountingCalibrator {
     std::vector<TieResidual> residuals;
     Vec3 rms_before_m = Vec3::Zero();  ///< per axis [m]
     Vec3 rms_after_m = Vec3::Zero();
+    /// The tie σ of the last solve: as stated, or estimated (TieObservationOptions::estimate_tie_sigma) [m].
+    double tie_sigma_xy_m = 0.0, tie_sigma_z_m = 0.0;
+    bool tie_sigma_estimated = false;
     // ---- the other kinds --------------------------------------------------------------------
     TieSection control;                       ///< GCPs observed on every strip (non-VTPM methods)
     PlaneSection planes;                      ///< method "planes"

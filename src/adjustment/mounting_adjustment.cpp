@@ -1,4 +1,5 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
+#include "mountcal/rotation.hpp"
 
 #include <ceres/ceres.h>
 
@@ -40,7 +41,35 @@ bool MountingBlockOptions::IsValid(std::string* error) const {
   return true;
 }
 
+Mat3 PulseNoise::pointCovariance(const Vec3& u_m, const Vec3& beam_m, double independent_weight) const {
+  Mat3 S = Mat3::Identity() * (position_m * position_m);
+  const bool white_attitude = !attitudeRandomEffect();
+  const double t = white_attitude ? deg2rad(roll_pitch_deg) : 0.0, k = white_attitude ? deg2rad(heading_deg) : 0.0;
+  Mat3 U;  // [u]×: δx = δψ × u = −[u]× δψ
+  U << 0, -u_m.z(), u_m.y(), u_m.z(), 0, -u_m.x(), -u_m.y(), u_m.x(), 0;
+  S += U * Vec3(t * t, t * t, k * k).asDiagonal() * U.transpose();
+  const double rho = beam_m.norm();
+  if (rho > 0 && (range_m > 0 || beam_deg > 0)) {
+    const Vec3 d = beam_m / rho;
+    const double b = deg2rad(beam_deg) * rho;
+    const Mat3 along = d * d.transpose();
+    S += independent_weight * (range_m * range_m * along + b * b * (Mat3::Identity() - along));
+  }
+  return S;
+}
+
+bool PulseNoise::IsValid(std::string* error) const {
+  const double v[6] = {position_m, roll_pitch_deg, heading_deg, range_m, beam_deg, attitude_correlation_s};
+  const char* names[6] = {"position_m", "roll_pitch_deg", "heading_deg", "range_m", "beam_deg", "attitude_correlation_s"};
+  const double upper[6] = {10.0, 10.0, 10.0, 10.0, 10.0, 3600.0};
+  for (int i = 0; i < 6; ++i)
+    if (!(v[i] >= 0 && v[i] <= upper[i]))
+      return failWith(error, std::string("pulse_noise.") + names[i] + " must be in [0, " + (i == 5 ? "3600" : "10") + "]");
+  return true;
+}
+
 bool StochasticOptions::IsValid(std::string* error) const {
+  if (!pulse_noise.IsValid(error)) return false;
   if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m)) return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
   if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
   return true;
@@ -97,6 +126,26 @@ AdjustmentProblem::~AdjustmentProblem() = default;
 namespace {
 
 /// A prior (x − x0)/σ on a block, analytic Jacobian.
+/// One step of a first-order Gauss–Markov process between two 3-vector samples:
+/// r = (x₂ − φ x₁) / σ_step, analytic Jacobians.
+class GaussMarkovStep final : public ceres::SizedCostFunction<3, 3, 3> {
+ public:
+  GaussMarkovStep(double phi, const Vec3& sigma_step) : phi_(phi), w_(sigma_step.cwiseInverse()) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    for (int a = 0; a < 3; ++a) r[a] = (p[1][a] - phi_ * p[0][a]) * w_[a];
+    for (int b = 0; b < 2; ++b) {
+      if (!J || !J[b]) continue;
+      std::fill(J[b], J[b] + 9, 0.0);
+      for (int a = 0; a < 3; ++a) J[b][4 * a] = (b == 0 ? -phi_ : 1.0) * w_[a];
+    }
+    return true;
+  }
+
+ private:
+  double phi_;
+  Vec3 w_;
+};
+
 class BlockPrior final : public ceres::CostFunction {
  public:
   BlockPrior(int size, std::vector<double> x0, std::vector<double> inv_sigma) : x0_(std::move(x0)), w_(std::move(inv_sigma)) {
@@ -150,6 +199,48 @@ double* AdjustmentProblem::stripOffset(const std::string& strip_id) {
     problem_->SetParameterBlockConstant(block);
   }
   return block;
+}
+
+double* AdjustmentProblem::attitudeError(const std::string& strip_id, double time_s) {
+  if (!pulse_noise_.attitudeRandomEffect()) return nullptr;
+  // Observations closer than τ/20 (correlation > 0.95) share one block.
+  const long long key = std::llround(time_s / (pulse_noise_.attitude_correlation_s / 20.0));
+  auto it = attitude_errors_.find({strip_id, key});
+  if (it != attitude_errors_.end()) return it->second;
+  const double zero[3] = {0.0, 0.0, 0.0};
+  // Non-eliminable: it shares residual blocks with the sources' own nuisance blocks (tie
+  // positions) and with its neighbours in time (the chain prior).
+  double* block = addNuisanceBlock(3, zero, nullptr, false);
+  attitude_errors_.emplace(std::make_pair(strip_id, key), block);
+  return block;
+}
+
+void AdjustmentProblem::addRandomEffectPriors() {
+  if (attitude_errors_.empty()) return;
+  // δψ(t) of each strip is a first-order Gauss–Markov process sampled at its observations'
+  // times: δψ(t₀) ~ N(0, σ²), δψ(t₂) − φ δψ(t₁) ~ N(0, σ² (1 − φ²)) with φ = exp(−Δt/τ) —
+  // the exact joint distribution of the samples, as a chain of priors.
+  const double tau = pulse_noise_.attitude_correlation_s, dt_key = tau / 20.0;
+  const double t = deg2rad(pulse_noise_.roll_pitch_deg), k = deg2rad(pulse_noise_.heading_deg);
+  // A component without noise is held at zero by a stiff prior (1e-6 of the other's σ).
+  const Vec3 sigma(t > 0 ? t : 1e-6 * k, t > 0 ? t : 1e-6 * k, k > 0 ? k : 1e-6 * t);
+  const int src = source_;
+  source_ = -1;  // the priors belong to no source
+  const std::string* strip = nullptr;
+  long long prev_key = 0;
+  double* prev = nullptr;
+  for (const auto& [id_key, block] : attitude_errors_) {  // ordered by strip, then time
+    if (!strip || *strip != id_key.first) {
+      strip = &id_key.first;
+      addResidualBlock(new BlockPrior(3, {0, 0, 0}, {1 / sigma.x(), 1 / sigma.y(), 1 / sigma.z()}), 0.0, {block});
+    } else {
+      const double phi = std::exp(-static_cast<double>(id_key.second - prev_key) * dt_key / tau);
+      addResidualBlock(new GaussMarkovStep(phi, sigma * std::sqrt(std::max(1.0 - phi * phi, 1e-12))), 0.0, {prev, block});
+    }
+    prev_key = id_key.second;
+    prev = block;
+  }
+  source_ = src;
 }
 
 Vec3 AdjustmentProblem::stripOffsetValue(const std::string& strip_id) const {
@@ -345,11 +436,13 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
     for (int round = 0; round < o.max_rematch_rounds; ++round) {
       double t_mark = elapsed();
       P = std::make_unique<AdjustmentProblem>(m, o.strip_offset_sigma_m, o.loss, o.loss_scale_m, o.numeric_diff_relative_step);
+      P->setPulseNoise(o.pulse_noise);
       for (std::size_t k = 0; k < sources.size(); ++k) {
         P->setSource(static_cast<int>(k));
         sources[k]->addBlocks(m, P.get());
       }
       P->setSource(-1);
+      P->addRandomEffectPriors();
       S.construction_time_s += elapsed() - t_mark;
       t_mark = elapsed();
       int observations = 0;

@@ -94,7 +94,7 @@ Job readJob(const std::string& path) {
   job.path = path;
   const Fields top(path, j, "",
                    {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate", "vtpm",
-                    "solver", "output", "gcps", "check_points", "check_planes", "planes", "plane", "correspondence",
+                    "solver", "pulse_noise", "output", "gcps", "check_points", "check_planes", "planes", "plane", "correspondence",
                     "targets", "features", "poses"});
   const Fields frame = top.sub("frame", {"type", "crs"});
   const std::string frame_type = frame.str("type");
@@ -233,7 +233,7 @@ Job readJob(const std::string& path) {
   }
   if (top.has("vtpm")) {
     const Fields v = top.sub("vtpm", {"radius_m", "max_radius_m", "ransac_threshold_m", "tie_sigma_xy_m", "tie_sigma_z_m",
-                                      "strip_offset_sigma_m"});
+                                      "strip_offset_sigma_m", "estimate_tie_sigma"});
     // Physical ranges: a virtual tie point is a local plane of metres, picks are good to
     // centimetres or metres, not kilometres.
     o.vtp.radius_m = v.num("radius_m", o.vtp.radius_m, 0.01, 100.0);
@@ -242,6 +242,20 @@ Job readJob(const std::string& path) {
     o.tie_sigma_xy_m = v.num("tie_sigma_xy_m", o.tie_sigma_xy_m, 1e-4, 100.0);
     o.tie_sigma_z_m = v.num("tie_sigma_z_m", o.tie_sigma_z_m, 1e-4, 100.0);
     o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
+    o.estimate_tie_sigma = v.boolean("estimate_tie_sigma", o.estimate_tie_sigma);
+  }
+  if (top.has("pulse_noise")) {
+    // The per-point noise of the stochastic model (PulseNoise): navigation and scanner
+    // precision as the manufacturers state them.
+    const Fields n = top.sub("pulse_noise", {"position_m", "roll_pitch_deg", "heading_deg", "range_m", "beam_deg",
+                                             "attitude_correlation_s"});
+    PulseNoise& pn = o.pulse_noise;
+    pn.position_m = n.num("position_m", pn.position_m, 0.0, 10.0);
+    pn.roll_pitch_deg = n.num("roll_pitch_deg", pn.roll_pitch_deg, 0.0, 10.0);
+    pn.heading_deg = n.num("heading_deg", pn.heading_deg, 0.0, 10.0);
+    pn.range_m = n.num("range_m", pn.range_m, 0.0, 10.0);
+    pn.beam_deg = n.num("beam_deg", pn.beam_deg, 0.0, 10.0);
+    pn.attitude_correlation_s = n.num("attitude_correlation_s", pn.attitude_correlation_s, 0.0, 3600.0);
   }
   if (top.has("plane")) {
     const Fields p = top.sub("plane", {"sigma_m", "ransac_threshold_m", "ransac_iterations", "min_points_per_strip",
@@ -403,6 +417,12 @@ std::string jobJson(const Job& job) {
   if (o.tie_sigma_xy_m != def.tie_sigma_xy_m) j["vtpm"]["tie_sigma_xy_m"] = o.tie_sigma_xy_m;
   if (o.tie_sigma_z_m != def.tie_sigma_z_m) j["vtpm"]["tie_sigma_z_m"] = o.tie_sigma_z_m;
   if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["vtpm"]["strip_offset_sigma_m"] = o.strip_offset_sigma_m;
+  if (o.estimate_tie_sigma) j["vtpm"]["estimate_tie_sigma"] = true;
+  if (o.pulse_noise.any() || o.pulse_noise.attitude_correlation_s > 0) {
+    const PulseNoise& pn = o.pulse_noise;
+    j["pulse_noise"] = {{"position_m", pn.position_m}, {"roll_pitch_deg", pn.roll_pitch_deg}, {"heading_deg", pn.heading_deg},
+                        {"range_m", pn.range_m}, {"beam_deg", pn.beam_deg}, {"attitude_correlation_s", pn.attitude_correlation_s}};
+  }
   j["solver"] = {{"max_iterations", o.max_iterations}, {"loss", lossName(o.loss)}};
   if (o.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = o.loss_scale_m;
   json out = json::object();

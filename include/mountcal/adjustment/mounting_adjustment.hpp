@@ -57,6 +57,46 @@ struct MountingBlockOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// Noise of each georeferenced laser point (the error budget of direct georeferencing, SPEC §2
+/// eq. 1), propagated into the covariance of every observation built from points: a tie's
+/// position, a point-to-plane distance. All off (0) by default: the observations then carry
+/// only their method's own σ (picking, plane fit).
+///
+/// For a point x = p + R_mb (R_bs r_s + a) with u = x − p (IMU → point) and the beam b (the
+/// laser vector in the mapping frame, |b| = ρ, d = b/ρ):
+///
+///   Σ_x = σ_p² I + [u]× diag(σ_t², σ_t², σ_κ²) [u]×ᵀ + w (σ_ρ² d dᵀ + σ_β² ρ² (I − d dᵀ))
+///
+/// — position noise, attitude (tilt about the horizontal axes, heading about the vertical),
+/// range along the beam, pointing across it. Attitude and position are common to points
+/// emitted within a moment; range and pointing are independent per pulse, so a point
+/// interpolated from several pulses with weights w_i carries them with w = Σ w_i².
+///
+/// Attitude noise is correlated in time (an INS: Gauss–Markov, tenths of a second): every
+/// observation of one strip within that time shares it — ties in one scan line see one heading
+/// error, which displaces them exactly as a boresight heading would. With
+/// `attitude_correlation_s` > 0 it is therefore not in Σ_x but a random effect: the attitude
+/// error δψ (3 angles, σ_t, σ_t, σ_κ) of each strip is a Gauss–Markov process with that
+/// correlation time, sampled at the observations' times and estimated with the mounting, so its
+/// uncertainty enters the mounting's covariance.
+struct PulseNoise {
+  double position_m = 0.0;     ///< trajectory position noise between pulses, per axis [m] (the slow part is the strip offset)
+  double roll_pitch_deg = 0.0; ///< attitude noise about the horizontal axes [deg]
+  double heading_deg = 0.0;    ///< attitude noise about the vertical [deg]
+  double range_m = 0.0;        ///< range noise [m]
+  double beam_deg = 0.0;       ///< pointing noise across the beam (scan-angle encoder, divergence) [deg]
+  /// Correlation time of the attitude noise [s]; > 0: a Gauss–Markov random effect per strip
+  /// instead of a term of Σ_x (0: white, in Σ_x).
+  double attitude_correlation_s = 0.0;
+  bool any() const { return position_m > 0 || roll_pitch_deg > 0 || heading_deg > 0 || range_m > 0 || beam_deg > 0; }
+  bool attitudeRandomEffect() const { return attitude_correlation_s > 0 && (roll_pitch_deg > 0 || heading_deg > 0); }
+  /// Σ_x above [m²] (without the attitude term when it is a random effect); `u_m` = x − p,
+  /// `beam_m` the laser vector, both in the mapping frame [m]; `independent_weight` = Σ w_i² of
+  /// the pulses the point is interpolated from [-].
+  Mat3 pointCovariance(const Vec3& u_m, const Vec3& beam_m, double independent_weight = 1.0) const;
+  bool IsValid(std::string* error) const;
+};
+
 /// The stochastic model shared by every kind of observation.
 struct StochasticOptions {
   /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
@@ -66,6 +106,8 @@ struct StochasticOptions {
   double strip_offset_sigma_m = 0.02;
   LossType loss = LossType::kTrivial;
   double loss_scale_m = 0.5;  ///< where the robust loss starts to bend [m]
+  /// Per-point noise propagated into each observation's covariance (off by default).
+  PulseNoise pulse_noise;
   bool IsValid(std::string* error) const;
 };
 
@@ -145,6 +187,19 @@ class AdjustmentProblem {
   int addResidualBlock(ceres::CostFunction* cost, double loss_sigma_m, const std::vector<double*>& blocks, double loss_scale_m);
   /// Central-difference step for the methods' numeric-diff cost functions [-].
   double numericDiffRelativeStep() const { return numeric_diff_relative_step_; }
+  /// The per-point noise of the stochastic model, for the sources' observation covariances.
+  const PulseNoise& pulseNoise() const { return pulse_noise_; }
+  void setPulseNoise(const PulseNoise& noise) { pulse_noise_ = noise; }
+  /// The attitude error δψ [rad] (rotation vector on the mapping axes) of a strip at `time_s`: a
+  /// nuisance block, created on first use (observations within τ/20 share one). Once every
+  /// source has added its blocks, the blocks of each strip are tied together in time by the
+  /// Gauss–Markov priors of PulseNoise (σ_t, σ_t, σ_κ; τ = attitude_correlation_s). An
+  /// observation at u = x − p (IMU → point, mapping frame) adds δψ × u to its point. Null when
+  /// the stochastic model has no such random effect.
+  double* attitudeError(const std::string& strip_id, double time_s);
+  /// Adds the priors of the random effects created by the sources (called by the adjustment
+  /// after every source's addBlocks).
+  void addRandomEffectPriors();
 
   /// Residual vector of block `index` at the current parameter values (unweighted by loss).
   Eigen::VectorXd residual(int index) const;
@@ -184,6 +239,8 @@ class AdjustmentProblem {
   LossType loss_;
   double loss_scale_m_;
   double numeric_diff_relative_step_;
+  PulseNoise pulse_noise_;
+  std::map<std::pair<std::string, long long>, double*> attitude_errors_;
   int source_ = -1;
 };
 

@@ -2,6 +2,10 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -56,6 +60,59 @@ struct ControlResidual {
     return true;
   }
 };
+/// The same with the strip's attitude error δψ at the pick's time (a random effect): + δψ × u.
+struct ControlAttitudeResidual {
+  ControlResidual base;
+  Vec3 u;
+  bool operator()(const double* mounting, const double* offset, const double* dpsi, double* r) const {
+    const Vec3 P_rel = base.vtp->relativePosition(mounting);
+    const Vec3 rot = Vec3(dpsi[0], dpsi[1], dpsi[2]).cross(u);
+    r[0] = base.normal.dot(P_rel + Vec3(offset[0], offset[1], offset[2]) + rot - base.gcp_rel) * base.inv_sigma;
+    return true;
+  }
+};
+
+/// Barycentric weights of the pick in the plan triangle of a virtual tie point (Rule 1).
+Vec3 pickWeights(const VirtualTiePoint& v) {
+  const auto& V = v.vertices();
+  const Vec3& P0 = v.referencePosition();
+  Eigen::Matrix2d E;
+  E.col(0) = (V[1].x0_m - V[0].x0_m).head<2>();
+  E.col(1) = (V[2].x0_m - V[0].x0_m).head<2>();
+  Vec3 w = Vec3::Constant(1.0 / 3.0);
+  if (std::abs(E.determinant()) > 1e-12 * (E.squaredNorm() + 1e-30)) {
+    const Eigen::Vector2d w12 = E.partialPivLu().solve((P0 - V[0].x0_m).head<2>());
+    w = Vec3(1.0 - w12.x() - w12.y(), w12.x(), w12.y());
+  }
+  return w;
+}
+
+/// IMU → tie point vector u = x − p [m] (the beam differs from it by the lever arm only).
+Vec3 imuToPoint(const VirtualTiePoint& v) {
+  const Vec3 w = pickWeights(v);
+  Vec3 p = Vec3::Zero();
+  for (int i = 0; i < 3; ++i) p += w[i] * v.vertices()[static_cast<std::size_t>(i)].pose.p_m;
+  return v.referencePosition() - p;
+}
+
+/// The stochastic model's pulse noise at a virtual tie point [m²]: attitude and position common
+/// to its three pulses (emitted within a few milliseconds), range and pointing independent per
+/// pulse with the barycentric weights w_i of the pick in the plan triangle (Rule 1).
+Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const PulseNoise& noise) {
+  const Vec3 u = imuToPoint(v);
+  return noise.pointCovariance(u, u, pickWeights(v).squaredNorm());
+}
+
+/// Emission time of a virtual tie point: its pulses' mean [s].
+double vtpTime(const VirtualTiePoint& v, const CalibrationData& data) {
+  for (const StripData& s : data.strips) {
+    if (s.id != v.stripId()) continue;
+    double t = 0;
+    for (const LaserFootprint& f : v.vertices()) t += s.time_s.at(f.index);
+    return t / 3.0;
+  }
+  return 0.0;
+}
 
 Vec3 triangleNormal(const VirtualTiePoint& v) {
   const auto& V = v.vertices();
@@ -205,8 +262,14 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
     built_at_ = mounting;
     build(data_->mounting_used.withArray(mounting.data()));
   }
-  const Vec3 sigma(options_.tie_sigma_xy_m, options_.tie_sigma_xy_m, options_.tie_sigma_z_m);
+  if (!(sigma_xy_m_ > 0)) {
+    sigma_xy_m_ = options_.tie_sigma_xy_m;
+    sigma_z_m_ = options_.tie_sigma_z_m;
+  }
+  const Vec3 sigma(sigma_xy_m_, sigma_xy_m_, sigma_z_m_);
   blocks_.clear();
+  whitening_.clear();
+  redundancy_.clear();
   if (kind_ == "control") {
     for (Tie& tie : ties_) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
@@ -215,11 +278,19 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
         const Vec3 n = triangleNormal(v);
         // σ across the surface: the GCP's (its normal component) and the strip's (Rule 1).
         const double s_gcp2 = std::pow(tie.gcp->sigma_xy_m, 2) * n.head<2>().squaredNorm() + std::pow(tie.gcp->sigma_z_m * n.z(), 2);
-        const double sigma = std::sqrt(s_gcp2 + options_.tie_sigma_z_m * options_.tie_sigma_z_m);
+        const double s_pulse2 = P->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, P->pulseNoise()) * n) : 0.0;
+        const double sigma = std::sqrt(s_gcp2 + options_.tie_sigma_z_m * options_.tie_sigma_z_m + s_pulse2);
         ceres::NumericDiffOptions nd;
         nd.relative_step_size = P->numericDiffRelativeStep();
+        const ControlResidual residual{&v, n, x - v.centroid(), 1.0 / sigma};
+        if (double* dpsi = P->attitudeError(v.stripId(), vtpTime(v, *data_))) {
+          auto* cost = new ceres::NumericDiffCostFunction<ControlAttitudeResidual, ceres::CENTRAL, 1, 6, 3, 3>(
+              new ControlAttitudeResidual{residual, imuToPoint(v)}, ceres::TAKE_OWNERSHIP, 1, nd);
+          blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId()), dpsi}));
+          continue;
+        }
         auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(
-            new ControlResidual{&v, n, x - v.centroid(), 1.0 / sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
+            new ControlResidual(residual), ceres::TAKE_OWNERSHIP, 1, nd);
         blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId())}));
       }
     }
@@ -229,7 +300,22 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
     tie.X = P->addNuisanceBlock(3, tie.mean_m.data());
     for (int k : tie.obs) {
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, sigma, P->numericDiffRelativeStep());  // seed eq. (10)
+      // seed eq. (10), whitened by the picking σ and, when the stochastic model has it, the
+      // pulse noise at this tie point.
+      Mat3 W = sigma.cwiseInverse().asDiagonal();
+      if (P->pulseNoise().any()) {
+        const Mat3 Sigma = Mat3(sigma.cwiseProduct(sigma).asDiagonal()) + vtpPulseCovariance(v, P->pulseNoise());
+        W = Sigma.llt().matrixL().solve(Mat3::Identity());
+      }
+      whitening_.push_back(W);
+      const double k_obs = static_cast<double>(tie.obs.size());
+      redundancy_.push_back(tie.gcp ? k_obs / (k_obs + 1.0) : (k_obs - 1.0) / k_obs);
+      if (double* dpsi = P->attitudeError(v.stripId(), vtpTime(v, *data_))) {
+        ceres::CostFunction* cost = detail::makeVtpAttitudeCostFunction(&v, W, imuToPoint(v), P->numericDiffRelativeStep());
+        blocks_.push_back(P->addResidualBlock(cost, options_.tie_sigma_xy_m, {P->mounting(), tie.X, P->stripOffset(v.stripId()), dpsi}));
+        continue;
+      }
+      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, W, P->numericDiffRelativeStep());
       blocks_.push_back(P->addResidualBlock(cost, options_.tie_sigma_xy_m, {P->mounting(), tie.X, P->stripOffset(v.stripId())}));
     }
     if (tie.gcp) {
@@ -239,9 +325,41 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
   }
 }
 
+void TieObservations::solved(const AdjustmentProblem& P) {
+  if (!estimatesSigma() || blocks_.empty()) return;
+  // Förstner's variance components: for component c with cofactor Q_c (Σ = Σ_c Q_c + Σ_pulse),
+  // σ̂²_c / σ²_c = Σ (Wᵀr)ᵀ Q_c (Wᵀr) / Σ r_i tr(WᵀW Q_c), r = W e the whitened residual and
+  // r_i the observation's redundancy share.
+  const Mat3 Q_xy = Vec3(sigma_xy_m_ * sigma_xy_m_, sigma_xy_m_ * sigma_xy_m_, 0).asDiagonal();
+  const Mat3 Q_z = Vec3(0, 0, sigma_z_m_ * sigma_z_m_).asDiagonal();
+  double q_xy = 0, q_z = 0, r_xy = 0, r_z = 0;
+  for (std::size_t i = 0; i < blocks_.size(); ++i) {
+    const Mat3& W = whitening_[i];
+    const Vec3 g = W.transpose() * Vec3(P.residual(blocks_[i]));  // Σ⁻¹ e
+    const Mat3 Sinv = W.transpose() * W;
+    q_xy += g.dot(Q_xy * g);
+    q_z += g.dot(Q_z * g);
+    r_xy += redundancy_[i] * (Sinv * Q_xy).trace();
+    r_z += redundancy_[i] * (Sinv * Q_z).trace();
+  }
+  if (!(r_xy > 0) || !(r_z > 0)) return;
+  const double f_xy = q_xy / r_xy, f_z = q_z / r_z;  // ratios of variances
+  // Bounded steps (×/÷ 100 in variance at most per solve) keep a degenerate round harmless.
+  const double new_xy = sigma_xy_m_ * std::sqrt(std::clamp(f_xy, 1e-2, 1e2));
+  const double new_z = sigma_z_m_ * std::sqrt(std::clamp(f_z, 1e-2, 1e2));
+  sigma_settled_ = std::abs(new_xy / sigma_xy_m_ - 1.0) < 0.01 && std::abs(new_z / sigma_z_m_ - 1.0) < 0.01;
+  if (!sigma_settled_) {
+    sigma_xy_m_ = new_xy;
+    sigma_z_m_ = new_z;
+  }
+}
+
 void TieObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
                              const AnalysisOptions& analysis) {
   section_.residuals.clear();
+  section_.sigma_xy_m = sigma_xy_m_ > 0 ? sigma_xy_m_ : options_.tie_sigma_xy_m;
+  section_.sigma_z_m = sigma_z_m_ > 0 ? sigma_z_m_ : options_.tie_sigma_z_m;
+  section_.sigma_estimated = estimatesSigma();
   Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
   std::vector<double> norms;
   if (kind_ == "control") {

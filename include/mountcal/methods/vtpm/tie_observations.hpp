@@ -40,6 +40,13 @@ struct TieObservationOptions {
   /// (Rule 1 interpolation) [m].
   double tie_sigma_xy_m = 0.10;
   double tie_sigma_z_m = 0.05;
+  /// Estimate the two σ above from the residuals instead of trusting them: variance component
+  /// estimation (Förstner 1979) of the horizontal and the vertical component, each
+  /// observation's redundancy taken as (k−1)/k for a tie seen on k strips; the solve is
+  /// repeated with the new σ until they change by less than 1 % (at most
+  /// SolverOptions::max_rematch_rounds solves). The mounting's covariance then follows the
+  /// picking precision the data show, not the one stated.
+  bool estimate_tie_sigma = false;
   bool IsValid(std::string* error) const;
 };
 
@@ -51,6 +58,9 @@ struct TieSection {
   std::vector<TieResidual> residuals;
   Vec3 rms_before_m = Vec3::Zero();  ///< per axis [m]
   Vec3 rms_after_m = Vec3::Zero();
+  /// The σ used in the last solve: the stated ones, or those estimated (estimate_tie_sigma) [m].
+  double sigma_xy_m = 0.0, sigma_z_m = 0.0;
+  bool sigma_estimated = false;
 };
 
 class VtpStrip;
@@ -72,9 +82,12 @@ class TieObservations final : public ObservationSource {
   ~TieObservations() override;
 
   std::string kind() const override { return kind_; }
-  /// Control points are picked again at each new mounting; ties are not.
-  bool rematches() const override { return kind_ == "control"; }
+  /// Control points are picked again at each new mounting; ties are not, but are solved again
+  /// while their σ are being estimated.
+  bool rematches() const override { return kind_ == "control" || estimatesSigma(); }
+  bool settled() const override { return !estimatesSigma() || sigma_settled_; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
+  void solved(const AdjustmentProblem& problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
               const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
 
@@ -85,6 +98,7 @@ class TieObservations final : public ObservationSource {
 
  private:
   void build(const MountingParameters& reference);
+  bool estimatesSigma() const { return kind_ == "ties" && options_.estimate_tie_sigma; }
   struct Tie {
     std::string id;
     std::vector<int> obs;  // indices into vtps_
@@ -98,6 +112,10 @@ class TieObservations final : public ObservationSource {
   std::vector<VirtualTiePoint> vtps_;
   std::vector<Tie> ties_;
   std::vector<int> blocks_;  // residual block of each observation, in ties_ order
+  std::vector<Mat3> whitening_;  // W of each observation (WᵀW = Σ⁻¹), in ties_ order
+  std::vector<double> redundancy_;  // (k−1)/k of each observation, in ties_ order
+  double sigma_xy_m_ = 0.0, sigma_z_m_ = 0.0;  // σ of the current solve [m]
+  bool sigma_settled_ = false;
   TieSection section_;
   const CalibrationData* data_ = nullptr;
   std::vector<TieObservation> picks_;
