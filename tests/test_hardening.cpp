@@ -3,6 +3,9 @@
 // the place — or a correct result where the input is valid — and never change an input or a
 // good output.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <algorithm>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -227,8 +230,26 @@ TEST_F(Hardening, MalformedJobsAreBadInputNotInternalErrors) {
   std::string j = slurp(field() / "job.json");
   const auto at = j.find("\"max_iterations\": 100");
   ASSERT_NE(at, std::string::npos);
-  spit(field() / "i_big.json", j.replace(at, 21, "\"max_iterations\": 1e999"));
-  expectRefused("calibrate --quiet " + (field() / "i_big.json").string(), "i_big.json", "invalid JSON");
+  // Where the JSON goes wrong is said as line and column (1-based), counted here by hand.
+  const auto lineColumn = [](const std::string& text, std::size_t byte) {
+    const std::size_t line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<long>(byte), '\n'));
+    const std::size_t nl = text.rfind('\n', byte == 0 ? 0 : byte - 1);
+    const std::size_t column = byte - (nl == std::string::npos || byte == 0 ? 0 : nl + 1) + 1;
+    return "line " + std::to_string(line) + ", column " + std::to_string(column);
+  };
+  std::string big = j;
+  big.replace(at, 21, "\"max_iterations\": 1e999");
+  spit(field() / "i_big.json", big);
+  expectRefused("calibrate --quiet " + (field() / "i_big.json").string(), "i_big.json:" + lineColumn(big, at + 18),
+                "the number 1e999 does not fit a double");
+  std::string broken = j;
+  const std::size_t comma = broken.find(',', at);
+  broken.erase(comma, 1);  // the comma after max_iterations: the next key is unexpected
+  const std::size_t next = broken.find('"', comma);
+  spit(field() / "i_syntax.json", broken);
+  const std::string at_next = lineColumn(broken, next);  // the parser stops within that token: its line
+  expectRefused("calibrate --quiet " + (field() / "i_syntax.json").string(),
+                "i_syntax.json:" + at_next.substr(0, at_next.find(',')) + ", column", "invalid JSON");
   fs::create_directories(field() / "adir");
   expectRefused("calibrate --quiet " + (field() / "adir").string(), "adir", "is a folder");
   fs::remove(field() / "adir");
@@ -270,6 +291,24 @@ TEST_F(Hardening, MessagesSayWhere) {
   const CliRun d = cli("info " + (dir() / "adir").string());
   EXPECT_EQ(d.code, 2);
   EXPECT_NE(d.err.find("adir"), std::string::npos) << d.err;
+  // A pipe has no size: no bogus byte counts in the message, whatever the reader.
+  for (const std::string name : {"pipe.sbet", "pipe.las"}) {
+    const fs::path pipe = dir() / name;
+    fs::remove(pipe);
+    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    // The command reads the pipe while an empty writer opens it (and gives up after 5 s if
+    // nobody reads, so the test never hangs).
+    const fs::path err = dir() / "pipe_err.txt";
+    const int status = std::system(("(" + std::string(MOUNTCAL_CLI) + " info " + pipe.string() + " > /dev/null 2> " + err.string() +
+                                    "; echo $? >> " + err.string() + ") & timeout 5 sh -c 'cat /dev/null > " + pipe.string() + "'; wait")
+                                       .c_str());
+    (void)status;
+    const std::string p = slurp(err);
+    EXPECT_NE(p.find(name + ": cannot determine the file size"), std::string::npos) << p;
+    EXPECT_NE(p.find("\n2\n"), std::string::npos) << p;  // exit 2
+    EXPECT_EQ(p.find("18446744073709551"), std::string::npos) << p;
+    fs::remove(pipe);
+  }
   spit(dir() / "sc_type.json", R"({"preset": "paper-calibration-field", "roi_radius_m": "big"})");
   const CliRun t = cli("simulate " + (dir() / "sc_type.json").string() + " --out " + (dir() / "t").string());
   EXPECT_EQ(t.code, 2);

@@ -37,7 +37,10 @@ std::vector<SbetRecord> readSbet(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path, "", "cannot open the SBET file");
   in.seekg(0, std::ios::end);
-  const auto size = static_cast<std::uint64_t>(in.tellg());
+  const std::streamoff end = in.tellg();
+  // A pipe or a folder has no size: say so rather than print a bogus one.
+  if (!in || end < 0) throw FileError(path, "", "cannot determine the file size (not a regular file?)");
+  const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0);
   if (size % 136 != 0) {
     throw FileError(path, "byte " + std::to_string(size - size % 136),

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -106,6 +107,57 @@ class Fields {
   const json& j_;
   std::string prefix_;
 };
+
+/// The JSON document of a job, result or scenario file (`what`: "job", "result", ...). Every
+/// failure is a FileError naming the file and, for bad JSON, the line and column: a folder, a
+/// file that cannot be opened, more than 16 MB (an endless stream is not read into memory),
+/// a syntax error, a number that overflows a double.
+inline json parseJsonFile(const std::string& path, const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw FileError(path, "", "is a folder, not a " + what + " file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path, "", "cannot open the " + what + " file");
+  constexpr std::size_t kMaxBytes = 16u << 20;
+  std::string text;
+  char buf[65536];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    text.append(buf, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxBytes) throw FileError(path, "", "larger than 16 MB: not a " + what + " file");
+  }
+  const auto where = [&](std::size_t byte) {  // 1-based line and column of a 0-based byte
+    std::size_t line = 1, col = 1;
+    for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    return "line " + std::to_string(line) + ", column " + std::to_string(col);
+  };
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    // nlohmann's byte is 1-based and points just past the offending character.
+    std::string msg = e.what();
+    const std::size_t colon = msg.rfind(": ");
+    if (colon != std::string::npos) msg = msg.substr(colon + 2);
+    throw FileError(path, where(e.byte > 0 ? e.byte - 1 : 0), "invalid JSON: " + msg);
+  } catch (const json::exception& e) {
+    // e.g. "number overflow parsing '1e999'": find the number to say where it is.
+    const std::string msg = e.what();
+    const std::size_t a = msg.find("parsing '");
+    if (a != std::string::npos) {
+      const std::size_t b = msg.find('\'', a + 9);
+      const std::string token = b == std::string::npos ? "" : msg.substr(a + 9, b - a - 9);
+      const std::size_t at = token.empty() ? std::string::npos : text.find(token);
+      if (at != std::string::npos) throw FileError(path, where(at), "invalid JSON: the number " + token + " does not fit a double");
+    }
+    throw FileError(path, "", std::string("invalid JSON: ") + msg);
+  }
+}
 
 /// A path of a job file, resolved against the job file's folder.
 inline std::string resolvePath(const std::string& job_path, const std::string& p) {

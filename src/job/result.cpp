@@ -182,17 +182,7 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
 
 namespace {
 /// A result file parsed; FileError naming the file (and the byte) when it cannot be read.
-json readResultFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "", "cannot open the result file");
-  try {
-    return json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
-  } catch (const json::exception& e) {
-    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
-  }
-}
+json readResultFile(const std::string& path) { return detail::parseJsonFile(path, "result"); }
 }  // namespace
 
 std::vector<double> readResultLaserElevation(const std::string& path) {

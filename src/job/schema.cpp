@@ -79,17 +79,7 @@ CalibrationMethod parseMethod(const Fields& top, const std::string& name) {
 }  // namespace
 
 Job readJob(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw FileError(path, "", "is a folder, not a job file");
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "", "cannot open the job file");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    throw FileError(path, "", std::string("invalid JSON: ") + e.what());
-  }
+  const json j = detail::parseJsonFile(path, "job");
   Job job;
   job.path = path;
   const Fields top(path, j, "",

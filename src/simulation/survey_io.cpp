@@ -5,6 +5,7 @@
 #include <set>
 #include <nlohmann/json.hpp>
 
+#include "../job/json_fields.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/crs.hpp"
@@ -205,14 +206,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
 }
 
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "", "cannot open the scenario file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw FileError(path, "byte " + std::to_string(e.byte), "invalid JSON");
-  }
+  const nlohmann::json j = detail::parseJsonFile(path, "scenario");
   if (!j.is_object()) throw FileError(path, "", "a scenario is a JSON object");
   static const std::set<std::string> kKnown = {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m"};
   for (auto it = j.begin(); it != j.end(); ++it) {
