@@ -1,4 +1,5 @@
-// Batch georeferencing throughput (issue 2 target: ≥ 15 M points/s on one core).
+// Batch georeferencing throughput (issue 2 target: ≥ 15 M points/s on one core; issue 13:
+// ≥ 40 M pulses/s and ≥ 2.5× the plain loop, BM_PlainLoopLineScan, measured in the same run).
 // A line scanner at 150 kHz over a 200 Hz trajectory, 10 M pulses with sorted times.
 //   build/bench/bench_georeference [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
@@ -65,6 +66,25 @@ void BM_ForwardLineScan(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * s.t.size()));
 }
 BENCHMARK(BM_ForwardLineScan)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// The baseline of issue 13: a plain Eigen loop that slerps the attitude for every pulse (the
+// trajectory's own pose(), then seed eq. (1)).
+void BM_PlainLoopLineScan(benchmark::State& state) {
+  const Survey& s = survey();
+  const Mat3 R_bs = kMounting.R_bs();
+  std::vector<double> x(s.x_m.size());
+  const LineScannerModel line;
+  for (auto _ : state) {
+    std::size_t cursor = 0;
+    for (std::size_t k = 0; k < s.t.size(); ++k) {
+      const Pose pose = s.trajectory->pose(s.t[k], &cursor);
+      Eigen::Map<Vec3>{&x[3 * k]} = georeference(pose, R_bs, kMounting.a_b, line.vector(s.theta[k], s.rho[k]));
+    }
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * s.t.size()));
+}
+BENCHMARK(BM_PlainLoopLineScan)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_ForwardVectors(benchmark::State& state) {
   const Survey& s = survey();

@@ -34,25 +34,92 @@ Vec3 GeoreferenceModel::inverse(double time_s, const Vec3& x_m) const {
   return inverseGeoreference(trajectory_->pose(time_s), R_bs_, mounting_.a_b, x_m);
 }
 
+namespace {
+
+// Thousands of pulses share one trajectory interval [t_i, t_{i+1}], where slerp gives
+// R_mb(s) = R_i · Exp(s·A), A = [ω_i]×, s ∈ [0, 1]. Expanded in s once per interval,
+//   R_mb(s) · (R_bs r_s + a) = Σ_{j=0..4} s^j (M_j r_s + m_j),  C_j = R_i A^j / j!,
+//   M_j = C_j R_bs,  m_j = C_j a,
+// a pulse costs five 3×3 products in Horner form instead of a quaternion exponential and a
+// matrix (the position polynomial, linear or cubic Hermite, is folded into m_0..m_3). The series' remainder is at most |ω|⁵/120 · |R_bs r_s + a|: below 1e-11 m for
+// |ω| ≤ 0.004 rad (46°/s at 200 Hz) and 3 km ranges. An interval turning faster takes the
+// exact slerp.
+constexpr double kMaxExpandedRotation_rad = 0.004;
+constexpr int kTerms = 5;
+
+struct IntervalExpansion {
+  std::size_t interval = static_cast<std::size_t>(-1);
+  bool exact = false;
+  double t0 = 0, inv_h = 0;
+  Mat3 M[kTerms];  // forward: C_j R_bs; inverse: R_bsᵀ C_jᵀ
+  Vec3 m[kTerms];  // forward: C_j a + c_j (the position polynomial's coefficients folded in)
+  Vec3 c[4];       // the position polynomial p(s) = Σ c_j s^j
+};
+
+void expandInterval(const Trajectory& T, std::size_t i, const Mat3& R_bs, const Vec3& a, bool inverse,
+                    IntervalExpansion* e) {
+  e->interval = i;
+  Mat3 C;
+  Vec3 omega;
+  T.intervalAttitude(i, &C, &omega);
+  e->exact = !(omega.norm() <= kMaxExpandedRotation_rad);
+  if (e->exact) return;
+  e->t0 = T.times()[i];
+  e->inv_h = 1.0 / (T.times()[i + 1] - T.times()[i]);
+  T.intervalPosition(i, e->c);
+  Mat3 A;
+  A << 0, -omega.z(), omega.y(), omega.z(), 0, -omega.x(), -omega.y(), omega.x(), 0;
+  for (int j = 0; j < kTerms; ++j) {
+    if (j > 0) C = C * A / static_cast<double>(j);
+    if (inverse) {
+      e->M[j] = R_bs.transpose() * C.transpose();
+    } else {
+      e->M[j] = C * R_bs;
+      e->m[j] = C * a + (j < 4 ? e->c[j] : Vec3::Zero());
+    }
+  }
+}
+
+}  // namespace
+
 void GeoreferenceModel::forward(const double* time_s, const double* r_s, double* x_m,
                                 std::size_t n) const {
   std::size_t cursor = 0;
+  IntervalExpansion e;
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = trajectory_->locate(time_s[k], &cursor);
-    const Pose pose = trajectory_->interpolateInInterval(i, time_s[k]);
-    Eigen::Map<Vec3>(x_m + 3 * k) =
-        georeference(pose, R_bs_, mounting_.a_b, Eigen::Map<const Vec3>(r_s + 3 * k));
+    const Eigen::Map<const Vec3> r(r_s + 3 * k);
+    if (i != e.interval) expandInterval(*trajectory_, i, R_bs_, mounting_.a_b, false, &e);
+    if (e.exact) {
+      Eigen::Map<Vec3>(x_m + 3 * k) = georeference(trajectory_->interpolateInInterval(i, time_s[k]), R_bs_, mounting_.a_b, r);
+      continue;
+    }
+    const double s = (time_s[k] - e.t0) * e.inv_h;
+    Vec3 acc = e.M[kTerms - 1] * r + e.m[kTerms - 1];
+    for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j] * r + e.m[j]);
+    Eigen::Map<Vec3>(x_m + 3 * k) = acc;  // seed eq. (1): p(s) + R_mb(s) (R_bs r_s + a)
   }
 }
 
 void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double* r_s,
                                 std::size_t n) const {
   std::size_t cursor = 0;
+  IntervalExpansion e;
+  const Vec3 a_s = R_bs_.transpose() * mounting_.a_b;
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = trajectory_->locate(time_s[k], &cursor);
-    const Pose pose = trajectory_->interpolateInInterval(i, time_s[k]);
-    Eigen::Map<Vec3>(r_s + 3 * k) =
-        inverseGeoreference(pose, R_bs_, mounting_.a_b, Eigen::Map<const Vec3>(x_m + 3 * k));
+    const Eigen::Map<const Vec3> x(x_m + 3 * k);
+    if (i != e.interval) expandInterval(*trajectory_, i, R_bs_, mounting_.a_b, true, &e);
+    if (e.exact) {
+      Eigen::Map<Vec3>(r_s + 3 * k) = inverseGeoreference(trajectory_->interpolateInInterval(i, time_s[k]), R_bs_, mounting_.a_b, x);
+      continue;
+    }
+    // r_s = R_bsᵀ (R_mb(s)ᵀ (x − p) − a) = Σ s^j R_bsᵀ C_jᵀ (x − p) − R_bsᵀ a
+    const double s = (time_s[k] - e.t0) * e.inv_h;
+    const Vec3 d = x - (((e.c[3] * s + e.c[2]) * s + e.c[1]) * s + e.c[0]);
+    Vec3 acc = e.M[kTerms - 1] * d;
+    for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + e.M[j] * d;
+    Eigen::Map<Vec3>(r_s + 3 * k) = acc - a_s;
   }
 }
 
@@ -60,11 +127,19 @@ void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const d
                                         const double* scan_angle_rad, const double* range_m,
                                         double* x_m, std::size_t n) const {
   std::size_t cursor = 0;
+  IntervalExpansion e;
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = trajectory_->locate(time_s[k], &cursor);
-    const Pose pose = trajectory_->interpolateInInterval(i, time_s[k]);
-    const Vec3 r_s = scanner.vector(scan_angle_rad[k], range_m[k]);
-    Eigen::Map<Vec3>(x_m + 3 * k) = georeference(pose, R_bs_, mounting_.a_b, r_s);
+    const Vec3 r = scanner.vector(scan_angle_rad[k], range_m[k]);
+    if (i != e.interval) expandInterval(*trajectory_, i, R_bs_, mounting_.a_b, false, &e);
+    if (e.exact) {
+      Eigen::Map<Vec3>(x_m + 3 * k) = georeference(trajectory_->interpolateInInterval(i, time_s[k]), R_bs_, mounting_.a_b, r);
+      continue;
+    }
+    const double s = (time_s[k] - e.t0) * e.inv_h;
+    Vec3 acc = e.M[kTerms - 1] * r + e.m[kTerms - 1];
+    for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j] * r + e.m[j]);
+    Eigen::Map<Vec3>(x_m + 3 * k) = acc;
   }
 }
 

@@ -84,25 +84,44 @@ std::size_t Trajectory::locate(double time_s, std::size_t* cursor) const {
   return i;
 }
 
+Vec3 Trajectory::positionInInterval(std::size_t i, double time_s) const {
+  const double s = (time_s - time_s_[i]) / (time_s_[i + 1] - time_s_[i]);
+  // The polynomial form (p₀ plus small terms) rounds less than the Hermite basis applied to two
+  // large map coordinates, and is the one the batch georeferencing folds in.
+  Vec3 c[4];
+  intervalPosition(i, c);
+  return ((c[3] * s + c[2]) * s + c[1]) * s + c[0];
+}
+
 Pose Trajectory::interpolateInInterval(std::size_t i, double time_s) const {
-  const double t0 = time_s_[i], t1 = time_s_[i + 1];
-  const double h = t1 - t0;
-  const double s = (time_s - t0) / h;
+  const double s = (time_s - time_s_[i]) / (time_s_[i + 1] - time_s_[i]);
   Pose pose;
-  const Vec3& p0 = samples_[i].p_m;
-  const Vec3& p1 = samples_[i + 1].p_m;
-  if (interpolation_ == PositionInterpolation::kCubic) {
-    // Cubic Hermite basis.
-    const double s2 = s * s, s3 = s2 * s;
-    const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s;
-    const double h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
-    pose.p_m = h00 * p0 + h10 * h * v_m_[i] + h01 * p1 + h11 * h * v_m_[i + 1];
-  } else {
-    pose.p_m = p0 + s * (p1 - p0);
-  }
+  pose.p_m = positionInInterval(i, time_s);
   // slerp: q(s) = q_i · exp(s · log(q_i⁻¹ q_{i+1}))
   pose.R_mb = (q_mb_[i] * quatExp(s * dq_[i])).toRotationMatrix();
   return pose;
+}
+
+void Trajectory::intervalPosition(std::size_t i, Vec3 c[4]) const {
+  const Vec3& p0 = samples_[i].p_m;
+  const Vec3& p1 = samples_[i + 1].p_m;
+  c[0] = p0;
+  if (interpolation_ == PositionInterpolation::kCubic) {
+    // The Hermite basis of positionInInterval() collected by powers of s.
+    const double h = time_s_[i + 1] - time_s_[i];
+    const Vec3 m0 = h * v_m_[i], m1 = h * v_m_[i + 1];
+    c[1] = m0;
+    c[2] = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+    c[3] = 2.0 * (p0 - p1) + m0 + m1;
+  } else {
+    c[1] = p1 - p0;
+    c[2] = c[3] = Vec3::Zero();
+  }
+}
+
+void Trajectory::intervalAttitude(std::size_t i, Mat3* R_i, Vec3* omega_i) const {
+  *R_i = q_mb_[i].toRotationMatrix();
+  *omega_i = dq_[i];
 }
 
 Pose Trajectory::pose(double time_s) const {

@@ -67,6 +67,17 @@ class Trajectory {
 
   /// Pose at `time_s` inside interval `i` (as returned by locate()); no range check.
   Pose interpolateInInterval(std::size_t i, double time_s) const;
+  /// Position alone at `time_s` inside interval `i` [m]; no range check.
+  Vec3 positionInInterval(std::size_t i, double time_s) const;
+  /// The attitude of interval `i` as slerp sees it: R_mb(t) = R_i · Exp(s · ω_i) with
+  /// s = (t − t_i)/(t_{i+1} − t_i), R_i the attitude at t_i and ω_i the rotation vector [rad]
+  /// from it to the next sample's.
+  void intervalAttitude(std::size_t i, Mat3* R_i, Vec3* omega_i) const;
+  /// The position of interval `i` as a polynomial in s = (t − t_i)/(t_{i+1} − t_i):
+  /// p(s) = c[0] + c[1] s + c[2] s² + c[3] s³ [m] (linear or cubic Hermite).
+  void intervalPosition(std::size_t i, Vec3 c[4]) const;
+  /// Times of the samples (contiguous) [s].
+  const std::vector<double>& times() const { return time_s_; }
 
  private:
 
