@@ -80,25 +80,36 @@ void expandInterval(const Trajectory& T, std::size_t i, const Mat3& R_bs, const 
   }
 }
 
+/// x_m of the laser vector r at `time_s` from an expanded interval: Σ s^j (M_j r + m_j), Horner.
+inline Vec3 forwardExpanded(const IntervalExpansion& e, double time_s, const Vec3& r) {
+  const double s = (time_s - e.t0) * e.inv_h;
+  Vec3 acc = e.M[kTerms - 1] * r + e.m[kTerms - 1];
+  for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j] * r + e.m[j]);
+  return acc;  // seed eq. (1): p(s) + R_mb(s) (R_bs r_s + a)
+}
+
+/// The batch forward of every pulse k with laser vector laser(k): the interval walk, the
+/// expansion per interval, the exact slerp where an interval turns too fast.
+template <typename LaserVector>
+void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const double* time_s, double* x_m, std::size_t n,
+                  LaserVector laser) {
+  std::size_t cursor = 0;
+  IntervalExpansion e;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = T.locate(time_s[k], &cursor);
+    const Vec3 r = laser(k);
+    if (i != e.interval) expandInterval(T, i, R_bs, a, false, &e);
+    Eigen::Map<Vec3>(x_m + 3 * k) =
+        e.exact ? georeference(T.interpolateInInterval(i, time_s[k]), R_bs, a, r) : forwardExpanded(e, time_s[k], r);
+  }
+}
+
 }  // namespace
 
 void GeoreferenceModel::forward(const double* time_s, const double* r_s, double* x_m,
                                 std::size_t n) const {
-  std::size_t cursor = 0;
-  IntervalExpansion e;
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = trajectory_->locate(time_s[k], &cursor);
-    const Eigen::Map<const Vec3> r(r_s + 3 * k);
-    if (i != e.interval) expandInterval(*trajectory_, i, R_bs_, mounting_.a_b, false, &e);
-    if (e.exact) {
-      Eigen::Map<Vec3>(x_m + 3 * k) = georeference(trajectory_->interpolateInInterval(i, time_s[k]), R_bs_, mounting_.a_b, r);
-      continue;
-    }
-    const double s = (time_s[k] - e.t0) * e.inv_h;
-    Vec3 acc = e.M[kTerms - 1] * r + e.m[kTerms - 1];
-    for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j] * r + e.m[j]);
-    Eigen::Map<Vec3>(x_m + 3 * k) = acc;  // seed eq. (1): p(s) + R_mb(s) (R_bs r_s + a)
-  }
+  forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n,
+               [&](std::size_t k) { return Vec3(r_s[3 * k], r_s[3 * k + 1], r_s[3 * k + 2]); });
 }
 
 void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double* r_s,
@@ -126,21 +137,8 @@ void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double*
 void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const double* time_s,
                                         const double* scan_angle_rad, const double* range_m,
                                         double* x_m, std::size_t n) const {
-  std::size_t cursor = 0;
-  IntervalExpansion e;
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = trajectory_->locate(time_s[k], &cursor);
-    const Vec3 r = scanner.vector(scan_angle_rad[k], range_m[k]);
-    if (i != e.interval) expandInterval(*trajectory_, i, R_bs_, mounting_.a_b, false, &e);
-    if (e.exact) {
-      Eigen::Map<Vec3>(x_m + 3 * k) = georeference(trajectory_->interpolateInInterval(i, time_s[k]), R_bs_, mounting_.a_b, r);
-      continue;
-    }
-    const double s = (time_s[k] - e.t0) * e.inv_h;
-    Vec3 acc = e.M[kTerms - 1] * r + e.m[kTerms - 1];
-    for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j] * r + e.m[j]);
-    Eigen::Map<Vec3>(x_m + 3 * k) = acc;
-  }
+  forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n,
+               [&](std::size_t k) { return scanner.vector(scan_angle_rad[k], range_m[k]); });
 }
 
 }  // namespace mountcal
