@@ -10,7 +10,11 @@ mountcal_ensure_deps
 
 build="$root/build"; args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then
-  build="$root/build-asan"; args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DMOUNTCAL_SANITIZE=ON)
+  # -O1 with line tables only: half the compile time of -O2 -g, and stack traces keep file:line.
+  # Benchmarks and examples are not run here, so not built.
+  build="$root/build-asan"
+  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DMOUNTCAL_SANITIZE=ON
+        -DMOUNTCAL_BUILD_BENCHMARKS=OFF -DMOUNTCAL_BUILD_EXAMPLES=OFF)
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 fi
 jobs="$(nproc)"
