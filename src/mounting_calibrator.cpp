@@ -16,6 +16,7 @@ const char* toString(CalibrationMethod m) {
     case CalibrationMethod::kVtpm: return "vtpm";
     case CalibrationMethod::kPlanes: return "planes";
     case CalibrationMethod::kCorrespondences: return "correspondences";
+    case CalibrationMethod::kFeatures: return "features";
   }
   return "unknown";
 }
@@ -32,6 +33,7 @@ bool MountingCalibrator::Options::IsValid(std::string* error) const {
   std::string why;
   if (!planes.IsValid(&why)) return fail("planes: " + why);
   if (!correspondence.IsValid(&why)) return fail("correspondence: " + why);
+  if (!features.IsValid(&why)) return fail("features: " + why);
   return true;
 }
 
@@ -61,6 +63,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   std::unique_ptr<TieObservations> ties, control;
   std::unique_ptr<PlaneObservations> planes;
   std::unique_ptr<CorrespondenceObservations> corr;
+  std::unique_ptr<FeatureObservations> features;
   std::vector<ObservationSource*> sources;
   std::vector<GroundControlPoint> free_gcps = data.gcps;  // GCPs not tied to a VTPM tie
   if (methods.count(CalibrationMethod::kVtpm)) {
@@ -83,6 +86,10 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     corr = std::make_unique<CorrespondenceObservations>(data, o.correspondence);
     sources.push_back(corr.get());
   }
+  if (methods.count(CalibrationMethod::kFeatures)) {
+    features = std::make_unique<FeatureObservations>(data, o.features);
+    if (features->observationCount() > 0) sources.push_back(features.get());
+  }
   const double construction_s = elapsed();
   auto fillSections = [&] {
     if (ties) {
@@ -100,6 +107,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     if (control) S.control = control->section();
     if (planes) S.planes = planes->section();
     if (corr) S.correspondences = corr->section();
+    if (features) S.features = features->section();
   };
   if (sources.empty()) {
     fillSections();
@@ -115,7 +123,11 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
 
   // ---- one adjustment -------------------------------------------------------------------------
   const std::vector<std::string> names = S.methods;
-  static_cast<AdjustmentSummary&>(S) = MountingAdjustment(o).solve(data.mounting_used, sources);
+  // The paper's closed form is the starting value of the rigorous solution (seed 002 §2.3).
+  std::array<double, 6> start = data.mounting_used.toArray();
+  const bool from_closed_form = features && features->section().closed_form.valid;
+  if (from_closed_form) start = features->section().closed_form.mounting.toArray();
+  static_cast<AdjustmentSummary&>(S) = MountingAdjustment(o).solve(data.mounting_used, sources, from_closed_form ? &start : nullptr);
   S.methods = names;
   S.construction_time_s += construction_s;
   fillSections();
@@ -147,6 +159,11 @@ std::string MountingCalibrator::Summary::BriefReport() const {
   }
   if (uses(CalibrationMethod::kCorrespondences)) {
     std::snprintf(buf, sizeof buf, "%d correspondences (%d matchings); ", correspondences.used, correspondences.rounds);
+    what += buf;
+  }
+  if (uses(CalibrationMethod::kFeatures)) {
+    std::snprintf(buf, sizeof buf, "%d targets / %d views / %zu pairs (%zu rejected); ", features.targets_used, features.views_used,
+                  features.pairs.size(), features.rejected.size());
     what += buf;
   }
   std::snprintf(buf, sizeof buf,
@@ -236,6 +253,43 @@ std::string MountingCalibrator::Summary::FullReport() const {
     }
     for (const RejectedPatch& p : planes.rejected)
       r << "rejected patch " << p.patch_id << (p.strip_id.empty() ? "" : " on strip " + p.strip_id) << ": " << p.reason << "\n";
+  }
+  if (uses(CalibrationMethod::kFeatures)) {
+    const FeatureSection& F = features;
+    std::snprintf(buf, sizeof buf,
+                  "\nFeatures (seed 002): %d targets, %d views; centre RMS before (%.4f, %.4f, %.4f) m, after (%.4f, %.4f, %.4f) m; "
+                  "sigma %s: along the normal %.4f m, in the plane %.4f m; extraction %.3f s, matching %.3f s\n",
+                  F.targets_used, F.views_used, F.rms_before_m.x(), F.rms_before_m.y(), F.rms_before_m.z(), F.rms_after_m.x(),
+                  F.rms_after_m.y(), F.rms_after_m.z(), F.sigma_estimated ? "estimated (variance components)" : "as stated",
+                  F.sigma_normal_m, F.sigma_in_plane_m, F.extraction_time_s, F.matching_time_s);
+    r << buf;
+    r << "  target        A     B     relation   H [m]   y_A [m]   D [m]   offset along/cross/down [m]      ICP it  RMS [m]\n";
+    for (const FeaturePairOffset& p : F.pairs) {
+      std::snprintf(buf, sizeof buf, "  %-12s %-5s %-5s %-9s %7.2f %8.2f %7.2f   %+8.4f %+8.4f %+8.4f   %6d %8.4f\n", p.target_id.c_str(),
+                    p.strip_a.c_str(), p.strip_b.c_str(), p.relation.c_str(), p.height_m, p.lateral_a_m, p.line_offset_m,
+                    p.offset_afd_m.x(), p.offset_afd_m.y(), p.offset_afd_m.z(), p.icp_iterations, p.icp_rms_m);
+      r << buf;
+    }
+    const FeatureClosedForm& C = F.closed_form;
+    if (C.valid) {
+      const Vec3 cb = C.mounting.boresightDeg(), rb = mounting.boresightDeg();
+      r << "Closed form (SPEC §2, seed 002 eqs. 8-10) versus the rigorous adjustment:\n"
+           "  angle     closed form [deg]  sigma [deg]  spread [deg]  pairs   rigorous [deg]\n";
+      const char* names[3] = {"roll", "pitch", "heading"};
+      for (int a = 0; a < 3; ++a) {
+        std::snprintf(buf, sizeof buf, "  %-8s %+17.5f %12.5f %13.5f %6d %+16.5f\n", names[a], cb(a), rad2deg(C.boresight_sigma_rad(a)),
+                      rad2deg(C.boresight_spread_rad(a)), C.pairs_used[a], rb(a));
+        r << buf;
+      }
+      if (C.lever_arm_estimated) {
+        std::snprintf(buf, sizeof buf, "  lever arm x, y (two heights): %+.4f, %+.4f m (sigma %.4f, %.4f m)\n", C.mounting.a_b.x(), C.mounting.a_b.y(),
+                      C.lever_arm_sigma_m.x(), C.lever_arm_sigma_m.y());
+        r << buf;
+      }
+    }
+    if (!C.message.empty()) r << "  closed form: " << C.message << "\n";
+    for (const RejectedFeature& t : F.rejected)
+      r << "rejected target " << t.target_id << (t.strip_id.empty() ? "" : " on strip " + t.strip_id) << ": " << t.reason << "\n";
   }
   if (uses(CalibrationMethod::kCorrespondences)) {
     const auto& c = correspondences;

@@ -120,6 +120,41 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     }
     h << "</table>";
   }
+  if (S.uses(CalibrationMethod::kFeatures)) {
+    const FeatureSection& F = S.features;
+    h << "<h2>High-intensity targets (the second paper's feature matching)</h2><p>" << F.targets_used << " targets, " << F.views_used
+      << " strip views; centroid RMS before (" << f(F.rms_before_m.x()) << ", " << f(F.rms_before_m.y()) << ", " << f(F.rms_before_m.z())
+      << ") m, after (" << f(F.rms_after_m.x()) << ", " << f(F.rms_after_m.y()) << ", " << f(F.rms_after_m.z()) << ") m</p>";
+    const FeatureClosedForm& C = F.closed_form;
+    if (C.valid) {
+      const Vec3 cb = C.mounting.boresightDeg(), rb = S.mounting.boresightDeg();
+      h << "<table><tr><th>angle</th><th>closed form [°]</th><th>σ [°]</th><th>spread of the pairs [°]</th><th>pairs</th><th>rigorous [°]</th>"
+           "<th>rigorous σ [°]</th></tr>";
+      const char* names[3] = {"roll", "pitch", "heading"};
+      for (int a = 0; a < 3; ++a) {
+        h << "<tr><td class=l>" << names[a] << "</td><td>" << f(cb(a), "%+.5f") << "</td><td>" << f(C.boresight_sigma_rad(a) * 180.0 / kPi, "%.5f")
+          << "</td><td>" << f(C.boresight_spread_rad(a) * 180.0 / kPi, "%.5f") << "</td><td>" << C.pairs_used[a] << "</td><td>" << f(rb(a), "%+.5f")
+          << "</td><td>" << f(S.sigma[3 + a] * 180.0 / kPi, "%.5f") << "</td></tr>";
+      }
+      h << "</table>";
+    }
+    if (!C.message.empty()) h << "<p class=bad>Closed form: " << esc(C.message) << "</p>";
+    h << "<table><tr><th>target</th><th>A / B</th><th>relation</th><th>H [m]</th><th>y<sub>A</sub> [m]</th><th>D [m]</th>"
+         "<th>Δ along [m]</th><th>Δ cross [m]</th><th>Δ down [m]</th><th>ICP RMS [m]</th></tr>";
+    for (const FeaturePairOffset& p : F.pairs) {
+      h << "<tr><td class=l>" << esc(p.target_id) << "</td><td class=l>" << esc(p.strip_a) << " / " << esc(p.strip_b) << "</td><td class=l>"
+        << esc(p.relation) << "</td><td>" << f(p.height_m, "%.2f") << "</td><td>" << f(p.lateral_a_m, "%.2f") << "</td><td>"
+        << f(p.line_offset_m, "%.2f") << "</td><td>" << f(p.offset_afd_m.x()) << "</td><td>" << f(p.offset_afd_m.y()) << "</td><td>"
+        << f(p.offset_afd_m.z()) << "</td><td>" << f(p.icp_rms_m) << "</td></tr>";
+    }
+    h << "</table>";
+    if (!F.rejected.empty()) {
+      h << "<details open><summary>" << F.rejected.size() << " targets or strip views rejected</summary><table><tr><th>target</th><th>strip</th><th>reason</th></tr>";
+      for (const RejectedFeature& r : F.rejected)
+        h << "<tr><td class=l>" << esc(r.target_id) << "</td><td class=l>" << esc(r.strip_id) << "</td><td class=l>" << esc(r.reason) << "</td></tr>";
+      h << "</table></details>";
+    }
+  }
   if (S.control.observations_used > 0) {
     const Vec3 b = S.control.rms_before_m, a = S.control.rms_after_m;
     h << "<h2>Ground control</h2><p>" << S.control.ties_used << " control points, " << S.control.observations_used

@@ -197,7 +197,7 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("offset.json", "\"format\": \"csv\"}", "\"format\": \"csv\", \"time_offset_s\": 1e9}"), "time encoding mismatch"},
       {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"), "traj.csv:line 1: missing column 'lat_deg'"},
       {variant("sbetlocal.json", "\"format\": \"csv\"}", "\"format\": \"sbet\"}"), "an SBET needs"},
-      {variant("features.json", "\"method\": \"vtpm\"", "\"method\": \"features\""), "not implemented yet"},
+      {variant("features.json", "\"method\": \"vtpm\"", "\"method\": \"features\""), "needs the target regions CSV"},
       {variant("planes.json", "\"method\": \"vtpm\"", "\"method\": \"planes\""), "field 'planes': missing"},
       {variant("methods.json", "\"method\": \"vtpm\"", "\"method\": [\"vtpm\", \"vtpm\"]"), "named twice"},
       {variant("method9.json", "\"method\": \"vtpm\"", "\"method\": [\"vtpm\", 9]"), "field 'method'"},

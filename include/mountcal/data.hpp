@@ -30,6 +30,9 @@ struct StripData {
   /// Laser (ring) of each point of a multi-beam scanner, when the strip file records it (job
   /// key `sensor.laser_field`); empty otherwise. Needed to estimate per-laser intrinsics.
   std::vector<std::uint16_t> laser;
+  /// Intensity of each point (LAS intensity, simulator reflectance); empty when not loaded.
+  /// Needed by method "features".
+  std::vector<float> intensity;
 };
 
 /// Everything a calibration needs: the delivered trajectory, the mounting the strips were
@@ -43,6 +46,9 @@ struct CalibrationData {
   /// Method "planes": regions each holding one planar face seen by two or more strips (SPEC §4).
   /// Empty with PlaneOptions::automatic: the patches are found in the overlaps.
   std::vector<PlaneRegion> plane_regions;
+  /// Method "features": regions each holding one high-intensity target seen by two or more
+  /// strips (SPEC §4 `"targets"`, check-planes format).
+  std::vector<PlaneRegion> target_regions;
 
   /// The pose that measured point `i` of `strip`: its per-point pose, else the trajectory at
   /// its time (`cursor` speeds up lookups in time order). Call requirePoses() first.

@@ -16,6 +16,7 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
+#include "mountcal/methods/features/feature_observations.hpp"
 #include "mountcal/methods/planes/plane_observations.hpp"
 #include "mountcal/methods/vtpm/tie_observations.hpp"
 #include "mountcal/mounting.hpp"
@@ -24,8 +25,8 @@
 namespace mountcal {
 
 /// The calibration methods (SPEC §4 "method"); any combination joins one adjustment.
-enum class CalibrationMethod { kVtpm, kPlanes, kCorrespondences };
-const char* toString(CalibrationMethod m);  ///< "vtpm", "planes", "correspondences"
+enum class CalibrationMethod { kVtpm, kPlanes, kCorrespondences, kFeatures };
+const char* toString(CalibrationMethod m);  ///< "vtpm", "planes", "correspondences", "features"
 
 class MountingCalibrator {
  public:
@@ -36,6 +37,7 @@ class MountingCalibrator {
     VtpOptions vtp;
     PlaneOptions planes;
     CorrespondenceOptions correspondence;
+    FeatureOptions features;
     /// False (with a message) when a value is out of range.
     bool IsValid(std::string* error) const;
   };
@@ -56,6 +58,9 @@ class MountingCalibrator {
     TieSection control;                       ///< GCPs observed on every strip (non-VTPM methods)
     PlaneSection planes;                      ///< method "planes"
     CorrespondenceSection correspondences;    ///< method "correspondences"
+    /// Method "features": targets, per-pair offsets and the paper's closed form (the rigorous
+    /// estimate is the summary's mounting; the adjustment starts from the closed form).
+    FeatureSection features;
 
     bool uses(CalibrationMethod m) const;
     std::string BriefReport() const;

@@ -407,7 +407,7 @@ std::string fmtParam(int j, double v) {
 }  // namespace
 
 AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used,
-                                            const std::vector<ObservationSource*>& sources) const {
+                                            const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start) const {
   const auto t_start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
   const Options& o = options_;
@@ -541,8 +541,16 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
     return true;
   };
 
+  // Starting values: the used mounting, or the caller's start for the estimated parameters.
+  auto initial = [&](const std::array<bool, 6>& e) {
+    std::array<double, 6> m = m0;
+    if (start)
+      for (int j = 0; j < 6; ++j)
+        if (e[j] && std::isfinite((*start)[j])) m[j] = (*start)[j];
+    return m;
+  };
   std::array<bool, 6> est = o.estimate;
-  if (!estimate(est, m0)) {
+  if (!estimate(est, initial(est))) {
     S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
     S.time_s = elapsed();
     return S;
@@ -611,7 +619,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
   if (refixed) {
     // Re-solve with the undeterminable parameters held at their used values.
     S.analysis_time_s += elapsed() - t_mark;
-    if (!estimate(est, m0)) {
+    if (!estimate(est, initial(est))) {
       S.message = "no usable observation";
       S.time_s = elapsed();
       return S;

@@ -144,6 +144,7 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
       s.x_m.push_back(x);
       s.r_s.push_back(r);
       s.poses.push_back(pose);
+      s.intensity.push_back(p.intensity);
       if (laser) s.laser.push_back(laser->id(p, rec));
     }
   }
@@ -236,6 +237,7 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
         throw FileError(js.path, "record " + std::to_string(record), buf);
       }
       s.time_s.push_back(t);
+      s.intensity.push_back(p.intensity);
       if (laser) s.laser.push_back(laser->id(p, record));
       const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
       bounds.check(x, record);
@@ -280,6 +282,7 @@ StripData loadRawStrip(const JobStrip& js, const SensorModel& sensor, const Geor
       throw FileError(js.path, "line " + std::to_string(i + 2), e.what());
     }
     s.time_s.push_back(p.time_s);
+    s.intensity.push_back(p.intensity);
   }
   s.x_m.resize(s.r_s.size());
   std::size_t cursor = 0;
@@ -385,6 +388,7 @@ LoadedJob loadJob(const Job& job) {
   if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
   if (!job.ties_path.empty()) d.ties = liftPicks(readPicks(job, job.ties_path, "tie"), out);
   if (!job.planes_path.empty()) d.plane_regions = liftRegions(io::readPlanesCsv(job.planes_path), out);
+  if (!job.targets_path.empty()) d.target_regions = liftRegions(io::readPlanesCsv(job.targets_path), out);
   if (!job.gcps_path.empty()) {
     d.gcps = io::readGcpCsv(job.gcps_path);
     for (GroundControlPoint& g : d.gcps) {

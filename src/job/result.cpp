@@ -114,6 +114,59 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
     j["planes"] = {{"automatic", p.automatic}, {"patches_used", p.patches_used}, {"points_used", p.points_used}, {"sigma_m", p.sigma_m},
                    {"rms_before_m", p.rms_before_m}, {"rms_after_m", p.rms_after_m}, {"patches", patches}, {"rejected", rej}};
   }
+  if (S.uses(CalibrationMethod::kFeatures)) {
+    const FeatureSection& F = S.features;
+    json targets = json::array();
+    for (std::size_t k = 0; k < F.target_ids.size(); ++k) {
+      json views = json::array();
+      for (const FeatureView& v : F.views[k]) {
+        views.push_back({{"strip_id", v.strip_id}, {"points", v.points}, {"centroid_m", vec(v.centroid_m)}, {"normal", vec(v.normal)},
+                         {"plane_sigma_m", v.plane_sigma_m}, {"sigma_normal_m", v.sigma_normal_m}, {"sigma_in_plane_m", v.sigma_in_plane_m},
+                         {"intensity_threshold", v.threshold}});
+      }
+      targets.push_back({{"target_id", F.target_ids[k]}, {"views", views}});
+    }
+    json pairs = json::array();
+    for (const FeaturePairOffset& p : F.pairs) {
+      pairs.push_back({{"target_id", p.target_id}, {"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"relation", p.relation},
+                       {"offset_m", vec(p.offset_m)}, {"offset_along_cross_down_m", vec(p.offset_afd_m)},
+                       {"sigma_along_cross_down_m", vec(p.covariance_afd.diagonal().cwiseSqrt())}, {"height_m", p.height_m},
+                       {"lateral_a_m", p.lateral_a_m}, {"line_offset_m", p.line_offset_m}, {"icp_iterations", p.icp_iterations},
+                       {"icp_rms_m", p.icp_rms_m}});
+    }
+    json rej = json::array();
+    for (const RejectedFeature& r : F.rejected) rej.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
+    json res = json::array();
+    for (const FeatureSection::Residual& r : F.residuals)
+      res.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}});
+    const FeatureClosedForm& C = F.closed_form;
+    json cf = {{"valid", C.valid}, {"message", C.message}};
+    if (C.valid) {
+      auto degOrNull = [&](const Vec3& v) {
+        json a = json::array();
+        for (int i = 0; i < 3; ++i) a.push_back(numOrNull(rad2deg(v(i))));
+        return a;
+      };
+      auto mOrNull = [&](const Vec3& v) {
+        json a = json::array();
+        for (int i = 0; i < 3; ++i) a.push_back(numOrNull(v(i)));
+        return a;
+      };
+      cf["mounting"] = {{"lever_arm_m", vec(C.mounting.a_b)}, {"boresight_deg", vec(C.mounting.boresightDeg())}};
+      cf["boresight_correction_deg"] = degOrNull(C.boresight_correction_rad);
+      cf["boresight_sigma_deg"] = degOrNull(C.boresight_sigma_rad);
+      cf["boresight_spread_deg"] = degOrNull(C.boresight_spread_rad);
+      cf["pairs_used"] = {C.pairs_used[0], C.pairs_used[1], C.pairs_used[2]};
+      cf["lever_arm_estimated"] = C.lever_arm_estimated;
+      cf["lever_arm_correction_m"] = mOrNull(C.lever_arm_correction_m);
+      cf["lever_arm_sigma_m"] = mOrNull(C.lever_arm_sigma_m);
+      cf["pitch_lever_arm_coupled"] = C.pitch_lever_arm_coupled;
+    }
+    j["features"] = {{"targets_used", F.targets_used}, {"views_used", F.views_used}, {"targets", targets}, {"pairs", pairs},
+                     {"closed_form", cf}, {"rejected", rej}, {"residuals", res}, {"rms_before_m", vec(F.rms_before_m)},
+                     {"rms_after_m", vec(F.rms_after_m)}, {"sigma_normal_m", F.sigma_normal_m}, {"sigma_in_plane_m", F.sigma_in_plane_m},
+                     {"sigma_estimated", F.sigma_estimated}, {"extraction_time_s", F.extraction_time_s}, {"matching_time_s", F.matching_time_s}};
+  }
   if (S.uses(CalibrationMethod::kCorrespondences)) {
     const CorrespondenceSection& c = S.correspondences;
     json pairs = json::array();

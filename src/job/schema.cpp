@@ -72,8 +72,8 @@ CalibrationMethod parseMethod(const Fields& top, const std::string& name) {
   if (name == "vtpm") return CalibrationMethod::kVtpm;
   if (name == "planes") return CalibrationMethod::kPlanes;
   if (name == "correspondences") return CalibrationMethod::kCorrespondences;
-  if (name == "features") top.fail("method", "method \"features\" (the second paper's feature matching) is not implemented yet; use \"vtpm\", \"planes\" or \"correspondences\"");
-  top.fail("method", "unknown method '" + name + "' (expected \"vtpm\", \"planes\", \"correspondences\" or an array of them)");
+  if (name == "features") return CalibrationMethod::kFeatures;
+  top.fail("method", "unknown method '" + name + "' (expected \"vtpm\", \"planes\", \"correspondences\", \"features\" or an array of them)");
 }
 
 }  // namespace
@@ -179,6 +179,7 @@ Job readJob(const std::string& path) {
   job.gcps_path = detail::resolvePath(path, top.str("gcps", ""));
   job.check_points_path = detail::resolvePath(path, top.str("check_points", ""));
   job.check_planes_path = detail::resolvePath(path, top.str("check_planes", ""));
+  job.targets_path = detail::resolvePath(path, top.str("targets", ""));
   if (top.has("planes")) {
     const std::string planes = top.str("planes");
     if (planes == "auto") job.planes_auto = true;
@@ -209,6 +210,29 @@ Job readJob(const std::string& path) {
     top.fail("planes", "missing: method \"planes\" needs a regions CSV or \"auto\"");
   }
   o.planes.automatic = job.planes_auto;
+  if (uses(CalibrationMethod::kFeatures) && job.targets_path.empty()) {
+    top.fail("targets", "missing: method \"features\" needs the target regions CSV (SPEC §4)");
+  }
+  if (top.has("features")) {
+    const Fields f = top.sub("features", {"intensity_threshold", "min_contrast", "growing_distance_m", "second_group_fraction",
+                                          "ransac_threshold_m", "ransac_iterations", "min_points", "min_inlier_fraction",
+                                          "sigma_in_plane_m", "icp_max_iterations", "icp_tolerance_m", "direction_tolerance_deg",
+                                          "min_height_spread"});
+    FeatureOptions& fo = o.features;
+    fo.intensity_threshold = f.num("intensity_threshold", fo.intensity_threshold, 0.0, 1e6);
+    fo.min_contrast = f.num("min_contrast", fo.min_contrast, 1.0, 1000.0);
+    fo.growing_distance_m = f.num("growing_distance_m", fo.growing_distance_m, 0.0, 100.0);
+    fo.second_group_fraction = f.num("second_group_fraction", fo.second_group_fraction, 1e-6, 1.0);
+    fo.ransac_threshold_m = f.num("ransac_threshold_m", fo.ransac_threshold_m, 1e-4, 10.0);
+    fo.ransac_iterations = f.integer("ransac_iterations", fo.ransac_iterations, 1, 100000);
+    fo.min_points = f.integer("min_points", fo.min_points, 3, 1000000);
+    fo.min_inlier_fraction = f.num("min_inlier_fraction", fo.min_inlier_fraction, 1e-6, 1.0);
+    fo.sigma_in_plane_m = f.num("sigma_in_plane_m", fo.sigma_in_plane_m, 0.0, 10.0);
+    fo.icp_max_iterations = f.integer("icp_max_iterations", fo.icp_max_iterations, 1, 10000);
+    fo.icp_tolerance_m = f.num("icp_tolerance_m", fo.icp_tolerance_m, 1e-12, 1.0);
+    fo.direction_tolerance_deg = f.num("direction_tolerance_deg", fo.direction_tolerance_deg, 1e-3, 89.999);
+    fo.min_height_spread = f.num("min_height_spread", fo.min_height_spread, 1e-6, 10.0);
+  }
 
   if (top.has("estimate")) {
     const Fields e = top.sub("estimate", {"lever_arm", "boresight"});
@@ -392,6 +416,7 @@ std::string jobJson(const Job& job) {
   if (!job.gcps_path.empty()) j["gcps"] = rel(job.gcps_path);
   if (!job.check_points_path.empty()) j["check_points"] = rel(job.check_points_path);
   if (!job.check_planes_path.empty()) j["check_planes"] = rel(job.check_planes_path);
+  if (!job.targets_path.empty()) j["targets"] = rel(job.targets_path);
   if (job.planes_auto) j["planes"] = "auto";
   else if (!job.planes_path.empty()) j["planes"] = rel(job.planes_path);
   if (o.methods.size() == 1) {
@@ -424,7 +449,7 @@ std::string jobJson(const Job& job) {
 
 std::vector<std::string> jobInputPaths(const Job& job) {
   std::vector<std::string> in = {job.path};
-  for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path, &job.planes_path})
+  for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path, &job.planes_path, &job.targets_path})
     if (!p->empty()) in.push_back(*p);
   for (const JobStrip& s : job.strips) in.push_back(s.path);
   return in;

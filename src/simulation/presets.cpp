@@ -1,4 +1,5 @@
 // The built-in survey presets (SPEC §4 "Simulator output").
+#include <algorithm>
 #include <cmath>
 
 #include "mountcal/error.hpp"
@@ -117,9 +118,11 @@ void checkBlock(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   c->line.half_fov_rad = deg2rad(20);
 }
 
-/// The second paper's UAV survey: a VLP-16 (spin axis along the flight direction, R_nom =
-/// Ry(90°)) at 50 m, 5 m/s, lines 50 m apart flown back and forth and in the same direction,
-/// over high-intensity targets and road markings.
+/// The second paper's UAV survey (seed 002 §3): a VLP-16 (spin axis along the flight direction,
+/// R_nom = Ry(90°)) at 50 m, 5 m/s, lines 50 m apart flown back and forth and in the same
+/// direction, and the centre line flown back and forth again at a second height (80 m) so that
+/// pitch and the along-track lever arm separate; high-intensity ground targets and raised boards,
+/// road markings, and low gable-roof houses whose eave corners are the check (seed 002 Tables 1–2).
 void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   s->setGround(0.0, 0.002, 0.0, 35.0f);
   const double tx[] = {-20, 10, 25, 40, 70, -5, 55, 15};
@@ -132,6 +135,21 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   s->addZebraCrossing("zebra", 20, 20, deg2rad(90), 5, 3.0);
   s->addMarking(25, 120, 60, 0.15, 0.0, 200.0f);  // centre line
   s->addCheckPlane("plane_1", 35, 150, 45, 160);
+  // Low houses with gable roofs (eaves 3 m, ridge 6 m); their eave corners are check points of
+  // the absolute check, not ties (a corner cannot be picked on a plane).
+  const struct { const char* id; double x, y, heading_deg; } houses[] = {{"house_a", 5, 215, 20}, {"house_b", 45, 215, 100}};
+  for (const auto& h : houses) {
+    s->addGableHouse(h.id, h.x, h.y, 12, 8, 3, 6, deg2rad(h.heading_deg));
+    const Vec3 u(std::sin(deg2rad(h.heading_deg)) * 6, std::cos(deg2rad(h.heading_deg)) * 6, 0);
+    const Vec3 v(std::cos(deg2rad(h.heading_deg)) * 4, -std::sin(deg2rad(h.heading_deg)) * 4, 0);
+    const Vec3 centre(h.x, h.y, s->groundHeight(h.x, h.y) + 3.0);
+    const Vec3 corners[4] = {centre - u - v, centre + u - v, centre + u + v, centre - u + v};
+    for (int k = 0; k < 4; ++k) {
+      const std::string id = std::string(h.id) + "_corner" + std::to_string(k);
+      s->addFeature({id, corners[k], SurfaceKind::kRoof, 0.0});
+      c->ignored_feature_ids.push_back(id);
+    }
+  }
   c->check_point_ids = {"target_3", "target_6"};
   c->name = "uav-vlp16";
   c->sensor = SensorType::kMultiBeam;
@@ -139,7 +157,8 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   c->multibeam.rotation_hz = 10.0;
   c->multibeam.max_range_m = 100.0;
   c->true_mounting = MountingParameters::fromDegrees(Vec3(0.10, -0.05, 0.20), Vec3(0.5, -0.8, 1.2), Vec3(0, 90, 0));
-  c->nominal_mounting = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), Vec3(0, 90, 0));
+  // The paper measures the lever arm (to about a centimetre) and calibrates the boresight.
+  c->nominal_mounting = MountingParameters::fromDegrees(Vec3(0.11, -0.06, 0.19), Vec3::Zero(), Vec3(0, 90, 0));
   c->noise = NoiseModel::realistic();
   c->noise.range_sigma_m = 0.03;
   c->noise.pick_sigma_m = 0.03;
@@ -156,6 +175,8 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
       {"1", 0, -20, deg2rad(0), 260, 50, 5},     // north
       {"2", 0, 240, deg2rad(180), 260, 50, 5},   // back (opposite direction, same line)
       {"3", 50, -20, deg2rad(0), 260, 50, 5},    // same direction, 50 m to the right
+      {"4", 0, -20, deg2rad(0), 260, 80, 5},     // the centre line again at a second height
+      {"5", 0, 240, deg2rad(180), 260, 80, 5},   // and back
   };
 }
 
@@ -181,6 +202,13 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
     throw InvalidInput("unknown simulator preset '" + name + "' (presets: " + all + ")");
   }
   scene->build();
+}
+
+void keepOneHeight(SurveyConfig* config) {
+  if (config->lines.empty()) return;
+  const double h = config->lines.front().height_m;
+  config->lines.erase(std::remove_if(config->lines.begin(), config->lines.end(), [&](const FlightLine& l) { return std::abs(l.height_m - h) > 1e-9; }),
+                      config->lines.end());
 }
 
 }  // namespace mountcal::simulation

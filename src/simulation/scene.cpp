@@ -420,12 +420,16 @@ void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m,
   impl_->addQuad(c - h * u - h * v, c + h * u - h * v, c + h * u + h * v, c - h * u + h * v,
                  intensity, SurfaceKind::kBoard);
   addFeature({id, c, SurfaceKind::kBoard, 0.45 * size_m});
+  const double r = h * (std::abs(u.x()) + std::abs(v.x())) + target_margin_m, s = h * (std::abs(u.y()) + std::abs(v.y())) + target_margin_m;
+  addTargetRegion({id, c.x() - r, c.y() - s, c.x() + r, c.y() + s});
 }
 
 void Scene::addGroundTarget(const std::string& id, double cx, double cy, double size_m,
                             double heading_rad, float intensity) {
   addMarking(cx, cy, size_m, size_m, heading_rad, intensity);
   addFeature({id, Vec3(cx, cy, groundHeight(cx, cy)), SurfaceKind::kMarking, 3.0});
+  const double r = 0.5 * size_m * (std::abs(std::cos(heading_rad)) + std::abs(std::sin(heading_rad))) + target_margin_m;
+  addTargetRegion({id, cx - r, cy - r, cx + r, cy + r});
 }
 
 void Scene::addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m,

@@ -376,6 +376,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     if (tie_ids.count(fp->id)) out.gcps.push_back(*fp);
   out.check_planes = scene.checkPlanes();
   out.plane_regions = scene.planeRegions();
+  out.target_regions = scene.targetRegions();
   return out;
 }
 
@@ -391,6 +392,7 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
     for (const RawPulse& p : s.pulses) {
       strip.time_s.push_back(p.time_s);
       strip.r_s.push_back(p.r_s);
+      strip.intensity.push_back(p.intensity);
     }
     strip.x_m = s.points_m;
     d.strips.push_back(std::move(strip));
@@ -399,6 +401,7 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
     d.ties.push_back({p.tie_id, p.strip_id, p.x_m, p.y_m, 0});
   }
   for (const PlanePatch& p : survey.plane_regions) d.plane_regions.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+  for (const PlanePatch& p : survey.target_regions) d.target_regions.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
   return d;
 }
 

@@ -151,6 +151,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   };
   io::writePlanesCsv(dir + "/check_planes.csv", toRegions(survey.check_planes, 1.0));
   io::writePlanesCsv(dir + "/planes.csv", toRegions(survey.plane_regions, 0.2));
+  if (!survey.target_regions.empty()) io::writePlanesCsv(dir + "/targets.csv", toRegions(survey.target_regions, 0.0));
   std::vector<io::GroundControlPoint> gcps;
   for (const FeaturePoint& f : survey.gcps) {
     const Vec3 x = frame.fromLocal(f.x_m);
@@ -181,6 +182,17 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   job.result_path = at("result.json");
   job.report_path = at("report.html");
   io::writeFileAtomically(job.path, jobJson(job));
+  if (!survey.target_regions.empty()) {
+    // The same survey for the second paper's method: high-intensity targets in their regions.
+    Job fj = job;
+    fj.path = at("job_features.json");
+    fj.targets_path = at("targets.csv");
+    fj.ties_path.clear();
+    fj.options.methods = {CalibrationMethod::kFeatures};
+    fj.result_path = at("result_features.json");
+    fj.report_path = at("report_features.html");
+    io::writeFileAtomically(fj.path, jobJson(fj));
+  }
 
   const NoiseModel& n = c.noise;
   nlohmann::json truth = {
@@ -208,9 +220,10 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
   const nlohmann::json j = detail::parseJsonFile(path, "scenario");
   if (!j.is_object()) throw FileError(path, "", "a scenario is a JSON object");
-  static const std::set<std::string> kKnown = {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m"};
+  static const std::set<std::string> kKnown = {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m", "one_height"};
   for (auto it = j.begin(); it != j.end(); ++it) {
-    if (!kKnown.count(it.key())) throw FileError(path, "field '" + it.key() + "'", "unknown field (known: preset, seed, true_mounting, nominal_mounting, noise, roi_radius_m)");
+    if (!kKnown.count(it.key()))
+      throw FileError(path, "field '" + it.key() + "'", "unknown field (known: preset, seed, true_mounting, nominal_mounting, noise, roi_radius_m, one_height)");
   }
   if (!j.contains("preset") || !j["preset"].is_string()) throw FileError(path, "field 'preset'", "missing or not a string");
   try {
@@ -232,6 +245,11 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
     };
     mounting("true_mounting", &config->true_mounting);
     mounting("nominal_mounting", &config->nominal_mounting);
+    if (j.contains("one_height")) {
+      if (!j["one_height"].is_boolean()) throw FileError(path, "field 'one_height'", "expected true or false");
+      // Only the lines flown at the first line's height (e.g. uav-vlp16 without its second height).
+      if (j["one_height"].get<bool>()) keepOneHeight(config);
+    }
     if (j.contains("roi_radius_m")) {
       config->roi_radius_m = j["roi_radius_m"].get<double>();
       if (!(config->roi_radius_m >= 0 && config->roi_radius_m <= 1e4))

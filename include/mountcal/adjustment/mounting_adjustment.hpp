@@ -335,7 +335,10 @@ class MountingAdjustment {
   /// values and the problem solved again. Numerical outcomes are in the summary (invalid
   /// options or no observation at all: kInvalidInput with a message). `sources` must outlive
   /// the call; each one's finish() is called before returning.
-  Summary solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources) const;
+  /// `start` (optional, MountingIndex order [m, rad]): starting values of the estimated
+  /// parameters (e.g. a closed-form answer); held ones stay at their used values.
+  Summary solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources,
+                const std::array<double, 6>* start = nullptr) const;
 
  private:
   Options options_;

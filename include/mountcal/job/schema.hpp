@@ -62,6 +62,8 @@ struct Job {
   /// Method "planes": the regions CSV, or automatic patches (`"planes": "auto"`).
   std::string planes_path;
   bool planes_auto = false;
+  /// Method "features": the target regions CSV (`"targets"`).
+  std::string targets_path;
   /// The methods of `"method"` (a name or an array). Absent: "vtpm" when the job names a ties
   /// file, else "correspondences" (a job with no user input calibrates automatically).
   /// Options::methods holds the same list.
@@ -72,7 +74,7 @@ struct Job {
 /// Parses and validates a job file. Throws FileError naming the file and the field for an
 /// unreadable file, invalid JSON, an unknown or missing field, a value of the wrong type or out
 /// of range, or a method without its input (`"vtpm"` without `"ties"`, `"planes"` without
-/// `"planes"`); the second paper's `"features"` is refused as not implemented yet.
+/// `"planes"`, `"features"` without `"targets"`).
 Job readJob(const std::string& path);
 
 /// The job as SPEC §4 JSON, paths relative to `job.path`'s folder where they lie below it.

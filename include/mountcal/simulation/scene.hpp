@@ -85,10 +85,15 @@ class Scene {
   /// A calibration patch for the plane method: an axis-aligned region holding one planar face.
   /// Flat roofs and each face of a gable roof add theirs (the largest box inside the face).
   void addPlaneRegion(const PlanePatch& region) { plane_regions_.push_back(region); }
+  /// A region holding one high-intensity target for the feature method (SPEC §4 `"targets"`);
+  /// boards and ground targets add theirs (their footprint with a margin of `target_margin_m`).
+  void addTargetRegion(const PlanePatch& region) { target_regions_.push_back(region); }
+  double target_margin_m = 2.0;
 
   const std::vector<FeaturePoint>& features() const { return features_; }
   const std::vector<PlanePatch>& checkPlanes() const { return check_planes_; }
   const std::vector<PlanePatch>& planeRegions() const { return plane_regions_; }
+  const std::vector<PlanePatch>& targetRegions() const { return target_regions_; }
   std::size_t triangleCount() const;
 
   /// Builds the acceleration structure; call after adding geometry (cast() calls it if needed).
@@ -109,6 +114,7 @@ class Scene {
   std::vector<FeaturePoint> features_;
   std::vector<PlanePatch> check_planes_;
   std::vector<PlanePatch> plane_regions_;
+  std::vector<PlanePatch> target_regions_;
 };
 
 }  // namespace mountcal::simulation

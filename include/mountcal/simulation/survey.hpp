@@ -131,8 +131,12 @@ struct SimulatedSurvey {
   std::vector<TiePick> check_points;
   std::vector<PlanePatch> check_planes;
   std::vector<PlanePatch> plane_regions;  ///< calibration patches (roof faces) for the plane method
+  std::vector<PlanePatch> target_regions; ///< regions around the high-intensity targets for the feature method
   std::vector<FeaturePoint> gcps;  ///< true positions of the tie features (for GCP tests)
 };
+
+/// Keeps only the lines flown at the first line's height (scenario key `"one_height"`).
+void keepOneHeight(SurveyConfig* config);
 
 /// Runs the survey. Throws InvalidInput for an inconsistent configuration.
 SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
