@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <numeric>
 #include <unordered_map>
 
@@ -30,7 +32,7 @@ bool FeatureOptions::IsValid(std::string* error) const {
   if (min_points < 3 || min_points > 1000000) return fail("min_points must be in [3, 1000000]");
   if (!(min_inlier_fraction > 0 && min_inlier_fraction <= 1)) return fail("min_inlier_fraction must be in (0, 1]");
   if (!finiteNonNeg(sigma_in_plane_m) || sigma_in_plane_m > 10) return fail("sigma_in_plane_m must be in [0, 10] (0: estimated)");
-  if (edge_points < 1 || edge_points > 1000) return fail("edge_points must be in [1, 1000]");
+  if (edge_points < 0 || edge_points > 1000) return fail("edge_points must be in [0, 1000] (0: the mean of all points)");
   if (icp_max_iterations < 1 || icp_max_iterations > 10000) return fail("icp_max_iterations must be in [1, 10000]");
   if (!(icp_tolerance_m > 0) || icp_tolerance_m > 1) return fail("icp_tolerance_m must be in (0, 1]");
   if (!(direction_tolerance_deg > 0 && direction_tolerance_deg < 90)) return fail("direction_tolerance_deg must be in (0, 90)");
@@ -242,6 +244,18 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
                            std::to_string(o.min_points) + " needed)");
       continue;
     }
+    // A target lies inside its region; a bright surface that runs to the region's edge is a road
+    // marking or a roof, whose clipped outline would move with the region, not with the strip.
+    double edge = 1e300;
+    for (std::uint32_t i : group) {
+      edge = std::min({edge, X[i].x() - region.xmin, region.xmax - X[i].x(), X[i].y() - region.ymin, region.ymax - X[i].y()});
+    }
+    if (edge < 0.25) {
+      reject(strip.id, fmt("its high-intensity points run to the region's edge (%.2f m from it): a marking or surface larger than the region, "
+                           "not a target inside it",
+                           edge));
+      continue;
+    }
     detail::PlaneFit fit;
     const std::vector<std::uint32_t> inl = ransacPlane(X, group, o.ransac_threshold_m, o.ransac_iterations, &fit);
     const double fraction = static_cast<double>(inl.size()) / static_cast<double>(group.size());
@@ -335,6 +349,11 @@ OutlineCentre outlineCentre(const std::vector<Vec3>& x, const Vec3& normal, int 
   C.u = std::cos(best) * e1 + std::sin(best) * e2;
   C.v = n.cross(C.u);
   C.n = n;
+  if (k <= 0) {  // the mean of all points
+    for (std::size_t j = 0; j < N; ++j) C.weights.emplace_back(j, Mat3::Identity() / static_cast<double>(N));
+    C.centre_m = mean;
+    return C;
+  }
   std::vector<Mat3> W(N, (n * n.transpose()) / static_cast<double>(N));
   const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(k), std::max<std::size_t>(1, N / 2));
   for (const Vec3& axis : {C.u, C.v}) {
