@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -268,4 +269,69 @@ TEST(FeatureMethod, HouseCornersAfterCorrectionWithinTenCentimetres) {
   EXPECT_LT(rms_after, 0.10) << "RMS of the corners after the correction";
   EXPECT_LT(rms_after, 2.0 * rms_truth) << "at most twice what the true mounting leaves (" << rms_truth << " m)";
   EXPECT_LT(worst_after, 0.10) << "worst corner after the correction; at the true mounting " << worst_truth << " m";
+}
+
+namespace {
+
+int runCli(const std::string& args, std::string* out = nullptr) {
+  const std::string log = (fs::temp_directory_path() / ("mountcal_features_cli_" + std::to_string(::getpid()))).string();
+  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + log + " 2>&1").c_str());
+  if (out) {
+    std::ifstream in(log);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    *out = ss.str();
+  }
+  fs::remove(log);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+TEST(FeatureMethod, CommandRunsTheSimulatedJobAndAJobWrittenByHand) {
+  const fs::path dir = fs::temp_directory_path() / ("mountcal_features_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  std::string out;
+  ASSERT_EQ(runCli("simulate --preset uav-vlp16 --seed 2 --out " + dir.string(), &out), 0) << out;
+  ASSERT_TRUE(fs::exists(dir / "job_features.json"));
+  ASSERT_EQ(runCli("calibrate " + (dir / "job_features.json").string(), &out), 0) << out;
+  EXPECT_NE(out.find("Closed form"), std::string::npos) << out;
+  nlohmann::json truth = nlohmann::json::parse(std::ifstream(dir / "truth.json"));
+  auto check = [&](const fs::path& result_path, const std::string& what, int min_targets) {
+    const nlohmann::json r = nlohmann::json::parse(std::ifstream(result_path));
+    ASSERT_TRUE(r.contains("features")) << what;
+    const auto& f = r["features"];
+    EXPECT_GE(f["targets_used"].get<int>(), min_targets) << what;
+    EXPECT_TRUE(f["closed_form"]["valid"].get<bool>()) << what;
+    EXPECT_FALSE(f["pairs"].empty()) << what;
+    for (int a = 0; a < 3; ++a) {
+      const double t = truth["mounting"]["boresight_deg"][a].get<double>();
+      EXPECT_NEAR(r["mounting"]["boresight_deg"][a].get<double>(), t, a == 0 ? 0.01 : 0.08) << what << " rigorous angle " << a;
+      EXPECT_NEAR(f["closed_form"]["mounting"]["boresight_deg"][a].get<double>(), t, 0.08) << what << " closed form angle " << a;
+    }
+  };
+  check(dir / "result_features.json", "simulated job", 9);
+
+  // A job written by another program to SPEC §4: its own field order, a targets CSV it wrote
+  // itself (boxes of 5–6 m around where the operator saw the targets).
+  std::ofstream(dir / "my_targets.csv") << "plane_id,xmin,ymin,xmax,ymax\n"
+                                           "T1,-22.5,37.5,-17.5,42.5\nT2,7.5,57.5,12.5,62.5\nT4,37.5,137.5,42.5,142.5\n"
+                                           "T6,-7.5,167.5,-2.5,172.5\nT8,12.5,197.5,17.5,202.5\nB1,27,117,33,123\nB2,-13,87,-7,93\n";
+  std::ofstream(dir / "my_job.json") << R"({
+  "strips": [{"id": "1", "path": "strip_1.las"}, {"id": "2", "path": "strip_2.las"}, {"id": "3", "path": "strip_3.las"},
+             {"id": "4", "path": "strip_4.las"}, {"id": "5", "path": "strip_5.las"}],
+  "method": "features",
+  "targets": "my_targets.csv",
+  "features": {"min_points": 15, "ransac_threshold_m": 0.3},
+  "mounting_used": {"boresight_deg": [0, 0, 0], "lever_arm_m": [0.11, -0.06, 0.19]},
+  "estimate": {"lever_arm": [true, true, false], "boresight": [true, true, true]},
+  "sensor": {"type": "multibeam", "model": "VLP-16", "nominal_rotation_deg": [0, 90, 0]},
+  "trajectory": {"path": "trajectory.csv"},
+  "frame": {"type": "local"},
+  "output": {"result": "my_result.json"}
+})";
+  const fs::path result = dir / "my_result.json";
+  ASSERT_EQ(runCli("calibrate " + (dir / "my_job.json").string(), &out), 0) << out;
+  check(result, "job written by hand", 7);
+  fs::remove_all(dir);
 }

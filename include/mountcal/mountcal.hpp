@@ -17,6 +17,7 @@
 #include "mountcal/job.hpp"
 #include "mountcal/mounting.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
+#include "mountcal/methods/features/feature_observations.hpp"
 #include "mountcal/methods/planes/plane_observations.hpp"
 #include "mountcal/methods/vtpm/tie_observations.hpp"
 #include "mountcal/mounting_calibrator.hpp"
