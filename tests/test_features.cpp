@@ -97,7 +97,7 @@ TEST(FeatureMethod, NoiseFreeClosedFormAndRigorousRecoverTheBoresight) {
   // noise) and the rigorous solution within 0.005° (missed on pitch and heading): a VLP-16 at 50 m
   // samples a 1.5 m target in rows 0.5 m apart (5 m/s, 10 Hz), so a target's position in one
   // strip is uncertain by 1–5 cm even without noise (measured: the mean of the true hit points lies
-  // 0.5–11 cm from the centre). Measured: rigorous roll ≤ 0.004°, pitch ≤ 0.03° (σ 0.02–0.04°,
+  // 0.5–11 cm from the centre). Measured: rigorous roll ≤ 0.003°, pitch ≤ 0.032° (σ 0.02–0.04°,
   // correlated with the along-track lever arm), heading ≤ 0.04° (σ 0.024–0.03°); σ₀² 0.8–1.1.
   const Uav& s = uav(1, false);
   const CalibrationData data = toCalibrationData(s.survey);
