@@ -502,6 +502,10 @@ FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pair
   std::vector<int> cols;
   for (int j = 0; j < 5; ++j)
     if (use[j]) cols.push_back(j);
+  if (cols.empty()) {
+    C.message = "the pairs determine no angle (no opposite pairs, no same-direction lines offset sideways)";
+    return C;
+  }
   const int m = static_cast<int>(rows.size()), k = static_cast<int>(cols.size());
   Eigen::MatrixXd A(m, k);
   Eigen::VectorXd y(m);
