@@ -159,8 +159,15 @@ TEST(Simulator, MultiBeamPresetScansTheGroundAroundTheTargets) {
   makePreset("uav-vlp16", 1, &c, &scene);
   c.noise = NoiseModel::none();
   c.roi_radius_m = 1.5;
+#ifdef MOUNTCAL_SANITIZE_BUILD
+  // Under the sanitizers the three lines at 50 m only (the five take 200 s there): the same code.
+  keepOneHeight(&c);
+  const std::size_t strips = 3, ties = 10;
+#else
+  const std::size_t strips = 5, ties = 16;  // three lines at 50 m, the centre line twice at 80 m
+#endif
   const SimulatedSurvey s = simulate(c, scene);
-  ASSERT_EQ(s.strips.size(), 5u);  // three lines at 50 m, the centre line twice at 75 m
+  ASSERT_EQ(s.strips.size(), strips);
   const GeoreferenceModel truth(s.true_trajectory, c.true_mounting);
   std::size_t n = 0;
   for (const SimulatedStrip& strip : s.strips) {
@@ -172,7 +179,7 @@ TEST(Simulator, MultiBeamPresetScansTheGroundAroundTheTargets) {
     }
   }
   EXPECT_GT(n, 100u);
-  EXPECT_GE(s.ties.size(), 16u);
+  EXPECT_GE(s.ties.size(), ties);
 }
 
 TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {

@@ -441,7 +441,7 @@ struct CorrespondenceResidual {
   Mat3 R_bs_used;
   double inv_sigma;
   bool operator()(const double* m, const double* oa, const double* ob, double* r) const {
-    const Mat3 dR = R_zyx(Vec3(m[3], m[4], m[5])) * used->R_nom - R_bs_used;
+    const Mat3 dR = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m).dR_bs;
     const Vec3 da = Vec3(m[0], m[1], m[2]) - used->a_b;
     double v = c0 + h.dot(da);
     for (int k = 0; k < 3; ++k)

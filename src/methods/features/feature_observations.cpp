@@ -572,7 +572,7 @@ struct FeatureViewResidual {
   const MountingParameters* used;
   Mat3 R_bs_used;
   bool operator()(const double* m, const double* X, const double* o, double* r) const {
-    const Mat3 dR = R_zyx(Vec3(m[3], m[4], m[5])) * used->R_nom - R_bs_used;
+    const Mat3 dR = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m).dR_bs;
     const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vecR(dR.data());
     const Vec3 c = v->c0_rel + v->K * vecR + v->R_bar * (Vec3(m[0], m[1], m[2]) - used->a_b);
     const Vec3 e = c + Vec3(o[0], o[1], o[2]) - Vec3(X[0], X[1], X[2]);

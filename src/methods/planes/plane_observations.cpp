@@ -118,7 +118,7 @@ struct PlanePointResidual {
   Mat3 R_bs_used;
   double inv_sigma;
   bool operator()(const double* m, const double* plane, const double* o, double* r) const {
-    const detail::MountingMotion motion(used->R_nom, R_bs_used, used->a_b, m);
+    const detail::MountingMotion motion = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m);
     const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + Vec3(o[0], o[1], o[2]);
     const Vec3 n(plane[0], plane[1], plane[2]);
     r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
