@@ -115,4 +115,42 @@ std::string SvgLinePlot::render(int width, int height) const {
   return svg.str();
 }
 
+std::string correlationColour(double c) {
+  if (!std::isfinite(c)) return "#cccccc";
+  c = std::max(-1.0, std::min(1.0, c));
+  // White at 0, to (33, 102, 172) at −1 and (178, 24, 43) at +1.
+  const double a = std::abs(c);
+  const int r = static_cast<int>(std::lround(255 + a * ((c < 0 ? 33 : 178) - 255)));
+  const int g = static_cast<int>(std::lround(255 + a * ((c < 0 ? 102 : 24) - 255)));
+  const int b = static_cast<int>(std::lround(255 + a * ((c < 0 ? 172 : 43) - 255)));
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", r, g, b);
+  return buf;
+}
+
+std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const std::vector<double>& v, int cell) {
+  const int n = static_cast<int>(labels.size());
+  const int left = 150, top = 20, w = left + n * cell + 10, h = top + n * cell + 150;
+  std::ostringstream o;
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h << "\" viewBox=\"0 0 " << w << " " << h
+    << "\" font-family=\"sans-serif\" font-size=\"12\" class=\"heatmap\">";
+  for (int a = 0; a < n; ++a) {
+    o << "<text x=\"" << left - 6 << "\" y=\"" << top + a * cell + cell / 2 + 4 << "\" text-anchor=\"end\">" << escape(labels[a]) << "</text>";
+    const int x = left + a * cell + cell / 2, y = top + n * cell + 8;
+    o << "<text x=\"" << x << "\" y=\"" << y << "\" transform=\"rotate(60 " << x << " " << y << ")\">" << escape(labels[a]) << "</text>";
+    for (int b = 0; b < n; ++b) {
+      const double c = static_cast<std::size_t>(a * n + b) < v.size() ? v[static_cast<std::size_t>(a * n + b)] : std::nan("");
+      char val[16];
+      std::snprintf(val, sizeof val, "%+.2f", c);
+      o << "<rect x=\"" << left + b * cell << "\" y=\"" << top + a * cell << "\" width=\"" << cell << "\" height=\"" << cell
+        << "\" fill=\"" << correlationColour(c) << "\" stroke=\"#fff\"><title>" << escape(labels[a]) << " ~ " << escape(labels[b]) << ": "
+        << (std::isfinite(c) ? val : "not estimated") << "</title></rect>";
+      o << "<text x=\"" << left + b * cell + cell / 2 << "\" y=\"" << top + a * cell + cell / 2 + 4 << "\" text-anchor=\"middle\" fill=\""
+        << (std::isfinite(c) && std::abs(c) > 0.6 ? "#fff" : "#000") << "\">" << (std::isfinite(c) ? val : "—") << "</text>";
+    }
+  }
+  o << "</svg>";
+  return o.str();
+}
+
 }  // namespace mountcal

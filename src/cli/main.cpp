@@ -17,6 +17,7 @@
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/job.hpp"
+#include "mountcal/plan/planner.hpp"
 #include "mountcal/report.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "mountcal/version.hpp"
@@ -245,6 +246,23 @@ int runCurves(const std::string& out, double delta_deg) {
   return 0;
 }
 
+int runPlan(const std::string& plan_path, const std::string& report_path, bool no_candidates) {
+  using namespace mountcal;
+  if (!report_path.empty() && io::samePath(report_path, plan_path))
+    throw FileError(report_path, "", "is the plan file; --report writes a new file");
+  const plan::Plan p = plan::readPlan(plan_path);
+  progress("simulating the plan and its candidate additions");
+  plan::PlannerOptions o;
+  o.try_candidates = !no_candidates;
+  const plan::PlanAnalysis a = plan::analysePlan(p, o);
+  if (!report_path.empty()) io::writeFilesAtomically({{report_path, plan::planReportHtml(p, a)}});
+  std::printf("plan %s: %zu lines, methods", p.name.c_str(), p.lines.size());
+  for (CalibrationMethod m : p.options.methods) std::printf(" %s", toString(m));
+  std::printf("\n%s", a.text().c_str());
+  if (!report_path.empty()) std::printf("wrote %s\n", report_path.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -298,6 +316,13 @@ int main(int argc, char** argv) {
   curves->add_option("--out", curves_out, "Folder for fig_errors.csv and the SVG plots");
   curves->add_option("--boresight-deg", curves_deg, "Boresight error on each axis [deg]")->capture_default_str();
 
+  std::string plan_path, plan_report;
+  bool plan_no_candidates = false;
+  CLI::App* planc = app.add_subcommand("plan", "Predict what a planned calibration flight determines, and what to add to it (PLAN.json)");
+  planc->add_option("plan", plan_path, "Plan JSON file (README: \"Planning a calibration flight\")")->required();
+  planc->add_option("--report", plan_report, "Also write the plan's HTML report to this file");
+  planc->add_flag("--no-candidates", plan_no_candidates, "The prediction only, without trying additions");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -317,6 +342,7 @@ int main(int argc, char** argv) {
     if (info->parsed()) return runInfo(info_path);
     if (convert->parsed()) return runConvert(convert_in, convert_out);
     if (curves->parsed()) return runCurves(curves_out, curves_deg);
+    if (planc->parsed()) return runPlan(plan_path, plan_report, plan_no_candidates);
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());
     return 2;

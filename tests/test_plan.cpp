@@ -1,0 +1,294 @@
+// The flight-plan planner (issue 11): the known rules of calibration flight planning, the
+// predicted σ against the scatter of repeated simulated calibrations, the plan file's errors.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <sys/wait.h>
+
+#include "mountcal/error.hpp"
+#include "mountcal/plan/planner.hpp"
+
+using namespace mountcal;
+using namespace mountcal::plan;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+/// A line-scanner plan over a small village: four roofs of four aspects, four ground targets.
+/// `lines`: {id, x0, y0, x1, y1, height}.
+json village(const std::vector<std::tuple<std::string, double, double, double, double, double>>& lines, bool lever_z) {
+  json j;
+  j["name"] = "test plan";
+  j["sensor"] = {{"type", "line"}, {"prf_hz", 150000}, {"scan_rate_hz", 50}, {"half_fov_deg", 20}};
+  j["noise"] = "realistic";
+  j["mounting"] = {{"lever_arm_m", {0.05, -0.08, 0.12}}, {"boresight_deg", {0, 0, 0}}};
+  j["roi_radius_m"] = 8;
+  for (const auto& [id, x0, y0, x1, y1, h] : lines)
+    j["lines"].push_back({{"id", id}, {"start", {x0, y0}}, {"end", {x1, y1}}, {"height_m", h}, {"speed_mps", 60}});
+  j["ground"]["roofs"] = json::array({
+      {{"id", "house_n"}, {"centre", {-60, 40}}, {"slope_deg", 35}, {"aspect_deg", 0}},
+      {{"id", "house_e"}, {"centre", {60, 50}}, {"slope_deg", 35}, {"aspect_deg", 90}},
+      {{"id", "house_s"}, {"centre", {-50, -60}}, {"slope_deg", 30}, {"aspect_deg", 45}},
+      {{"id", "house_w"}, {"centre", {70, -45}}, {"slope_deg", 30}, {"aspect_deg", 135}},
+  });
+  j["ground"]["targets"] = json::array({
+      {{"id", "t1"}, {"centre", {-150, -90}}, {"size_m", 2}},
+      {{"id", "t2"}, {"centre", {0, 110}}, {"size_m", 2}},
+      {{"id", "t3"}, {"centre", {140, -20}}, {"size_m", 2}},
+      {{"id", "t4"}, {"centre", {10, -130}}, {"size_m", 2}},
+  });
+  j["method"] = "vtpm";
+  j["estimate"] = {{"lever_arm", {true, true, lever_z}}, {"boresight", {true, true, true}}};
+  return j;
+}
+
+struct TempPlan {
+  std::string path;
+  explicit TempPlan(const json& j, const std::string& name = "plan") {
+    path = (fs::temp_directory_path() / ("mountcal_" + name + "_" + std::to_string(::getpid()) + ".json")).string();
+    std::ofstream(path) << j.dump(2);
+  }
+  ~TempPlan() { fs::remove(path); }
+};
+
+Plan load(const json& j) { return readPlan(TempPlan(j).path); }
+
+bool coupled(const Prediction& p, int a, int b) {
+  return !p.determined[a] || !p.determined[b] || std::abs(p.correlation(a, b)) > 0.9;
+}
+
+// Opposite lines on one track at 500 m, back and forth, and again at 800 m.
+const std::vector<std::tuple<std::string, double, double, double, double, double>> kTwoHeights = {
+    {"1", -400, 0, 400, 0, 500}, {"2", 400, 0, -400, 0, 500}, {"3", -400, 0, 400, 0, 800}, {"4", 400, 0, -400, 0, 800}};
+const std::vector<std::tuple<std::string, double, double, double, double, double>> kOneHeight = {
+    {"1", -400, 0, 400, 0, 500}, {"2", 400, 0, -400, 0, 500}};
+
+}  // namespace
+
+TEST(Planner, OppositeLinesAtTwoHeightsDetermineRollPitchAndTheHorizontalLeverArm) {
+  const Plan plan = load(village(kTwoHeights, false));
+  const Prediction p = predict(plan);
+  EXPECT_EQ(p.strips, 4);
+  for (int j : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch})
+    EXPECT_TRUE(p.determined[j]) << mountingParameterNames()[j] << "\n" << p.observability;
+  // Determined, still correlated (measured −0.97 with heights 500 and 800 m): the planner's text
+  // names the correlation.
+  EXPECT_LT(p.sigma[kLeverX], 0.05);
+  EXPECT_LT(rad2deg(p.sigma[kBoresightPitch]), 0.01);
+  EXPECT_LT(rad2deg(p.sigma[kBoresightRoll]), 0.005);
+}
+
+TEST(Planner, OneHeightCouplesPitchAndAlongTrackLeverArmAndProposesASecondHeight) {
+  const Plan plan = load(village(kOneHeight, false));
+  const PlanAnalysis a = analysePlan(plan);
+  const Prediction& p = a.base;
+  EXPECT_TRUE(coupled(p, kLeverX, kBoresightPitch)) << p.correlation << "\n" << p.observability;
+  ASSERT_FALSE(a.suggestions.empty());
+  EXPECT_TRUE(p.weakest == kLeverX || p.weakest == kBoresightPitch || p.weakest == kBoresightHeading) << p.weakest;
+  // Heading is also weak (opposite lines on one track): ask the planner about pitch alone.
+  json j = village(kOneHeight, false);
+  j["estimate"]["boresight"] = {true, true, false};
+  const PlanAnalysis b = analysePlan(load(j));
+  ASSERT_FALSE(b.suggestions.empty());
+  EXPECT_TRUE(b.base.weakest == kLeverX || b.base.weakest == kBoresightPitch) << b.text();
+  EXPECT_EQ(b.suggestions.front().kind, "second height") << b.text();
+  EXPECT_TRUE(b.suggestions.front().prediction.determined[kLeverX]) << b.text();
+  EXPECT_TRUE(b.suggestions.front().prediction.determined[kBoresightPitch]) << b.text();
+  for (std::size_t k = 1; k < b.suggestions.size(); ++k)  // nothing but a second height separates them
+    EXPECT_TRUE(coupled(b.suggestions[k].prediction, kLeverX, kBoresightPitch)) << b.suggestions[k].kind;
+  std::printf("%s", b.text().c_str());
+}
+
+TEST(Planner, HeadingNeedsLaterallyOffsetOrCrossingLines) {
+  const PlanAnalysis a = analysePlan(load(village(kTwoHeights, false)));
+  const Prediction& p = a.base;
+  ASSERT_EQ(p.weakest, kBoresightHeading) << a.text();
+  ASSERT_GE(a.suggestions.size(), 4u);
+  EXPECT_TRUE(a.suggestions.front().kind == "offset line" || a.suggestions.front().kind == "crossing line") << a.text();
+  for (const Suggestion& s : a.suggestions) {
+    if (s.kind == "offset line" || s.kind == "crossing line") {
+      EXPECT_TRUE(s.prediction.determined[kBoresightHeading]) << s.kind;
+      EXPECT_LT(s.weakest_sigma, 0.5 * (p.determined[kBoresightHeading] ? p.sigma[kBoresightHeading] : 1.0)) << s.kind;
+    }
+  }
+  std::printf("%s", a.text().c_str());
+}
+
+TEST(Planner, TheVerticalLeverArmNeedsGroundControl) {
+  auto lines = kTwoHeights;
+  lines.push_back({"5", 0, -400, 0, 400, 500});  // a crossing line: heading determined too
+  const PlanAnalysis a = analysePlan(load(village(lines, true)));
+  const Prediction& p = a.base;
+  EXPECT_FALSE(p.determined[kLeverZ]) << a.text();
+  ASSERT_EQ(p.weakest, kLeverZ) << a.text();
+  ASSERT_FALSE(a.suggestions.empty());
+  EXPECT_EQ(a.suggestions.front().kind, "ground control") << a.text();
+  EXPECT_TRUE(a.suggestions.front().prediction.determined[kLeverZ]);
+  EXPECT_LT(a.suggestions.front().weakest_sigma, 0.05);
+  for (const Suggestion& s : a.suggestions) {
+    if (s.kind != "ground control") {
+      EXPECT_FALSE(s.prediction.determined[kLeverZ]) << s.kind;
+    }
+  }
+  std::printf("%s", a.text().c_str());
+}
+
+// The predicted σ against the scatter of calibrations of the same plan with independent noise:
+// the RMS error over the seeds within 30 % of the predicted σ for every determined parameter.
+TEST(Planner, PredictedSigmaMatchesTheScatterOfRepeatedCalibrations) {
+  auto lines = kTwoHeights;
+  lines.push_back({"5", 0, -400, 0, 400, 500});
+  json j = village(lines, false);
+  j["gcps"] = {"t1", "t3"};
+  // Ties on flat ground only: on a roof the plan pick error moves the tie along the slope, which
+  // the tie observations do not model yet (measured: roll σ understated by 1.37× with the roofs).
+  j["ground"]["roofs"] = json::array();
+  j["ground"]["targets"].push_back({{"id", "t5"}, {"centre", {-60, 40}}, {"size_m", 2}});
+  j["ground"]["targets"].push_back({{"id", "t6"}, {"centre", {60, 50}}, {"size_m", 2}});
+  j["ground"]["targets"].push_back({{"id", "t7"}, {"centre", {70, -45}}, {"size_m", 2}});
+  const Plan plan = load(j);
+  const Prediction p = predict(plan);
+#ifdef MOUNTCAL_SANITIZE_BUILD
+  const int seeds = 2;  // memory errors only: the statistics run in the Release suite
+#else
+  const int seeds = 32;
+#endif
+  std::array<double, 6> sum2{};
+  for (int seed = 1; seed <= seeds; ++seed) {
+    simulation::SurveyConfig c = plan.surveyConfig();
+    c.seed = static_cast<std::uint64_t>(seed);
+    c.true_mounting = c.nominal_mounting;
+    c.nominal_mounting.a_b += Vec3(0.05, -0.04, 0.0);  // the calibration starts away from the truth
+    c.nominal_mounting.boresight += Vec3(0.05, -0.05, 0.1) * (kPi / 180);
+    const simulation::Scene scene = plan.buildScene();
+    const simulation::SimulatedSurvey s = simulation::simulate(c, scene);
+    CalibrationData d = simulation::toCalibrationData(s);
+    // The surveyed control points carry their stated σ as independent errors too.
+    std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 7919u + 13u);
+    std::normal_distribution<double> normal;
+    for (const PlannedGcp& g : plan.gcps)
+      for (const auto& f : scene.features())
+        if (f.id == g.feature_id)
+          d.gcps.push_back({f.id, f.x_m.x() + g.sigma_xy_m * normal(rng), f.x_m.y() + g.sigma_xy_m * normal(rng),
+                            f.x_m.z() + g.sigma_z_m * normal(rng), g.sigma_xy_m, g.sigma_z_m});
+    const auto S = calibrate(d, plan.options);
+    ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
+    const auto e = S.mounting.toArray(), t = c.true_mounting.toArray();
+    for (int k = 0; k < 6; ++k) sum2[k] += (e[k] - t[k]) * (e[k] - t[k]);
+  }
+  for (int k = 0; k < 6; ++k) {
+    if (!p.determined[k]) continue;
+    const double rms = std::sqrt(sum2[k] / seeds);
+    std::printf("%-20s predicted sigma %.6g, RMS error over %d calibrations %.6g (ratio %.2f)\n", mountingParameterNames()[k].c_str(),
+                p.sigma[k], seeds, rms, rms / p.sigma[k]);
+#ifndef MOUNTCAL_SANITIZE_BUILD
+    EXPECT_GT(rms / p.sigma[k], 0.7) << mountingParameterNames()[k];
+    EXPECT_LT(rms / p.sigma[k], 1.3) << mountingParameterNames()[k];
+#endif
+  }
+}
+
+TEST(Planner, PlanFileErrorsNameTheFileAndTheField) {
+  auto expectError = [](const json& j, const std::string& needle) {
+    const TempPlan t(j, "bad_plan");
+    try {
+      readPlan(t.path);
+      ADD_FAILURE() << "accepted: " << needle;
+    } catch (const FileError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(t.path), std::string::npos) << what;
+      EXPECT_NE(what.find(needle), std::string::npos) << what;
+    }
+  };
+  json j = village(kOneHeight, false);
+  j["lines"][1]["height_m"] = -5;
+  expectError(j, "lines[1].height_m");
+  j = village(kOneHeight, false);
+  j["lines"][0]["end"] = {-400, 0};
+  expectError(j, "lines[0].end");
+  j = village(kOneHeight, false);
+  j["lines"][1]["id"] = "1";
+  expectError(j, "lines[1].id");
+  j = village(kOneHeight, false);
+  j["sensor"]["type"] = "riegl";
+  expectError(j, "sensor.type");
+  j = village(kOneHeight, false);
+  j["gcps"] = {"t9"};
+  expectError(j, "gcps[0]");
+  j = village(kOneHeight, false);
+  j["method"] = "magic";
+  expectError(j, "method");
+  j = village(kOneHeight, false);
+  j["lines"] = json::array();
+  expectError(j, "lines");
+  j = village(kOneHeight, false);
+  j["flight"] = 1;
+  expectError(j, "flight");
+  j = village(kOneHeight, false);
+  j["ground"]["roofs"][0]["slope_deg"] = 89;
+  expectError(j, "ground.roofs[0].slope_deg");
+}
+
+TEST(Planner, ExamplePlanRunsAndItsReportHoldsEverySection) {
+  const Plan plan = readPlan(std::string(MOUNTCAL_SOURCE_DIR) + "/examples/plans/calibration_flight.json");
+  const PlanAnalysis a = analysePlan(plan);
+  const std::string html = planReportHtml(plan, a);
+  for (const char* s : {"<svg", "class=\"planview\"", "class=\"heatmap\"", "What the plan determines", "What to add", "boresight_heading"})
+    EXPECT_NE(html.find(s), std::string::npos) << s;
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org/2000/svg"));  // no link but the SVG namespace
+}
+
+TEST(Planner, CommandPrintsThePredictionWritesTheReportAndRefusesBadInput) {
+  const std::string dir = (fs::temp_directory_path() / ("mountcal_plan_cli_" + std::to_string(::getpid()))).string();
+  fs::create_directories(dir);
+  auto run = [&](const std::string& args, std::string* out, std::string* err) {
+    const std::string o = dir + "/out.txt", e = dir + "/err.txt";
+    const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + o + " 2> " + e).c_str());
+    auto slurp = [](const std::string& p) {
+      std::ifstream in(p);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      return ss.str();
+    };
+    *out = slurp(o);
+    *err = slurp(e);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  std::string out, err;
+  const std::string example = std::string(MOUNTCAL_SOURCE_DIR) + "/examples/plans/calibration_flight.json";
+  ASSERT_EQ(run("plan " + example + " --report " + dir + "/plan.html", &out, &err), 0) << err;
+  EXPECT_NE(out.find("candidate additions, best first"), std::string::npos) << out;
+  EXPECT_NE(out.find("1. ground control"), std::string::npos) << out;  // the example has no GCP: lever_arm_z
+  std::ifstream html(dir + "/plan.html");
+  std::stringstream ss;
+  ss << html.rdbuf();
+  EXPECT_NE(ss.str().find("class=\"planview\""), std::string::npos);
+  // Bad input: exit 2, one line naming the file and the field; the plan file is never replaced.
+  json j = village(kOneHeight, false);
+  j["lines"][0]["speed_mps"] = "fast";
+  const std::string bad = dir + "/bad.json";
+  std::ofstream(bad) << j.dump();
+  EXPECT_EQ(run("plan " + bad, &out, &err), 2);
+  EXPECT_NE(err.find(bad), std::string::npos) << err;
+  EXPECT_NE(err.find("lines[0].speed_mps"), std::string::npos) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  const std::string good = dir + "/good.json";
+  fs::copy_file(example, good);
+  EXPECT_EQ(run("plan " + good + " --report " + good, &out, &err), 2);
+  std::ifstream again(good);
+  std::stringstream s2;
+  s2 << again.rdbuf();
+  std::ifstream orig(example);
+  std::stringstream s3;
+  s3 << orig.rdbuf();
+  EXPECT_EQ(s2.str(), s3.str());
+  fs::remove_all(dir);
+}
