@@ -6,7 +6,7 @@ set -euo pipefail
 
 MOUNTCAL_DEPS=(build-essential cmake pkg-config libeigen3-dev libceres-dev libflann-dev liblz4-dev
   libopenmesh-dev libproj-dev proj-data nlohmann-json3-dev libcli11-dev
-  libgtest-dev libgmock-dev libbenchmark-dev)
+  libgtest-dev libgmock-dev libbenchmark-dev zlib1g-dev)
 
 mountcal_ensure_deps() {
   local missing=() p

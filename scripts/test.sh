@@ -6,7 +6,8 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # shellcheck source=deps.sh
 source "$root/scripts/deps.sh"
-mountcal_ensure_deps
+# Headless Chromium renders the visual report in tests/test_report.cpp.
+mountcal_ensure_deps chromium
 
 build="$root/build"; args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then

@@ -29,7 +29,7 @@ json village(const std::vector<std::tuple<std::string, double, double, double, d
   j["sensor"] = {{"type", "line"}, {"prf_hz", 150000}, {"scan_rate_hz", 50}, {"half_fov_deg", 20}};
   j["noise"] = "realistic";
   j["mounting"] = {{"lever_arm_m", {0.05, -0.08, 0.12}}, {"boresight_deg", {0, 0, 0}}};
-  j["roi_radius_m"] = 8;
+  j["roi_radius_m"] = 4;
   for (const auto& [id, x0, y0, x1, y1, h] : lines)
     j["lines"].push_back({{"id", id}, {"start", {x0, y0}}, {"end", {x1, y1}}, {"height_m", h}, {"speed_mps", 60}});
   j["ground"]["roofs"] = json::array({

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -68,9 +69,41 @@ std::vector<double> laserElevationOf(const mountcal::MountingCalibrator::Summary
   return out;
 }
 
-int runCalibrate(const std::string& job_path, bool quiet) {
+/// "x0,y0,x1,y1[,width]" of --profile.
+std::vector<mountcal::ReportOptions::ProfileLine> profileLines(const std::vector<std::string>& args) {
+  std::vector<mountcal::ReportOptions::ProfileLine> out;
+  for (const std::string& a : args) {
+    mountcal::ReportOptions::ProfileLine l;
+    l.id = "profile_" + std::to_string(out.size() + 1);
+    double v[5] = {0, 0, 0, 0, 1.0};
+    int n = 0;
+    std::size_t pos = 0;
+    while (n < 5 && pos <= a.size()) {
+      const std::size_t comma = a.find(',', pos);
+      const std::string part = a.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+      char* end = nullptr;
+      v[n] = std::strtod(part.c_str(), &end);
+      if (part.empty() || *end != '\0' || !std::isfinite(v[n])) n = -1;
+      if (n < 0) break;
+      ++n;
+      if (comma == std::string::npos) break;
+      pos = comma + 1;
+    }
+    if (n < 4 || !(v[4] > 0) || v[4] > 100 || std::hypot(v[2] - v[0], v[3] - v[1]) > 10000)
+      throw mountcal::InvalidInput("--profile " + a + ": expected x0,y0,x1,y1[,width] in metres (at most 10 km long, width up to 100 m)");
+    l.x0_m = v[0], l.y0_m = v[1], l.x1_m = v[2], l.y1_m = v[3], l.width_m = v[4];
+    out.push_back(l);
+  }
+  return out;
+}
+
+int runCalibrate(const std::string& job_path, bool quiet, const std::string& report, const std::vector<std::string>& profiles) {
   using namespace mountcal;
-  const Job job = readJob(job_path);
+  Job job = readJob(job_path);
+  if (!report.empty()) job.report_path = report;
+  ReportOptions ro;
+  ro.title = "mountcal calibration — " + job_path;
+  ro.profiles = profileLines(profiles);
   checkJobOutputs(job);  // before anything is computed: an output never replaces an input
   progress("reading the trajectory and strips");
   const LoadedJob loaded = loadJob(job);
@@ -81,7 +114,7 @@ int runCalibrate(const std::string& job_path, bool quiet) {
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
   if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
-  if (!job.report_path.empty()) outputs.emplace_back(job.report_path, htmlReport(S, any_eval ? &ev : nullptr, "mountcal calibration — " + job_path));
+  if (!job.report_path.empty()) outputs.emplace_back(job.report_path, visualReport(S, data, any_eval ? &ev : nullptr, ro));
   io::writeFilesAtomically(outputs);
   if (!quiet) std::printf("%s", S.FullReport().c_str());
   if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
@@ -107,15 +140,34 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
   return 0;
 }
 
-int runEvaluate(const std::string& job_path, const std::string& result_path) {
+int runEvaluate(const std::string& job_path, const std::string& result_path, const std::string& report, const std::vector<std::string>& profiles) {
   using namespace mountcal;
-  const Job job = readJob(job_path);
+  Job job = readJob(job_path);
+  ReportOptions ro;
+  ro.title = "mountcal evaluation — " + result_path + " on " + job_path;
+  ro.profiles = profileLines(profiles);
+  if (!report.empty()) {  // the only output of evaluate: never an input, the result file included
+    job.result_path.clear();
+    job.report_path = report;
+    checkJobOutputs(job, {result_path});
+  }
   const LoadedJob loaded = loadJob(job);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
   const ResultEvaluation ev = evaluateJob(job, loaded, m, true, readResultLaserElevation(result_path));
   if (!ev.any()) {
     std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes, and no strips overlap\n", job_path.c_str());
     return 2;
+  }
+  if (!report.empty()) {
+    // No solve here: the report shows the result's mounting against the job's, and the data.
+    MountingCalibrator::Summary S;
+    S.termination = TerminationType::kConvergence;
+    S.message = "evaluation of " + result_path + " (no adjustment: no σ, correlations or residuals)";
+    S.mounting_used = loaded.data.mounting_used;
+    S.mounting = m;
+    S.estimated.fill(true);
+    S.sigma.fill(std::nan(""));
+    io::writeFilesAtomically({{report, visualReport(S, loaded.data, &ev, ro)}});
   }
   if (!ev.discrepancy_after.empty()) {
     const DiscrepancyOptions d;
@@ -291,6 +343,10 @@ int main(int argc, char** argv) {
   CLI::App* cal = app.add_subcommand("calibrate", "Calibrate the mounting from a job file (SPEC §4); writes the result file");
   cal->add_option("job", job_path, "Job JSON file")->required();
   cal->add_flag("--quiet", quiet, "Print nothing on success");
+  std::string report_path;
+  std::vector<std::string> profile_args;
+  cal->add_option("--report", report_path, "Write the visual HTML report here (instead of the job's output.report)");
+  cal->add_option("--profile", profile_args, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
 
   std::string result_path, apply_out;
   CLI::App* apply = app.add_subcommand("apply", "Rewrite the job's LAS strips with the calibrated mounting");
@@ -303,6 +359,8 @@ int main(int argc, char** argv) {
   CLI::App* evaluate = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
   evaluate->add_option("job", job_path, "Job JSON file")->required();
   evaluate->add_option("--result", result_path, "Result JSON file")->required();
+  evaluate->add_option("--report", report_path, "Write the visual HTML report of the result here");
+  evaluate->add_option("--profile", profile_args, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
   std::string info_path;
   CLI::App* info = app.add_subcommand("info", "Summary of a LAS, LAZ or SBET file");
   info->add_option("file", info_path, "LAS, LAZ or SBET file")->required();
@@ -336,9 +394,9 @@ int main(int argc, char** argv) {
       }
       return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties, sim_laz);
     }
-    if (cal->parsed()) return runCalibrate(job_path, quiet);
+    if (cal->parsed()) return runCalibrate(job_path, quiet, report_path, profile_args);
     if (apply->parsed()) return runApply(job_path, result_path, apply_out, apply_format);
-    if (evaluate->parsed()) return runEvaluate(job_path, result_path);
+    if (evaluate->parsed()) return runEvaluate(job_path, result_path, report_path, profile_args);
     if (info->parsed()) return runInfo(info_path);
     if (convert->parsed()) return runConvert(convert_in, convert_out);
     if (curves->parsed()) return runCurves(curves_out, curves_deg);
