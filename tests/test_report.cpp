@@ -97,12 +97,13 @@ std::string embeddedPng(const std::string& html, const std::string& cls) {
   if (b == std::string::npos || e == std::string::npos) return "";
   const std::string s = html.substr(b + key.size(), e - b - key.size());
   std::string out;
-  int val = 0, bits = -8;
+  unsigned val = 0;
+  int bits = -8;
   for (char c : s) {
     const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     const char* f = std::strchr(k, c);
     if (!f || c == '\0') break;
-    val = (val << 6) + static_cast<int>(f - k);
+    val = ((val << 6) | static_cast<unsigned>(f - k)) & 0xFFFFu;  // at most 14 pending bits
     bits += 6;
     if (bits >= 0) {
       out.push_back(static_cast<char>((val >> bits) & 0xFF));
