@@ -14,6 +14,7 @@
 #include "mountcal/error_curves.hpp"
 #include "mountcal/report.hpp"
 #include "mountcal/svg_plot.hpp"
+#include "html_text.hpp"
 
 namespace mountcal {
 
@@ -112,29 +113,12 @@ const char* kStripColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7
 const unsigned char kStripRgb[][3] = {{31, 119, 180}, {214, 39, 40}, {44, 160, 44}, {148, 103, 189},
                                       {255, 127, 14}, {140, 86, 75}, {227, 119, 194}, {23, 190, 207}};
 
-std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) o += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : c == '"' ? "&quot;" : std::string(1, c);
-  return o;
-}
 
-std::string n1(double v, const char* f = "%.1f") {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string imgTag(const std::string& png, int w, int h, const std::string& cls, const std::string& alt) {
-  return "<img class=\"" + cls + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) + "\" alt=\"" + esc(alt) +
+  return "<img class=\"" + cls + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) + "\" alt=\"" + detail::htmlEscape(alt) +
          "\" src=\"data:image/png;base64," + base64(png) + "\">";
 }
-
-/// Every strip's points at the mounting used (thinned evenly to at most `max_points`), with
-/// their indices.
-struct StripPoints {
-  std::vector<Vec3> x;
-  std::vector<std::size_t> index;
-};
 
 /// The points of strip s at mounting `m` for the listed indices (SPEC §2 eq. (1) differenced:
 /// exact, p_m cancels).
@@ -245,25 +229,25 @@ std::string profilePanel(const std::string& title, const std::vector<std::vector
   std::ostringstream o;
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" class=\"profile\" font-family=\"sans-serif\" font-size=\"11\">"
     << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - B << "\" fill=\"#fff\" stroke=\"#888\"/>"
-    << "<text x=\"" << W / 2 << "\" y=\"16\" text-anchor=\"middle\" font-size=\"13\">" << esc(title) << "</text>";
+    << "<text x=\"" << W / 2 << "\" y=\"16\" text-anchor=\"middle\" font-size=\"13\">" << detail::htmlEscape(title) << "</text>";
   if (!(z1 > z0)) z1 = z0 + 1;
   auto X = [&](double s) { return L + s / std::max(s1, 1e-9) * (W - L - R); };
   auto Y = [&](double z) { return T + (z1 - z) / (z1 - z0) * (H - T - B); };
   for (int k = 0; k <= 4; ++k) {
     const double z = z0 + (z1 - z0) * k / 4.0, s = s1 * k / 4.0;
-    o << "<text x=\"" << L - 4 << "\" y=\"" << n1(Y(z) + 4) << "\" text-anchor=\"end\">" << n1(z, "%.2f") << "</text>"
-      << "<text x=\"" << n1(X(s)) << "\" y=\"" << H - B + 14 << "\" text-anchor=\"middle\">" << n1(s, "%.0f") << "</text>";
+    o << "<text x=\"" << L - 4 << "\" y=\"" << detail::formatNumber(Y(z) + 4) << "\" text-anchor=\"end\">" << detail::formatNumber(z, "%.2f") << "</text>"
+      << "<text x=\"" << detail::formatNumber(X(s)) << "\" y=\"" << H - B + 14 << "\" text-anchor=\"middle\">" << detail::formatNumber(s, "%.0f") << "</text>";
   }
   o << "<text x=\"" << W / 2 << "\" y=\"" << H - 6 << "\" text-anchor=\"middle\">distance along the profile [m]</text>"
     << "<text x=\"12\" y=\"" << H / 2 << "\" transform=\"rotate(-90 12 " << H / 2 << ")\" text-anchor=\"middle\">height [m]</text>";
   for (std::size_t s = 0; s < pts.size(); ++s) {
     o << "<g fill=\"" << kStripColours[s % 8] << "\">";
-    for (const auto& [d, z] : pts[s]) o << "<circle cx=\"" << n1(X(d)) << "\" cy=\"" << n1(Y(z)) << "\" r=\"1.6\"/>";
+    for (const auto& [d, z] : pts[s]) o << "<circle cx=\"" << detail::formatNumber(X(d)) << "\" cy=\"" << detail::formatNumber(Y(z)) << "\" r=\"1.6\"/>";
     o << "</g>";
   }
   for (std::size_t s = 0; s < names.size(); ++s)
     o << "<rect x=\"" << L + 8 + 90 * static_cast<int>(s) << "\" y=\"" << T + 6 << "\" width=\"10\" height=\"10\" fill=\"" << kStripColours[s % 8]
-      << "\"/><text x=\"" << L + 22 + 90 * static_cast<int>(s) << "\" y=\"" << T + 15 << "\">strip " << esc(names[s]) << "</text>";
+      << "\"/><text x=\"" << L + 22 + 90 * static_cast<int>(s) << "\" y=\"" << T + 15 << "\">strip " << detail::htmlEscape(names[s]) << "</text>";
   o << "</svg>";
   return o.str();
 }
@@ -284,16 +268,16 @@ std::string histogram(const std::string& title, const std::vector<double>& befor
   const double bw = (W - L - 10.0) / bins;
   std::ostringstream o;
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" class=\"histogram\" font-family=\"sans-serif\" font-size=\"11\">"
-    << "<text x=\"" << W / 2 << "\" y=\"15\" text-anchor=\"middle\" font-size=\"12\">" << esc(title) << "</text>";
+    << "<text x=\"" << W / 2 << "\" y=\"15\" text-anchor=\"middle\" font-size=\"12\">" << detail::htmlEscape(title) << "</text>";
   for (int k = 0; k < bins; ++k) {
     const double hb_px = (H - T - B) * hb[k] / std::max(top, 1), ha_px = (H - T - B) * ha[k] / std::max(top, 1);
-    o << "<rect x=\"" << n1(L + k * bw) << "\" y=\"" << n1(H - B - hb_px) << "\" width=\"" << n1(bw * 0.5) << "\" height=\"" << n1(hb_px)
-      << "\" fill=\"#d62728\"/><rect x=\"" << n1(L + k * bw + bw * 0.5) << "\" y=\"" << n1(H - B - ha_px) << "\" width=\"" << n1(bw * 0.5)
-      << "\" height=\"" << n1(ha_px) << "\" fill=\"#1f77b4\"/>";
+    o << "<rect x=\"" << detail::formatNumber(L + k * bw) << "\" y=\"" << detail::formatNumber(H - B - hb_px) << "\" width=\"" << detail::formatNumber(bw * 0.5) << "\" height=\"" << detail::formatNumber(hb_px)
+      << "\" fill=\"#d62728\"/><rect x=\"" << detail::formatNumber(L + k * bw + bw * 0.5) << "\" y=\"" << detail::formatNumber(H - B - ha_px) << "\" width=\"" << detail::formatNumber(bw * 0.5)
+      << "\" height=\"" << detail::formatNumber(ha_px) << "\" fill=\"#1f77b4\"/>";
   }
   o << "<line x1=\"" << L << "\" y1=\"" << H - B << "\" x2=\"" << W - 10 << "\" y2=\"" << H - B << "\" stroke=\"#000\"/>"
-    << "<text x=\"" << L << "\" y=\"" << H - B + 14 << "\">" << n1(-m, "%.3f") << "</text><text x=\"" << W - 10 << "\" y=\"" << H - B + 14
-    << "\" text-anchor=\"end\">" << n1(m, "%+.3f") << "</text><text x=\"" << (L + W) / 2 << "\" y=\"" << H - B + 14
+    << "<text x=\"" << L << "\" y=\"" << H - B + 14 << "\">" << detail::formatNumber(-m, "%.3f") << "</text><text x=\"" << W - 10 << "\" y=\"" << H - B + 14
+    << "\" text-anchor=\"end\">" << detail::formatNumber(m, "%+.3f") << "</text><text x=\"" << (L + W) / 2 << "\" y=\"" << H - B + 14
     << "\" text-anchor=\"middle\">0 [m]</text><text x=\"" << L << "\" y=\"" << H - 6 << "\" fill=\"#d62728\">■ before</text><text x=\""
     << L + 80 << "\" y=\"" << H - 6 << "\" fill=\"#1f77b4\">■ after</text><text x=\"" << L - 4 << "\" y=\"" << T + 8 << "\" text-anchor=\"end\">"
     << top << "</text></svg>";
@@ -313,9 +297,9 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
   for (int a = 0; a < 6; ++a)
     for (int b = a + 1; b < 6; ++b)
       if (S.estimated[a] && S.estimated[b] && std::abs(S.correlation(a, b)) > 0.9)
-        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + n1(S.correlation(a, b), "%+.3f") + ")");
+        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + detail::formatNumber(S.correlation(a, b), "%+.3f") + ")");
   if (S.degrees_of_freedom > 0 && (S.variance_factor < 0.5 || S.variance_factor > 2.0))
-    warn.push_back("the variance factor σ₀² = " + n1(S.variance_factor, "%.3g") + " is far from 1: the stated σ do not match the residuals");
+    warn.push_back("the variance factor σ₀² = " + detail::formatNumber(S.variance_factor, "%.3g") + " is far from 1: the stated σ do not match the residuals");
   if (!S.rejected.empty()) warn.push_back(std::to_string(S.rejected.size()) + " tie observations rejected (reasons in the table below)");
   if (!S.planes.rejected.empty()) warn.push_back(std::to_string(S.planes.rejected.size()) + " plane patches or strip parts rejected");
   if (!S.features.rejected.empty()) warn.push_back(std::to_string(S.features.rejected.size()) + " targets or strip views rejected");
@@ -326,7 +310,7 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
   if (!S.IsSolutionUsable()) warn.push_back(std::string("the solve is not usable: ") + toString(S.termination) + " — " + S.message);
   v << "<h2>Warnings</h2>";
   if (warn.empty()) v << "<p class=ok>None.</p>";
-  for (const auto& w : warn) v << "<p class=warn>" << esc(w) << "</p>";
+  for (const auto& w : warn) v << "<p class=warn>" << detail::htmlEscape(w) << "</p>";
 
   v << "<h2>Correlations</h2>";
   std::vector<std::string> labels(names.begin(), names.end());
@@ -387,24 +371,24 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
       << "\" class=\"mapview\" font-family=\"sans-serif\" font-size=\"11\"><image width=\"" << Wd << "\" height=\"" << Hd
       << "\" href=\"data:image/png;base64," << base64(encodePng(Wd, Hd, rgb)) << "\"/>";
     for (const PlaneRegion& r : data.plane_regions)
-      v << "<rect x=\"" << n1(PX(r.xmin)) << "\" y=\"" << n1(PY(r.ymax)) << "\" width=\"" << n1((r.xmax - r.xmin) * scale) << "\" height=\""
-        << n1((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#8c564b\"><title>plane region " << esc(r.id) << "</title></rect>";
+      v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\"" << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\""
+        << detail::formatNumber((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#8c564b\"><title>plane region " << detail::htmlEscape(r.id) << "</title></rect>";
     for (const PlaneRegion& r : data.target_regions)
-      v << "<rect x=\"" << n1(PX(r.xmin)) << "\" y=\"" << n1(PY(r.ymax)) << "\" width=\"" << n1((r.xmax - r.xmin) * scale) << "\" height=\""
-        << n1((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << esc(r.id) << "</title></rect>";
+      v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\"" << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\""
+        << detail::formatNumber((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << detail::htmlEscape(r.id) << "</title></rect>";
     for (const auto& p : S.planes.patches)
-      v << "<circle cx=\"" << n1(PX(p.centre_m.x())) << "\" cy=\"" << n1(PY(p.centre_m.y())) << "\" r=\"3\" fill=\"#8c564b\"><title>patch "
-        << esc(p.patch_id) << "</title></circle>";
+      v << "<circle cx=\"" << detail::formatNumber(PX(p.centre_m.x())) << "\" cy=\"" << detail::formatNumber(PY(p.centre_m.y())) << "\" r=\"3\" fill=\"#8c564b\"><title>patch "
+        << detail::htmlEscape(p.patch_id) << "</title></circle>";
     for (const auto& r : S.residuals) {
       const auto it = pick.find({r.tie_id, r.strip_id});
       if (it == pick.end()) continue;
       const double x = PX(it->second->x_m), y = PY(it->second->y_m);
-      v << "<circle cx=\"" << n1(x) << "\" cy=\"" << n1(y) << "\" r=\"2\" fill=\"#000\"><title>" << esc(r.tie_id) << " on strip " << esc(r.strip_id)
+      v << "<circle cx=\"" << detail::formatNumber(x) << "\" cy=\"" << detail::formatNumber(y) << "\" r=\"2\" fill=\"#000\"><title>" << detail::htmlEscape(r.tie_id) << " on strip " << detail::htmlEscape(r.strip_id)
         << "</title></circle>";
-      v << "<line x1=\"" << n1(x) << "\" y1=\"" << n1(y) << "\" x2=\"" << n1(x + r.before_m.x() * vec_scale) << "\" y2=\""
-        << n1(y - r.before_m.y() * vec_scale) << "\" stroke=\"#d62728\" stroke-width=\"1.5\"/>";
-      v << "<line x1=\"" << n1(x) << "\" y1=\"" << n1(y) << "\" x2=\"" << n1(x + r.after_m.x() * vec_scale) << "\" y2=\""
-        << n1(y - r.after_m.y() * vec_scale) << "\" stroke=\"#1f77b4\" stroke-width=\"1.5\"/>";
+      v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\"" << detail::formatNumber(x + r.before_m.x() * vec_scale) << "\" y2=\""
+        << detail::formatNumber(y - r.before_m.y() * vec_scale) << "\" stroke=\"#d62728\" stroke-width=\"1.5\"/>";
+      v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\"" << detail::formatNumber(x + r.after_m.x() * vec_scale) << "\" y2=\""
+        << detail::formatNumber(y - r.after_m.y() * vec_scale) << "\" stroke=\"#1f77b4\" stroke-width=\"1.5\"/>";
     }
     double ref = 0;
     if (vec_scale > 0) {  // a round residual length for the legend
@@ -414,11 +398,11 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
     v << "<g transform=\"translate(0," << Hd + 8 << ")\">";
     for (std::size_t s = 0; s < strip_ids.size(); ++s)
       v << "<rect x=\"" << 90 * s << "\" y=\"0\" width=\"10\" height=\"10\" fill=\"" << kStripColours[s % 8] << "\"/><text x=\"" << 90 * s + 14
-        << "\" y=\"9\">strip " << esc(strip_ids[s]) << "</text>";
+        << "\" y=\"9\">strip " << detail::htmlEscape(strip_ids[s]) << "</text>";
     if (ref > 0)
-      v << "<line x1=\"0\" y1=\"24\" x2=\"" << n1(ref * vec_scale) << "\" y2=\"24\" stroke=\"#d62728\" stroke-width=\"2\"/><text x=\""
-        << n1(ref * vec_scale + 6) << "\" y=\"28\">tie residual " << n1(ref, "%.3g") << " m: red before, blue after (at the picks)</text>";
-    v << "</g></svg><p>Map " << n1(box.x1 - box.x0, "%.0f") << " m × " << n1(box.y1 - box.y0, "%.0f")
+      v << "<line x1=\"0\" y1=\"24\" x2=\"" << detail::formatNumber(ref * vec_scale) << "\" y2=\"24\" stroke=\"#d62728\" stroke-width=\"2\"/><text x=\""
+        << detail::formatNumber(ref * vec_scale + 6) << "\" y=\"28\">tie residual " << detail::formatNumber(ref, "%.3g") << " m: red before, blue after (at the picks)</text>";
+    v << "</g></svg><p>Map " << detail::formatNumber(box.x1 - box.x0, "%.0f") << " m × " << detail::formatNumber(box.y1 - box.y0, "%.0f")
       << " m, north up; footprints shaded per strip, overlaps darker; plane regions brown, target regions dashed.</p>";
   }
 
@@ -471,8 +455,8 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
     }
     if (z0 > z1) continue;
     const double pad = 0.05 * (z1 - z0) + 0.05;
-    v << "<h3>" << esc(pr.id) << ": (" << n1(pr.x0) << ", " << n1(pr.y0) << ") → (" << n1(pr.x1) << ", " << n1(pr.y1) << "), width "
-      << n1(2 * pr.half_width, "%.1f") << " m" << (pr.discrepancy_m > 0 ? ", strips " + n1(pr.discrepancy_m, "%.3f") + " m apart in height before" : "")
+    v << "<h3>" << detail::htmlEscape(pr.id) << ": (" << detail::formatNumber(pr.x0) << ", " << detail::formatNumber(pr.y0) << ") → (" << detail::formatNumber(pr.x1) << ", " << detail::formatNumber(pr.y1) << "), width "
+      << detail::formatNumber(2 * pr.half_width, "%.1f") << " m" << (pr.discrepancy_m > 0 ? ", strips " + detail::formatNumber(pr.discrepancy_m, "%.3f") + " m apart in height before" : "")
       << "</h3><div>" << profilePanel("before", before, strip_ids, len, z0 - pad, z1 + pad)
       << profilePanel("after", after, strip_ids, len, z0 - pad, z1 + pad) << "</div>";
   }
@@ -582,8 +566,8 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
         }
         return encodePng(P, P, rgb);
       };
-      v << "<h2>Intensity overlay</h2><p>Strip " << esc(strip_ids[A]) << " in magenta, strip " << esc(strip_ids[Bs])
-        << " in green (where they agree the image is grey), " << n1(2 * half, "%.0f") << " m around (" << n1(cx) << ", " << n1(cy)
+      v << "<h2>Intensity overlay</h2><p>Strip " << detail::htmlEscape(strip_ids[A]) << " in magenta, strip " << detail::htmlEscape(strip_ids[Bs])
+        << " in green (where they agree the image is grey), " << detail::formatNumber(2 * half, "%.0f") << " m around (" << detail::formatNumber(cx) << ", " << detail::formatNumber(cy)
         << "); before and after.</p><div>" << imgTag(overlay(data.mounting_used, true), 360, 360, "overlay-before", "intensity overlay before")
         << " " << imgTag(overlay(S.mounting, false), 360, 360, "overlay-after", "intensity overlay after") << "</div>";
     }
@@ -597,7 +581,7 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
     const auto curves = boresightErrorCurves(b, angles, ranges);
     v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
          "points would carry if the boresight change found here ("
-      << n1(rad2deg(b.x()), "%+.4f") << "°, " << n1(rad2deg(b.y()), "%+.4f") << "°, " << n1(rad2deg(b.z()), "%+.4f")
+      << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.z()), "%+.4f")
       << "°) were ignored, against scan angle, per range.</p><div>";
     const char* ax[3] = {"along track (x)", "across track (y)", "vertical (z)"};
     for (int a = 0; a < 3; ++a) v << errorCurveSvg(curves, a, std::string("error ") + ax[a]);

@@ -46,14 +46,13 @@ CalibrationMethod methodOf(const Fields& f, const std::string& key, const std::s
   f.fail(key, "unknown method '" + name + "' (methods: vtpm, planes, correspondences, features)");
 }
 
-/// The side-to-side width a line covers on flat ground [m].
+}  // namespace
+
 double swathWidth(const SurveyConfig& c, double height_m) {
   if (c.sensor == SensorType::kLine) return 2.0 * height_m * std::tan(c.line.half_fov_rad);
   const double r = 0.7 * c.multibeam.max_range_m;  // ranges near the limit are sparse
   return r > height_m ? 2.0 * std::sqrt(r * r - height_m * height_m) : height_m;
 }
-
-}  // namespace
 
 // ---- the plan ------------------------------------------------------------------------------
 

@@ -70,6 +70,11 @@ struct Plan {
   double meanHeight() const;
 };
 
+/// The side-to-side width a line flown `height_m` above flat ground covers [m]: 2 h tan(half
+/// FOV) for a line scanner; for a multi-beam scanner the chord of 0.7 × its maximum range
+/// (returns near the limit are sparse), or h when that range does not reach the ground.
+double swathWidth(const simulation::SurveyConfig& config, double height_m);
+
 /// Reads a plan file (format in the README, "Planning a calibration flight"). Throws FileError
 /// naming the file and the field for anything missing, of the wrong type or out of range.
 Plan readPlan(const std::string& path);
