@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of the LAS (and LAZ) reader, the LAZ chunk decoder, the SBET reader,
-# the CSV readers and the job-file parser with clang (ASan + UBSan) and runs
+# the CSV readers, the job-file parser and the correspondence pair files with clang (ASan + UBSan) and runs
 # each for a bounded time (default 60 s). Seeds come from ../shared/data when it is there.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
@@ -10,7 +10,7 @@ source "$root/scripts/deps.sh"
 mountcal_ensure_deps clang libclang-rt-14-dev
 seconds="${1:-60}"
 out="$root/build-fuzz"
-mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv" "$out/corpus_job"
+mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv" "$out/corpus_job" "$out/corpus_pairs"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I"$root/include" -I/usr/include/eigen3)
 laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
@@ -28,6 +28,22 @@ if [ ! -f "$root/build/src/libmountcal.a" ]; then
 fi
 clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_job" "$root/tests/fuzz/fuzz_job.cpp" "$root/src/job/schema.cpp" \
   "$root/build/src/libmountcal.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+# The correspondence pair file reader, instrumented; the options' checks from the release library.
+clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_pairs" "$root/tests/fuzz/fuzz_pairs.cpp" "$root/src/methods/correspondence/pair_file.cpp" \
+  "$root/build/src/libmountcal.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+# Its seed: a small pair file written here byte by byte (README "Correspondence pair files").
+python3 - "$out/corpus_pairs/seed.mcpair" <<'PY'
+import struct, sys
+b = b"MCPAIRS2" + struct.pack("<I", 1)
+for s in (b"ew1", b"ns2"):
+    b += struct.pack("<I", len(s)) + s
+b += struct.pack("<3d", 1.6, 0.6, 0.65) + struct.pack("<QI", 1200, 3)
+b += struct.pack("<4d2i", 1.0, 0.0, 0.0, 0.0, 8, 16) + struct.pack("<6d", 0, 0, 0, 0, 0, 0)
+point = lambda i, t: struct.pack("<Qd3d3d", i, t, 10.0 + i, 20.0, 1.5, 0.0, 30.0, -300.0)
+b += struct.pack("<Q", 1) + point(5, 100.25) + struct.pack("<4d", 0.0, 0.0, 1.0, 0.7)
+b += struct.pack("<Q", 2) + point(7, 130.5) + point(9, 130.75) + b"MCPAIREN"
+open(sys.argv[1], "wb").write(b)
+PY
 data="$root/../shared/data"
 if [ -d "$data" ]; then
   cp -f "$data/leeward/points.las" "$out/corpus_las/" 2>/dev/null || true
@@ -62,7 +78,7 @@ printf '\x07time,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,heading_deg\n1,34,-118,1
 # Job seeds: SPEC §4's example and the committed gravity jobs (geodetic frame, pose fields, LAZ).
 printf '{"frame":{"type":"local"},"trajectory":{"path":"trajectory.csv","format":"csv","time_offset_s":0.0},"sensor":{"type":"line","nominal_rotation_deg":[0,0,0]},"mounting_used":{"lever_arm_m":[0,0,0],"boresight_deg":[0,0,0]},"strips":[{"id":"1","path":"strip1.las"},{"id":"2","path":"strip2.las"}],"ties":"ties.csv","method":"vtpm","estimate":{"lever_arm":[true,true,false],"boresight":[true,true,true]},"vtpm":{"radius_m":1.0,"ransac_threshold_m":0.05},"solver":{"max_iterations":100,"loss":"trivial"},"output":{"result":"result.json","report":"report.html"}}\n' > "$out/corpus_job/spec"
 cp -f "$root"/examples/gravity/*.json "$out/corpus_job/"
-for target in las laz sbet csv job; do
+for target in las laz sbet csv job pairs; do
   echo "fuzz: $target for ${seconds} s"
   "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$out/" \

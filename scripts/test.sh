@@ -6,8 +6,9 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # shellcheck source=deps.sh
 source "$root/scripts/deps.sh"
-# Headless Chromium renders the visual report in tests/test_report.cpp.
-mountcal_ensure_deps chromium
+# Headless Chromium renders the visual report in tests/test_report.cpp; Snakemake runs the block
+# workflow (workflows/block) in tests/test_block.cpp.
+mountcal_ensure_deps chromium snakemake
 
 build="$root/build"; args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then

@@ -28,6 +28,7 @@ bool MountingCalibrator::Options::IsValid(std::string* error) const {
   };
   if (!TieObservationOptions::IsValid(error) || !MountingAdjustment::Options::IsValid(error)) return false;
   if (methods.empty()) return fail("methods is empty: name at least one calibration method");
+  if (threads < 0 || threads > 4096) return fail("threads must be in [0, 4096] (0: every core)");
   if (!(vtp.radius_m > 0) || !(vtp.ransac_threshold_m > 0) || vtp.ransac_iterations < 1) return fail("vtp radius, RANSAC threshold and iterations must be positive");
   if (!(vtp.max_radius_m >= vtp.radius_m)) return fail("vtp.max_radius_m must be at least vtp.radius_m");
   std::string why;
@@ -83,7 +84,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     if (planes->observationCount() > 0) sources.push_back(planes.get());
   }
   if (methods.count(CalibrationMethod::kCorrespondences)) {
-    corr = std::make_unique<CorrespondenceObservations>(data, o.correspondence);
+    corr = std::make_unique<CorrespondenceObservations>(data, o.correspondence, o.threads);
     sources.push_back(corr.get());
   }
   if (methods.count(CalibrationMethod::kFeatures)) {

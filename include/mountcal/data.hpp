@@ -16,6 +16,8 @@
 
 namespace mountcal {
 
+struct PairCandidates;
+
 /// A strip as the calibrators need it: per point the emission time, the raw laser vector and
 /// (optionally) the position georeferenced with the reference mounting.
 struct StripData {
@@ -49,6 +51,10 @@ struct CalibrationData {
   /// Method "features": regions each holding one high-intensity target seen by two or more
   /// strips (SPEC §4 `"targets"`, check-planes format).
   std::vector<PlaneRegion> target_regions;
+  /// Method "correspondences": the candidate neighbourhoods of the strip pairs, found earlier
+  /// (a workflow's `mountcal match` jobs, read with readPairCandidates); strips then need only
+  /// their ids. Null: found from the strips' points.
+  std::shared_ptr<const std::vector<PairCandidates>> correspondence_candidates;
 
   /// The pose that measured point `i` of `strip`: its per-point pose, else the trajectory at
   /// its time (`cursor` speeds up lookups in time order). Call requirePoses() first.
@@ -60,6 +66,7 @@ struct CalibrationData {
   /// length) nor a trajectory to take them from.
   void requirePoses() const {
     for (const StripData& s : strips) {
+      if (s.time_s.empty() && s.poses.empty()) continue;  // no points (given correspondence candidates)
       if (!s.poses.empty() && s.poses.size() != s.time_s.size()) {
         throw InvalidInput("strip '" + s.id + "': " + std::to_string(s.poses.size()) + " per-point poses for " +
                            std::to_string(s.time_s.size()) + " points");

@@ -4,6 +4,7 @@
 /// applying a mounting, and the result file. One header per concept under job/.
 
 #include "mountcal/job/apply.hpp"
+#include "mountcal/job/block.hpp"
 #include "mountcal/job/load.hpp"
 #include "mountcal/job/result.hpp"
 #include "mountcal/job/schema.hpp"

@@ -38,6 +38,10 @@ class MountingCalibrator {
     PlaneOptions planes;
     CorrespondenceOptions correspondence;
     FeatureOptions features;
+    /// Worker threads for building the observations (the correspondence search and matchings);
+    /// 0: every core. Results do not depend on it (each thread fills its own slots, combined in
+    /// a fixed order). The solver's own threads are SolverOptions::num_threads.
+    int threads = 0;
     /// False (with a message) when a value is out of range.
     bool IsValid(std::string* error) const;
   };

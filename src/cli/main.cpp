@@ -97,20 +97,29 @@ std::vector<mountcal::ReportOptions::ProfileLine> profileLines(const std::vector
   return out;
 }
 
-int runCalibrate(const std::string& job_path, bool quiet, const std::string& report, const std::vector<std::string>& profiles) {
+int runCalibrate(const std::string& job_path, bool quiet, const std::string& report, const std::vector<std::string>& profiles,
+                 const std::string& pair_dir, int threads, const std::string& result) {
   using namespace mountcal;
   Job job = readJob(job_path);
   if (!report.empty()) job.report_path = report;
+  if (!result.empty()) job.result_path = result;
+  if (threads >= 0) job.options.threads = threads;
   ReportOptions ro;
   ro.title = "mountcal calibration — " + job_path;
   ro.profiles = profileLines(profiles);
-  checkJobOutputs(job);  // before anything is computed: an output never replaces an input
-  progress("reading the trajectory and strips");
-  const LoadedJob loaded = loadJob(job);
+  // The visual report shows the strips' points, which a solve from pair files does not read.
+  if (!pair_dir.empty() && !report.empty())
+    throw FileError(report, "", "the visual report shows the strips' points, which a solve from pair files does not read; leave out --report");
+  const bool report_skipped = !pair_dir.empty() && !job.report_path.empty();
+  if (report_skipped) job.report_path.clear();
+  checkJobOutputs(job, pair_dir.empty() ? std::vector<std::string>{} : std::vector<std::string>{pair_dir});  // before anything is computed: an output never replaces an input
+  progress(pair_dir.empty() ? "reading the trajectory and strips" : "reading the trajectory and the pair files");
+  const LoadedJob loaded = pair_dir.empty() ? loadJob(job) : loadJobFromPairFiles(job, pair_dir);
   const CalibrationData& data = loaded.data;
   progress("building the observations and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
-  const ResultEvaluation ev = evaluateJob(job, loaded, S.mounting, false, laserElevationOf(S));
+  // Check data and the pass-to-pass discrepancy need the strips' points: not from pair files.
+  const ResultEvaluation ev = pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, laserElevationOf(S)) : ResultEvaluation{};
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
   if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
@@ -118,6 +127,7 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   io::writeFilesAtomically(outputs);
   if (!quiet) std::printf("%s", S.FullReport().c_str());
   if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
+  if (report_skipped && !quiet) std::printf("no report: a solve from pair files does not read the strips' points (run calibrate on the whole job for it)\n");
   if (!S.IsSolutionUsable()) {
     std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(S.termination), S.message.c_str());
     return 1;
@@ -125,14 +135,33 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   return 0;
 }
 
-int runApply(const std::string& job_path, const std::string& result_path, const std::string& out, const std::string& format) {
+int runApply(const std::string& job_path, const std::string& result_path, const std::string& out, const std::string& format,
+             const std::vector<std::string>& only_strips, int threads) {
   using namespace mountcal;
-  const Job job = readJob(job_path);
+  Job job = readJob(job_path);
+  std::vector<std::string> other_inputs{result_path};
+  if (!only_strips.empty()) {
+    // The files of the named strips (with every strip split from them); the others stay inputs.
+    std::vector<JobStrip> keep;
+    for (const std::string& id : only_strips) {
+      const auto it = std::find_if(job.strips.begin(), job.strips.end(), [&](const JobStrip& js) { return js.id == id; });
+      if (it == job.strips.end()) throw FileError(job_path, "field 'strips'", "no strip '" + id + "' (--strip)");
+    }
+    for (const JobStrip& js : job.strips) {
+      bool take = false;
+      for (const std::string& id : only_strips)
+        for (const JobStrip& named : job.strips)
+          if (named.id == id && io::samePath(named.path, js.path)) take = true;
+      if (take) keep.push_back(js);
+      else other_inputs.push_back(js.path);
+    }
+    job.strips = keep;
+  }
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
   const std::vector<double> lasers = readResultLaserElevation(result_path);
   progress("rewriting the strips");
   const StripFormat f = format == "las" ? StripFormat::las : format == "laz" ? StripFormat::laz : StripFormat::same_as_input;
-  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f, {result_path});
+  const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f, other_inputs, threads < 0 ? 0 : threads);
   std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
               "largest shift %.3f m; wrote %s\n",
               m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
@@ -298,6 +327,36 @@ int runCurves(const std::string& out, double delta_deg) {
   return 0;
 }
 
+/// The strip pairs to match, one per line: "A<TAB>B" (stdout, or --out written atomically).
+int runPairs(const std::string& job_path, const std::string& out) {
+  using namespace mountcal;
+  const Job job = readJob(job_path);
+  if (!out.empty()) {
+    for (const std::string& in : jobInputPaths(job))
+      if (io::samePath(out, in)) throw FileError(out, "", "is an input of the job (" + in + "); pairs --out writes a new file");
+  }
+  std::string text;
+  for (const auto& [a, b] : jobStripPairs(job)) text += a + "\t" + b + "\n";
+  if (out.empty()) std::fputs(text.c_str(), stdout);
+  else io::writeFileAtomically(out, text);
+  return 0;
+}
+
+/// One pair's candidate neighbourhoods into a pair file.
+int runMatch(const std::string& job_path, const std::vector<std::string>& pair, const std::string& out) {
+  using namespace mountcal;
+  const Job job = readJob(job_path);
+  for (const std::string& in : jobInputPaths(job))
+    if (io::samePath(out, in)) throw FileError(out, "", "is an input of the job (" + in + "); match --out writes a new file");
+  const auto t0 = std::chrono::steady_clock::now();
+  const PairCandidates p = jobPairCandidates(job, pair[0], pair[1]);
+  writePairCandidates(out, p, job.options.correspondence, job.mounting_used.toArray());
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("%s / %s: %s, %zu samples (%d sparse), %zu + %zu points in %.2f s; wrote %s\n", p.strip_a.c_str(), p.strip_b.c_str(),
+              p.overlap ? "overlap" : "no overlap", p.samples(), p.sparse_samples, p.samples_a.size(), p.points_b.size(), secs, out.c_str());
+  return 0;
+}
+
 int runPlan(const std::string& plan_path, const std::string& report_path, bool no_candidates) {
   using namespace mountcal;
   if (!report_path.empty() && io::samePath(report_path, plan_path))
@@ -348,6 +407,14 @@ int main(int argc, char** argv) {
   cal->add_option("--report", report_path, "Write the visual HTML report here (instead of the job's output.report)");
   cal->add_option("--profile", profile_args, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
 
+  std::string pair_dir;
+  int threads = -1;
+  std::string cal_result;
+  cal->add_option("--result", cal_result, "Write the result file here (instead of the job's output.result)");
+  cal->add_option("--correspondences", pair_dir, "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
+  cal->add_option("--threads", threads, "Threads for the correspondence search (default: every core); results do not depend on it")
+      ->check(CLI::Range(1, 4096));
+
   std::string result_path, apply_out;
   CLI::App* apply = app.add_subcommand("apply", "Rewrite the job's LAS strips with the calibrated mounting");
   apply->add_option("job", job_path, "Job JSON file")->required();
@@ -356,6 +423,9 @@ int main(int argc, char** argv) {
   std::string apply_format;
   apply->add_option("--format", apply_format, "las or laz: write this format whatever the input's (default: the input's)")
       ->check(CLI::IsMember({"las", "laz"}));
+  std::vector<std::string> apply_strips;
+  apply->add_option("--strip", apply_strips, "Rewrite only the file of this strip (repeatable; a workflow's per-strip job)");
+  apply->add_option("--threads", threads, "Files rewritten at once (default: every core)")->check(CLI::Range(1, 4096));
   CLI::App* evaluate = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
   evaluate->add_option("job", job_path, "Job JSON file")->required();
   evaluate->add_option("--result", result_path, "Result JSON file")->required();
@@ -373,6 +443,17 @@ int main(int argc, char** argv) {
   CLI::App* curves = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
   curves->add_option("--out", curves_out, "Folder for fig_errors.csv and the SVG plots");
   curves->add_option("--boresight-deg", curves_deg, "Boresight error on each axis [deg]")->capture_default_str();
+
+  std::string pairs_out;
+  CLI::App* pairsc = app.add_subcommand("pairs", "The strip pairs of a block to match (one \"A<TAB>B\" per line), from the strips' headers");
+  pairsc->add_option("job", job_path, "Job JSON file")->required();
+  pairsc->add_option("--out", pairs_out, "Write the list to this file instead of stdout");
+  std::vector<std::string> match_pair;
+  std::string match_out;
+  CLI::App* matchc = app.add_subcommand("match", "The candidate correspondences of one strip pair, into a pair file (for calibrate --correspondences)");
+  matchc->add_option("job", job_path, "Job JSON file")->required();
+  matchc->add_option("--pair", match_pair, "The two strip ids")->required()->expected(2);
+  matchc->add_option("--out", match_out, "Pair file to write (README: \"Correspondence pair files\")")->required();
 
   std::string plan_path, plan_report;
   bool plan_no_candidates = false;
@@ -394,8 +475,10 @@ int main(int argc, char** argv) {
       }
       return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties, sim_laz);
     }
-    if (cal->parsed()) return runCalibrate(job_path, quiet, report_path, profile_args);
-    if (apply->parsed()) return runApply(job_path, result_path, apply_out, apply_format);
+    if (cal->parsed()) return runCalibrate(job_path, quiet, report_path, profile_args, pair_dir, threads, cal_result);
+    if (apply->parsed()) return runApply(job_path, result_path, apply_out, apply_format, apply_strips, threads);
+    if (pairsc->parsed()) return runPairs(job_path, pairs_out);
+    if (matchc->parsed()) return runMatch(job_path, match_pair, match_out);
     if (evaluate->parsed()) return runEvaluate(job_path, result_path, report_path, profile_args);
     if (info->parsed()) return runInfo(info_path);
     if (convert->parsed()) return runConvert(convert_in, convert_out);

@@ -1,9 +1,11 @@
 #include "mountcal/job/apply.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <memory>
 
+#include "mountcal/detail/parallel.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/io/atomic_file.hpp"
@@ -19,7 +21,7 @@ namespace fs = std::filesystem;
 
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
                          std::size_t chunk_points, const std::vector<double>& laser_elevation_rad, StripFormat format,
-                         const std::vector<std::string>& also_inputs) {
+                         const std::vector<std::string>& also_inputs, int threads) {
   if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
     throw FileError(job.path, "field 'sensor.laser_field'", "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
   }
@@ -51,8 +53,10 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
   if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
   const LoadedJob loaded = loadJobTrajectory(job);
   const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
-  ApplyStats stats;
-  for (std::size_t f = 0; f < inputs.size(); ++f) {
+  std::vector<ApplyStats> per_file(inputs.size());
+  detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
+    ApplyStats& stats = per_file[f];
+    const JobFrame frame = loaded.frame.forAnotherThread();
     const std::string& in_path = inputs[f];
     io::LasReader reader(in_path);
     const io::LasHeader& h = reader.header();
@@ -78,7 +82,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
           pose = T->pose(p.gps_time, &cursor);
         }
         const Vec3 x_crs(reader.x(p), reader.y(p), reader.z(p));
-        Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, loaded.frame.toLocal(x_crs));
+        Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, frame.toLocal(x_crs));
         if (laser) {
           const double id = laser->value(p);
           if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad.size()))) {
@@ -86,7 +90,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
           }
           r_s = elevateLaserVector(r_s, laser_elevation_rad[static_cast<std::size_t>(id)]);
         }
-        const Vec3 x_new = loaded.frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));
+        const Vec3 x_new = frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));
         stats.max_shift_m = std::max(stats.max_shift_m, (x_new - x_crs).norm());
         p.X = writer.quantize(0, x_new.x());
         p.Y = writer.quantize(1, x_new.y());
@@ -98,6 +102,12 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     writer.close();
     stats.points += record;
     ++stats.strips;
+  });
+  ApplyStats stats;
+  for (const ApplyStats& f : per_file) {
+    stats.points += f.points;
+    stats.strips += f.strips;
+    stats.max_shift_m = std::max(stats.max_shift_m, f.max_shift_m);
   }
   return stats;
 }

@@ -52,7 +52,7 @@ class PlanHeightIndex {
 }  // namespace detail
 
 JobFrame::JobFrame(const std::string& crs, const Geodetic& origin)
-    : crs_(std::make_shared<io::CrsTransform>(crs)), tangent_(std::make_shared<LocalTangentFrame>(origin)) {}
+    : crs_name_(crs), crs_(std::make_shared<io::CrsTransform>(crs)), tangent_(std::make_shared<LocalTangentFrame>(origin)) {}
 
 Vec3 JobFrame::toLocal(const Vec3& x) const { return crs_ ? tangent_->toLocal(crs_->toGeodetic(x)) : x; }
 Vec3 JobFrame::fromLocal(const Vec3& x) const { return crs_ ? crs_->fromGeodetic(tangent_->toGeodetic(x)) : x; }

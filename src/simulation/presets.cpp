@@ -182,14 +182,73 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
 
 }  // namespace
 
+void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s) {
+  if (strips < 4 || strips > 256 || strips % 2 != 0) throw InvalidInput("a block has an even number of strips from 4 to 256 (got " + std::to_string(strips) + ")");
+  *c = SurveyConfig{};
+  *s = Scene{};
+  const int n_ew = strips / 2, n_ns = strips - n_ew;
+  const double height = 300, half_fov = deg2rad(20);
+  const double swath = 2 * height * std::tan(half_fov);
+  const double spacing = 0.5 * swath;  // 50 % side overlap
+  const double ext_x = (n_ns - 1) * spacing, ext_y = (n_ew - 1) * spacing;
+  s->setGround(0.0, 0.0008, -0.0006, 40.0f);
+  // A town on a 70 m grid: gable houses with ridges in every direction (sloped roofs give the
+  // horizontal information), flat-roof blocks, and ground targets between them.
+  const double grid = 70;
+  int k = 0;
+  for (double y = -0.5 * spacing; y <= ext_y + 0.5 * spacing; y += grid) {
+    for (double x = -0.5 * spacing; x <= ext_x + 0.5 * spacing; x += grid, ++k) {
+      const std::string id = std::to_string(k);
+      const double heading = deg2rad(std::fmod(37.0 * k, 180.0));
+      if (k % 3 == 2) s->addFlatRoofBuilding("flat_" + id, x, y, 16, 11, 9, heading);
+      else s->addGableHouse("house_" + id, x, y, 13, 9, 4, 7.5, heading);
+      if (k % 4 == 0) s->addGroundTarget("target_" + id, x + 25, y + 20, 2.0, heading);
+    }
+  }
+  c->name = "block-" + std::to_string(strips);
+  c->sensor = SensorType::kLine;
+  c->true_mounting = presetTruth();
+  c->nominal_mounting = MountingParameters{};
+  c->noise = NoiseModel::realistic();
+  c->seed = seed;
+  c->roi_radius_m = 9.0;
+  c->line.prf_hz = 30e3;
+  c->line.scan_rate_hz = 40;
+  c->line.half_fov_rad = half_fov;
+  const double run_in = 0.5 * spacing;
+  // E–W lines flown back and forth, then N–S lines crossing them, back and forth.
+  for (int j = 0; j < n_ew; ++j) {
+    const bool east = j % 2 == 0;
+    c->lines.push_back({"ew" + std::to_string(j + 1), east ? -run_in : ext_x + run_in, j * spacing, deg2rad(east ? 90 : 270),
+                        ext_x + 2 * run_in, height, 55});
+  }
+  for (int i = 0; i < n_ns; ++i) {
+    const bool north = i % 2 == 0;
+    c->lines.push_back({"ns" + std::to_string(i + 1), i * spacing, north ? -run_in : ext_y + run_in, deg2rad(north ? 0 : 180),
+                        ext_y + 2 * run_in, height, 55});
+  }
+  s->build();
+}
+
 const std::vector<std::string>& presetNames() {
-  static const std::vector<std::string> kNames = {"paper-calibration-field", "paper-check-block", "uav-vlp16"};
+  static const std::vector<std::string> kNames = {"paper-calibration-field", "paper-check-block", "uav-vlp16", "block"};
   return kNames;
 }
 
 void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* config, Scene* scene) {
   *config = SurveyConfig{};
   *scene = Scene{};
+  if (name == "block" || name.rfind("block-", 0) == 0) {
+    int n = 12;
+    if (name != "block") {
+      const std::string digits = name.substr(6);
+      if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos)
+        throw InvalidInput("unknown simulator preset '" + name + "' (a block is 'block' or 'block-N', N even from 4 to 256)");
+      n = std::stoi(digits);
+    }
+    makeBlock(n, seed, config, scene);
+    return;
+  }
   if (name == "paper-calibration-field") {
     calibrationField(seed, config, scene);
   } else if (name == "paper-check-block") {

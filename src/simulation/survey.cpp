@@ -1,4 +1,5 @@
 #include "mountcal/simulation/survey.hpp"
+#include "mountcal/detail/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -177,7 +178,12 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
 
   // ---- strips ------------------------------------------------------------------------------
   const double scan_axis_index = config.sensor == SensorType::kLine ? 0 : 2;  // scan-plane normal
-  for (std::size_t li = 0; li < config.lines.size(); ++li) {
+  // Each line on its own thread (its own noise streams, seeded by the line's index), merged in
+  // line order: the survey does not depend on the number of threads.
+  const std::size_t n_lines = config.lines.size();
+  std::vector<SimulatedStrip> strips_out(n_lines);
+  std::vector<std::vector<TiePick>> ties_out(n_lines), checks_out(n_lines);
+  detail::parallelFor(n_lines, config.threads, [&](std::size_t li) {
     const FlightLine& line = config.lines[li];
     const LineFrame& f = frames[li];
     SimulatedStrip strip;
@@ -355,9 +361,14 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       pick.apparent_m = georeference(T_meas.pose(t), R_bs_nom, M_nom.a_b, r_s_seen);
       pick.x_m = pick.apparent_m.x() + noise.pick_sigma_m * krng.normal();
       pick.y_m = pick.apparent_m.y() + noise.pick_sigma_m * krng.normal();
-      (check_ids.count(fp->id) ? out.check_points : out.ties).push_back(pick);
+      (check_ids.count(fp->id) ? checks_out[li] : ties_out[li]).push_back(pick);
     }
-    out.strips.push_back(std::move(strip));
+    strips_out[li] = std::move(strip);
+  });
+  for (std::size_t li = 0; li < n_lines; ++li) {
+    out.strips.push_back(std::move(strips_out[li]));
+    out.ties.insert(out.ties.end(), ties_out[li].begin(), ties_out[li].end());
+    out.check_points.insert(out.check_points.end(), checks_out[li].begin(), checks_out[li].end());
   }
 
   // Keep only features seen on at least two strips.

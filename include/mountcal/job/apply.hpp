@@ -32,8 +32,10 @@ enum class StripFormat { same_as_input, las, laz };
 /// (`jobInputPaths`) or of `also_inputs` (e.g. the result file read).
 /// `laser_elevation_rad` (by laser id, a result's intrinsics) turns each laser vector by its
 /// laser's elevation offset before georeferencing; it needs the job's `sensor.laser_field`.
+/// `threads`: files rewritten at once (0: every core); each file's bytes do not depend on it.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
                          std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {},
-                         StripFormat format = StripFormat::same_as_input, const std::vector<std::string>& also_inputs = {});
+                         StripFormat format = StripFormat::same_as_input, const std::vector<std::string>& also_inputs = {},
+                         int threads = 0);
 
 }  // namespace mountcal

@@ -29,8 +29,12 @@ class JobFrame {
   const LocalTangentFrame* tangentFrame() const { return tangent_.get(); }
   Vec3 toLocal(const Vec3& x_crs) const;    ///< CRS coordinates → computation frame [m]
   Vec3 fromLocal(const Vec3& x_m) const;    ///< computation frame → CRS coordinates [m]
+  /// The same frame with its own PROJ transformation: a PROJ object must not be used by two
+  /// threads at once, so each thread converting coordinates takes its own copy.
+  JobFrame forAnotherThread() const { return crs_ ? JobFrame(crs_name_, tangent_->origin()) : *this; }
 
  private:
+  std::string crs_name_;
   std::shared_ptr<io::CrsTransform> crs_;
   std::shared_ptr<LocalTangentFrame> tangent_;
 };

@@ -91,6 +91,8 @@ struct SurveyConfig {
   AttitudeDynamics dynamics;
   NoiseModel noise;
   std::uint64_t seed = 1;
+  /// Lines simulated at once (0: every core); the survey does not depend on it.
+  int threads = 0;
   double trajectory_rate_hz = 200.0;
   double time_origin_s = 100000.0;  ///< GPS week seconds of the first line's start [s]
   double line_gap_s = 120.0;        ///< time between the end of a line and the next start [s]
@@ -157,8 +159,15 @@ std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& survey);
 std::vector<PlaneRegion> flatGroundRegions(const SimulatedSurvey& survey, double half_size_m = 4.0);
 
 /// The names of the built-in presets (SPEC §4): "paper-calibration-field",
-/// "paper-check-block", "uav-vlp16".
+/// "paper-check-block", "uav-vlp16", "block" (also "block-N", see makeBlock).
 const std::vector<std::string>& presetNames();
+
+/// A block for automatic correspondences and workflows (preset "block" = 12 strips, "block-N"):
+/// N/2 E–W lines and N/2 N–S lines crossing them, each set flown back and forth with 50 % side
+/// overlap, at 300 m with a line scanner (30 kHz, 40 Hz, ±20°; ≈ 0.5 m spacing), over a town on a
+/// 70 m grid (gable houses with ridges in every direction, flat roofs, targets) simulated within
+/// 9 m of its features. The area grows with N. Throws InvalidInput unless N is even in [4, 256].
+void makeBlock(int strips, std::uint64_t seed, SurveyConfig* config, Scene* scene);
 
 /// A preset's scene and configuration; `seed` varies the noise. Throws InvalidInput for an
 /// unknown name (the message lists the presets).

@@ -8,11 +8,13 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <set>
 #include <unordered_set>
 
 #include "../common/strip_geometry.hpp"
 #include "dense_matching.hpp"
+#include "mountcal/detail/parallel.hpp"
 #include "mountcal/error.hpp"
 
 namespace mountcal {
@@ -43,117 +45,250 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
 
 namespace detail {
 
-/// The matching machinery: reference points, coarse voxel hulls and their overlaps, the
-/// samples — computed once — and the k-d trees at the mounting of each round.
+namespace {
+
+double pairRadius(const CorrespondenceOptions& o, double spacing_a, double spacing_b) {
+  return o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * std::max(spacing_a, spacing_b));
+}
+double pairVoxel(const CorrespondenceOptions& o, double r) { return o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r); }
+/// The first round's distance gate: max(3 r, 2 × the a-priori misalignment).
+double firstGate(const CorrespondenceOptions& o, double r) { return std::max(o.max_distance_factor * r, 2.0 * o.apriori_misalignment_m); }
+
+std::int64_t cellKey(const Vec3& p, double cell) {
+  const auto q = [cell](double v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
+  return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
+}
+
+/// One strip's points at the mounting used, their plan spacing and bounding box.
+struct StripRef {
+  std::vector<Vec3> x0;
+  double spacing = 0.0;
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+};
+
+StripRef stripRef(const CalibrationData& data, const StripData& st) {
+  if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
+    throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
+  }
+  StripRef ref;
+  ref.x0 = referencePoints(data, st, data.mounting_used);
+  ref.spacing = planSpacing(ref.x0);
+  for (const Vec3& p : ref.x0) ref.lo = ref.lo.cwiseMin(p), ref.hi = ref.hi.cwiseMax(p);
+  return ref;
+}
+
+bool boxesMeet(const StripRef& A, const StripRef& B, double margin) {
+  for (int c = 0; c < 3; ++c)
+    if (A.lo[c] > B.hi[c] + margin || B.lo[c] > A.hi[c] + margin) return false;
+  return !A.x0.empty() && !B.x0.empty();
+}
+
+/// The voxels holding a point of x and their 26 neighbours (a coarse hull dilated by one voxel
+/// for the misalignment).
+std::unordered_set<std::int64_t> dilatedHull(const std::vector<Vec3>& x, double voxel) {
+  std::unordered_set<std::int64_t> occupied, hull;
+  for (const Vec3& p : x) {
+    if (!occupied.insert(cellKey(p, voxel)).second) continue;
+    const Vec3 c((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel, (std::floor(p.z() / voxel) + 0.5) * voxel);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) hull.insert(cellKey(c + Vec3(dx, dy, dz) * voxel, voxel));
+  }
+  return hull;
+}
+
+/// A k-d tree over some points of a strip (their strip indices kept), exact k nearest.
+class PointTree {
+ public:
+  PointTree(const std::vector<Vec3>& x, std::vector<std::size_t> indices) : index_(std::move(indices)) {
+    xyz_.resize(3 * index_.size());
+    for (std::size_t k = 0; k < index_.size(); ++k)
+      for (int c = 0; c < 3; ++c) xyz_[3 * k + static_cast<std::size_t>(c)] = x[index_[k]][c];
+    if (index_.size() < 3) return;
+    flann::Matrix<double> mat(xyz_.data(), index_.size(), 3);
+    tree_ = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
+    tree_->buildIndex();
+  }
+  /// Strip indices of the k nearest of p within `radius`, nearest first.
+  void nearest(const Vec3& p, std::size_t k, double radius, std::vector<std::size_t>* out) {
+    out->clear();
+    if (!tree_) return;
+    k = std::min(k, index_.size());
+    I_.resize(k);
+    D_.resize(k);
+    double q[3] = {p.x(), p.y(), p.z()};
+    flann::Matrix<double> query(q, 1, 3);
+    flann::Matrix<std::size_t> I(I_.data(), 1, k);
+    flann::Matrix<double> D(D_.data(), 1, k);
+    tree_->knnSearch(query, I, D, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+    for (std::size_t j = 0; j < k; ++j)
+      if (D_[j] <= radius * radius) out->push_back(index_[I_[j]]);
+  }
+  /// Strip indices of every point within `radius` of p (any order).
+  void within(const Vec3& p, double radius, std::vector<std::size_t>* out) {
+    out->clear();
+    if (!tree_) return;
+    double q[3] = {p.x(), p.y(), p.z()};
+    flann::Matrix<double> query(q, 1, 3);
+    std::vector<std::vector<std::size_t>> I;
+    std::vector<std::vector<double>> D;
+    flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
+    params.sorted = false;
+    tree_->radiusSearch(query, I, D, static_cast<float>(radius * radius), params);
+    for (std::size_t j : I[0]) out->push_back(index_[j]);
+  }
+  bool empty() const { return !tree_; }
+
+ private:
+  std::vector<std::size_t> index_;
+  std::vector<double> xyz_;
+  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree_;
+  std::vector<std::size_t> I_;
+  std::vector<double> D_;
+};
+
+/// The candidate neighbourhoods of strips a and b (see PairCandidates).
+PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const StripRef& A, const StripRef& B, const CorrespondenceOptions& o) {
+  const StripData& SA = data.strips[static_cast<std::size_t>(ia)];
+  const StripData& SB = data.strips[static_cast<std::size_t>(ib)];
+  PairCandidates pc;
+  pc.strip_a = SA.id;
+  pc.strip_b = SB.id;
+  pc.spacing_a_m = A.spacing;
+  pc.spacing_b_m = B.spacing;
+  const double r = pairRadius(o, A.spacing, B.spacing);
+  pc.radius_m = r;
+  const double voxel = pairVoxel(o, r);
+  if (!boxesMeet(A, B, 2 * voxel)) return pc;
+  // A point of one strip is in the overlap where the other's dilated hull holds it.
+  const std::unordered_set<std::int64_t> hull_a = dilatedHull(A.x0, voxel), hull_b = dilatedHull(B.x0, voxel);
+  const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * r;
+  std::vector<std::size_t> act_a, act_b;
+  // Samples of A in the overlap: one per sample cell (the point nearest its centre in plan:
+  // a choice by height would pick the points with the largest upward noise).
+  std::map<std::int64_t, std::pair<double, std::size_t>> cells;
+  for (std::size_t i = 0; i < A.x0.size(); ++i) {
+    const Vec3& p = A.x0[i];
+    if (!hull_b.count(cellKey(p, voxel))) continue;
+    act_a.push_back(i);
+    const Vec3 q = p / sample;
+    const Vec3 f(std::floor(q.x()), std::floor(q.y()), std::floor(q.z()));
+    const std::int64_t k = ((static_cast<std::int64_t>(f.x()) & 0x1fffff) << 42) | ((static_cast<std::int64_t>(f.y()) & 0x1fffff) << 21) |
+                           (static_cast<std::int64_t>(f.z()) & 0x1fffff);
+    const double d = (q - f - Vec3::Constant(0.5)).head<2>().squaredNorm();
+    auto it = cells.find(k);
+    if (it == cells.end() || d < it->second.first) cells[k] = {d, i};
+  }
+  if (act_a.empty()) return pc;
+  for (std::size_t i = 0; i < B.x0.size(); ++i)
+    if (hull_a.count(cellKey(B.x0[i], voxel))) act_b.push_back(i);
+  pc.overlap = true;
+  pc.overlap_points = act_a.size() + act_b.size();
+  std::vector<std::size_t> samples;
+  for (const auto& c : cells) samples.push_back(c.second.second);
+  std::sort(samples.begin(), samples.end());
+  PointTree tree_a(A.x0, act_a), tree_b(B.x0, act_b);
+  const auto K = static_cast<std::size_t>(o.max_neighbours);
+  const auto min_n = static_cast<std::size_t>(o.min_neighbours);
+  const double search_first = std::max(r, firstGate(o, r));  // the first round's neighbour radius
+  std::vector<std::size_t> na, nb, around;
+  std::vector<std::size_t> kept, ub;
+  for (std::size_t i : samples) {
+    tree_b.nearest(A.x0[i], K, search_first, &nb);
+    tree_a.nearest(A.x0[i], K, r, &na);
+    if (nb.size() < min_n || na.size() < min_n) {
+      ++pc.sparse_samples;
+      continue;
+    }
+    const PlaneFit fa = fitPlane(na.size(), [&](std::size_t j) { return A.x0[na[j]]; });
+    kept.push_back(i);
+    pc.normal_a.push_back(fa.normal);
+    pc.spread_a.push_back(fa.spread_ratio);
+    // B's points a later matching can take as the sample's neighbours: within the K-th
+    // neighbour's distance plus the largest discrepancy expected between the strips.
+    const double d_k = (B.x0[nb.back()] - A.x0[i]).norm();
+    tree_b.within(A.x0[i], d_k + o.apriori_misalignment_m, &around);
+    ub.insert(ub.end(), around.begin(), around.end());
+  }
+  std::sort(ub.begin(), ub.end());
+  ub.erase(std::unique(ub.begin(), ub.end()), ub.end());
+  // Poses without a cursor: at a trajectory sample's own time the interval a cursor lands in
+  // can differ in the last bit; the solve from a pair file looks the time up the same way.
+  auto point = [&](const StripData& S, const StripRef& R, std::size_t i) {
+    PairPoint q;
+    q.index = i;
+    q.time_s = S.time_s[i];
+    q.x0_m = R.x0[i];
+    q.R_mb = data.pose(S, i).R_mb;
+    q.r_s_m = S.r_s[i];
+    return q;
+  };
+  pc.attitudes_stored = !SA.poses.empty() || !SB.poses.empty();
+  for (std::size_t i : kept) pc.samples_a.push_back(point(SA, A, i));
+  for (std::size_t i : ub) pc.points_b.push_back(point(SB, B, i));
+  return pc;
+}
+
+}  // namespace
+
+/// The matching machinery: every overlapping pair's candidate neighbourhoods — found once,
+/// from the strips (pairs on all threads) or given (a workflow's pair files) — and the
+/// matchings at each round's mounting, which select from them.
 class Matcher {
  public:
-  Matcher(const CalibrationData& data, const CorrespondenceOptions& o) : data_(data), o_(o) {
+  /// A correspondence's points in its pair's tables.
+  struct Ref {
+    int pair = 0;
+    std::uint32_t a = 0;
+    std::vector<std::uint32_t> b;
+  };
+
+  Matcher(const CalibrationData& data, const CorrespondenceOptions& o, int threads) : data_(data), o_(o), threads_(threads) {
     std::string why;
     if (!o.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
-    data.requirePoses();
-    const std::size_t n_strips = data.strips.size();
-    x0_.resize(n_strips);
-    std::vector<double> spacing(n_strips, 0.0);
-    for (std::size_t s = 0; s < n_strips; ++s) {
-      const StripData& st = data.strips[s];
-      if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
-        throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
+    if (data.correspondence_candidates) {
+      takeGiven(*data.correspondence_candidates);
+    } else {
+      data.requirePoses();
+      std::vector<StripRef> refs(data.strips.size());
+      parallelFor(refs.size(), threads_, [&](std::size_t s) { refs[s] = stripRef(data, data.strips[s]); });
+      const std::vector<std::pair<int, int>> candidates = pairsOf(data, refs, o);
+      std::vector<PairCandidates> found(candidates.size());
+      parallelFor(found.size(), threads_, [&](std::size_t k) {
+        found[k] = extractPair(data, candidates[k].first, candidates[k].second, refs[static_cast<std::size_t>(candidates[k].first)],
+                               refs[static_cast<std::size_t>(candidates[k].second)], o);
+      });
+      for (std::size_t k = 0; k < found.size(); ++k) {
+        if (!found[k].overlap) continue;
+        index_.push_back(candidates[k]);
+        pairs_.push_back(std::move(found[k]));
       }
-      x0_[s] = referencePoints(data, st, data.mounting_used);
-      spacing[s] = planSpacing(x0_[s]);
-      spacing_ = std::max(spacing_, spacing[s]);
     }
-    // The radius of a pair: from the coarser strip of the two.
-    auto radiusOf = [&](std::size_t a, std::size_t b) {
-      return o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * std::max(spacing[a], spacing[b]));
-    };
+    for (const PairCandidates& p : pairs_) spacing_ = std::max({spacing_, p.spacing_a_m, p.spacing_b_m});
+    // Each pair's k-d tree of B's points at the mounting used, for every matching.
+    trees_.resize(pairs_.size());
+    parallelFor(pairs_.size(), threads_, [&](std::size_t k) {
+      std::vector<Vec3> x0(pairs_[k].points_b.size());
+      std::vector<std::size_t> all(x0.size());
+      for (std::size_t j = 0; j < x0.size(); ++j) x0[j] = pairs_[k].points_b[j].x0_m, all[j] = j;
+      trees_[k] = std::make_unique<PointTree>(x0, std::move(all));
+    });
     r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing_);
-    const double voxel = o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r_);
-    // Coarse voxel hulls at the mounting used; a pair overlaps where the hulls meet (dilated by
-    // one voxel for the misalignment).
-    auto vkey = [voxel](const Vec3& p) {
-      const auto q = [voxel](double v) { return static_cast<std::int64_t>(std::floor(v / voxel)) & 0x1fffff; };
-      return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
-    };
-    // Each strip's occupied voxels, dilated by one voxel: one look-up per point and strip.
-    std::vector<std::unordered_set<std::int64_t>> hull(n_strips);
-    for (std::size_t s = 0; s < n_strips; ++s) {
-      std::unordered_set<std::int64_t> occupied;
-      std::vector<Vec3> centres;
-      for (const Vec3& p : x0_[s]) {
-        if (occupied.insert(vkey(p)).second) {
-          centres.push_back(Vec3((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel,
-                                 (std::floor(p.z() / voxel) + 0.5) * voxel));
-        }
-      }
-      for (const Vec3& c : centres)
-        for (int dx = -1; dx <= 1; ++dx)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz) hull[s].insert(vkey(c + Vec3(dx, dy, dz) * voxel));
-    }
-    auto dilated = [&](std::size_t s, const Vec3& p) { return hull[s].count(vkey(p)) > 0; };
-    active_.resize(n_strips);
-    std::vector<std::vector<char>> in_overlap(n_strips);
-    for (std::size_t s = 0; s < n_strips; ++s) in_overlap[s].assign(x0_[s].size(), 0);
-    for (std::size_t a = 0; a < n_strips; ++a) {
-      for (std::size_t b = a + 1; b < n_strips; ++b) {
-        Pair pr;
-        pr.a = static_cast<int>(a);
-        pr.b = static_cast<int>(b);
-        pr.r = radiusOf(a, b);
-        const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * pr.r;
-        // Samples of A in the overlap: one per sample cell (the point nearest its centre).
-        std::map<std::int64_t, std::pair<double, std::size_t>> cells;
-        bool any = false;
-        for (std::size_t i = 0; i < x0_[a].size(); ++i) {
-          const Vec3& p = x0_[a][i];
-          if (!dilated(b, p)) continue;
-          any = true;
-          in_overlap[a][i] = 1;
-          const Vec3 q = p / sample;
-          const Vec3 f(std::floor(q.x()), std::floor(q.y()), std::floor(q.z()));
-          const std::int64_t k = ((static_cast<std::int64_t>(f.x()) & 0x1fffff) << 42) | ((static_cast<std::int64_t>(f.y()) & 0x1fffff) << 21) |
-                                 (static_cast<std::int64_t>(f.z()) & 0x1fffff);
-          // Nearest the cell's centre in plan: a choice by height would pick the points with
-          // the largest upward noise (the cell's centre is rarely at ground level).
-          const double d = (q - f - Vec3::Constant(0.5)).head<2>().squaredNorm();
-          auto it = cells.find(k);
-          if (it == cells.end() || d < it->second.first) cells[k] = {d, i};
-        }
-        if (!any) continue;
-        for (std::size_t i = 0; i < x0_[b].size(); ++i)
-          if (!in_overlap[b][i] && dilated(a, x0_[b][i])) in_overlap[b][i] = 1;
-        for (const auto& c : cells) pr.samples.push_back(c.second.second);
-        std::sort(pr.samples.begin(), pr.samples.end());
-        pairs_.push_back(std::move(pr));
-      }
-    }
-    for (std::size_t s = 0; s < n_strips; ++s) {
-      for (std::size_t i = 0; i < x0_[s].size(); ++i)
-        if (in_overlap[s][i]) active_[s].push_back(i);
-      // Poses of the active points, once (the trajectory does not change between rounds).
-      R_mb_.emplace_back(active_[s].size());
-      std::size_t cursor = 0;
-      for (std::size_t k = 0; k < active_[s].size(); ++k) R_mb_[s][k] = data.pose(data.strips[s], active_[s][k], &cursor).R_mb;
-      local_.emplace_back();
-      for (std::size_t k = 0; k < active_[s].size(); ++k) local_[s][active_[s][k]] = k;
-      // The k-d tree of the active points at the mounting used.
-      ref_.emplace_back(3 * active_[s].size());
-      for (std::size_t k = 0; k < active_[s].size(); ++k)
-        for (int c = 0; c < 3; ++c) ref_[s][3 * k + static_cast<std::size_t>(c)] = x0_[s][active_[s][k]][c];
-      tree_.emplace_back();
-      if (active_[s].size() >= 3) {
-        flann::Matrix<double> mat(ref_[s].data(), active_[s].size(), 3);
-        tree_[s] = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
-        tree_[s]->buildIndex();
-      }
-    }
   }
-  Vec3 ref_xyz(std::size_t s, std::size_t k) const { return Vec3(ref_[s][3 * k], ref_[s][3 * k + 1], ref_[s][3 * k + 2]); }
+
+  static std::vector<std::pair<int, int>> pairsOf(const CalibrationData& data, const std::vector<StripRef>& refs, const CorrespondenceOptions& o) {
+    std::vector<std::pair<int, int>> out;
+    for (std::size_t a = 0; a < refs.size(); ++a)
+      for (std::size_t b = a + 1; b < refs.size(); ++b)
+        if (boxesMeet(refs[a], refs[b], 2 * pairVoxel(o, pairRadius(o, refs[a].spacing, refs[b].spacing))))
+          out.emplace_back(static_cast<int>(a), static_cast<int>(b));
+    (void)data;
+    return out;
+  }
 
   double spacing() const { return spacing_; }
-  const std::vector<Vec3>& x0(int s) const { return x0_[static_cast<std::size_t>(s)]; }
-  const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][local_[static_cast<std::size_t>(s)].at(i)]; }
+  const PairCandidates& pair(int k) const { return pairs_[static_cast<std::size_t>(k)]; }
+  const std::vector<Ref>& refs() const { return refs_; }
 
   /// One matching at mounting m. The first round of an estimation (at the mounting used)
   /// gates distances at max(3 r, 2 × the a-priori misalignment) and applies no MAD rejection
@@ -161,80 +296,62 @@ class Matcher {
   /// the horizontal information); later rounds gate at 3 r and reject beyond 3 σ_MAD.
   CorrespondenceSet match(const std::array<double, 6>& m, bool first_round) {
     const auto t0 = std::chrono::steady_clock::now();
+    refs_.clear();
     CorrespondenceSet out;
     out.radius_m = r_;
     out.spacing_m = spacing_;
     out.max_distance_m = 0;
     const MountingParameters& used = data_.mounting_used;
     const MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m.data());
-    const std::size_t n_strips = x0_.size();
-    // Active points at m and their k-d trees (3-D).
-    // Active points at m. The k-d trees hold the points at the mounting used (built once): a
-    // query at p in strip s is moved back by the displacement of s's point nearest p, so the
-    // neighbours found are those at m up to the displacement's variation across a
-    // neighbourhood (a rotation of a few 1e-3 rad over a few metres: millimetres); their
-    // positions at m are then used as they are.
-    std::vector<std::vector<Vec3>> xyz(n_strips);
-    for (std::size_t s = 0; s < n_strips; ++s) {
-      const auto& act = active_[s];
-      xyz[s].resize(act.size());
-      for (std::size_t k = 0; k < act.size(); ++k) xyz[s][k] = x0_[s][act[k]] + motion.displacement(R_mb_[s][k], data_.strips[s].r_s[act[k]]);
-      out.points_searched += act.size();
-    }
-    auto point = [&](std::size_t s, std::size_t k) -> const Vec3& { return xyz[s][k]; };
-    const auto knn = static_cast<std::size_t>(o_.max_neighbours);
-    std::vector<std::size_t> I_buf(knn);
-    std::vector<double> D_buf(knn);
-    const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
-    auto search = [&](std::size_t s, const Vec3& q_ref, std::size_t k) {
-      double q[3] = {q_ref.x(), q_ref.y(), q_ref.z()};
-      flann::Matrix<double> query(q, 1, 3);
-      flann::Matrix<std::size_t> I(I_buf.data(), 1, k);
-      flann::Matrix<double> D(D_buf.data(), 1, k);
-      tree_[s]->knnSearch(query, I, D, k, params);
-    };
-    // k nearest of strip s around p (at m) within `radius`; `p_ref` when p's own position at
-    // the mounting used is known (a point of s itself).
-    auto neighbours = [&](std::size_t s, const Vec3& p, double radius, std::vector<std::size_t>* idx, const Vec3* p_ref = nullptr) {
-      idx->clear();
-      if (!tree_[s]) return;
-      Vec3 q = p_ref ? *p_ref : p;
-      if (!p_ref) {
-        search(s, p, 1);
-        q = p - (xyz[s][I_buf[0]] - ref_xyz(s, I_buf[0]));
-      }
-      const std::size_t k = std::min(knn, active_[s].size());
-      search(s, q, k);
-      for (std::size_t j = 0; j < k; ++j)
-        if ((xyz[s][I_buf[j]] - p).squaredNorm() <= radius * radius) idx->push_back(I_buf[j]);
-    };
     struct Candidate {
       Correspondence c;
-      int pair;
+      Ref ref;
     };
-    std::vector<Candidate> cand;
     out.pairs.resize(pairs_.size());
-    std::vector<std::size_t> nb, na;
-    for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
-      const Pair& pr = pairs_[pi];
+    std::vector<std::vector<Candidate>> per_pair(pairs_.size());
+    std::vector<double> gates(pairs_.size(), 0.0);
+    // Each pair on its own thread: its points at m, then every sample (selection from the
+    // candidate neighbourhoods, the plane fits and the gates). Slots merged in pair order.
+    parallelFor(pairs_.size(), threads_, [&](std::size_t pi) {
+      const PairCandidates& pr = pairs_[pi];
       CorrespondencePairStats& st = out.pairs[pi];
-      st.strip_a = data_.strips[static_cast<std::size_t>(pr.a)].id;
-      st.strip_b = data_.strips[static_cast<std::size_t>(pr.b)].id;
-      st.samples = static_cast<int>(pr.samples.size());
-      const auto a = static_cast<std::size_t>(pr.a), b = static_cast<std::size_t>(pr.b);
-      const double gate_m = first_round ? std::max(o_.max_distance_factor * pr.r, 2.0 * o_.apriori_misalignment_m)
-                                        : o_.max_distance_factor * pr.r;
-      out.max_distance_m = std::max(out.max_distance_m, gate_m);
-      const double search_r = std::max(pr.r, gate_m);
-      for (std::size_t ia : pr.samples) {
-        const Vec3 p = point(a, local_[a].at(ia));
-        neighbours(b, p, search_r, &nb);
+      st.strip_a = pr.strip_a;
+      st.strip_b = pr.strip_b;
+      st.samples = static_cast<int>(pr.samples());
+      st.rejected_sparse = pr.sparse_samples;
+      const double r = pr.radius_m;
+      const double gate_m = first_round ? firstGate(o_, r) : o_.max_distance_factor * r;
+      gates[pi] = gate_m;
+      const double search_r = std::max(r, gate_m);
+      PointTree& tree = *trees_[pi];
+      std::vector<std::size_t> found;
+      std::vector<Vec3> xb(pr.points_b.size());
+      for (std::size_t k = 0; k < xb.size(); ++k) xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
+      const auto K = static_cast<std::size_t>(o_.max_neighbours);
+      std::vector<std::uint32_t> nb;
+      for (std::size_t k = 0; k < pr.samples_a.size(); ++k) {
+        const PairPoint& qa = pr.samples_a[k];
+        const Vec3 p = qa.x0_m + motion.displacement(qa.R_mb, qa.r_s_m);
+        // B: its K points nearest p at m, within the search radius. The tree holds B at the
+        // mounting used: the query moves back by the displacement of B's point nearest p, so
+        // the neighbours found are those at m up to the displacement's variation across a
+        // neighbourhood (a rotation of a few 1e-3 rad over a few metres: millimetres).
+        tree.nearest(p, 1, 1e300, &found);
+        if (found.empty()) {
+          ++st.rejected_sparse;
+          continue;
+        }
+        const Vec3 q = p - (xb[found[0]] - pr.points_b[found[0]].x0_m);
+        tree.nearest(q, K, 1e300, &found);
+        nb.clear();
+        for (std::size_t t : found)
+          if ((xb[t] - p).squaredNorm() <= search_r * search_r) nb.push_back(static_cast<std::uint32_t>(t));
         if (static_cast<int>(nb.size()) < o_.min_neighbours) {
           ++st.rejected_sparse;
           continue;
         }
-        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t k) { return point(b, nb[k]); });
-        if (fb.sigma_m > o_.max_roughness_factor * pr.r || fb.spread_ratio < o_.min_spread_ratio) {
+        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t j) { return xb[nb[j]]; });
+        if (fb.sigma_m > o_.max_roughness_factor * r || fb.spread_ratio < o_.min_spread_ratio) {
           ++st.rejected_rough;
           continue;
         }
@@ -243,33 +360,36 @@ class Matcher {
           ++st.rejected_far;
           continue;
         }
-        const Vec3 p_ref = ref_xyz(a, local_[a].at(ia));
-        neighbours(a, p, pr.r, &na, &p_ref);
-        if (static_cast<int>(na.size()) < o_.min_neighbours) {
-          ++st.rejected_sparse;
-          continue;
-        }
-        const PlaneFit fa = fitPlane(na.size(), [&](std::size_t k) { return point(a, na[k]); });
-        if (fa.spread_ratio < o_.min_spread_ratio) {
+        // A's own plane (at the mounting used: A's points move together).
+        if (pr.spread_a[k] < o_.min_spread_ratio) {
           ++st.rejected_rough;
           continue;
         }
-        if (angleDeg(fa.normal, fb.normal) > o_.max_normal_angle_deg) {
+        if (angleDeg(pr.normal_a[k], fb.normal) > o_.max_normal_angle_deg) {
           ++st.rejected_normal;
           continue;
         }
         Candidate c;
-        c.pair = static_cast<int>(pi);
-        c.c.strip_a = pr.a;
-        c.c.strip_b = pr.b;
-        c.c.point_a = ia;
-        for (std::size_t k : nb) c.c.points_b.push_back(active_[b][k]);
+        c.ref.pair = static_cast<int>(pi);
+        c.ref.a = static_cast<std::uint32_t>(k);
+        c.ref.b = nb;
+        c.c.strip_a = index_[pi].first;
+        c.c.strip_b = index_[pi].second;
+        c.c.point_a = static_cast<std::size_t>(qa.index);
+        for (std::uint32_t t : nb) c.c.points_b.push_back(static_cast<std::size_t>(pr.points_b[t].index));
         c.c.normal = fb.normal;
         c.c.distance_m = d;
         c.c.roughness_m = fb.sigma_m;
-        cand.push_back(std::move(c));
+        per_pair[pi].push_back(std::move(c));
       }
+    });
+    std::vector<Candidate> cand;
+    for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
+      out.points_searched += pairs_[pi].overlap_points;
+      out.max_distance_m = std::max(out.max_distance_m, gates[pi]);
+      for (Candidate& c : per_pair[pi]) cand.push_back(std::move(c));
     }
+    auto pairOf = [](const Candidate& c) { return static_cast<std::size_t>(c.ref.pair); };
     // Rough relative to the typical plane: neighbourhoods across a ridge, an eave or a wall
     // edge fit a plane with a σ well above the noise (and a distance biased by the edge).
     std::vector<double> rough;
@@ -279,7 +399,7 @@ class Matcher {
       const double limit = std::max(o_.max_roughness_relative * rough[rough.size() / 2], 0.005);
       std::vector<Candidate> kept;
       for (auto& c : cand) {
-        if (c.c.roughness_m > limit) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_rough;
+        if (c.c.roughness_m > limit) ++out.pairs[pairOf(c)].rejected_rough;
         else kept.push_back(std::move(c));
       }
       cand.swap(kept);
@@ -331,7 +451,7 @@ class Matcher {
       std::vector<Candidate> kept;
       for (auto& c : cand) {
         const auto k = static_cast<std::size_t>(tiltClass(c.c.normal));
-        if (std::abs(c.c.distance_m - med[k]) > lim[k]) ++out.pairs[static_cast<std::size_t>(c.pair)].rejected_mad;
+        if (std::abs(c.c.distance_m - med[k]) > lim[k]) ++out.pairs[pairOf(c)].rejected_mad;
         else kept.push_back(std::move(c));
       }
       cand.swap(kept);
@@ -367,10 +487,11 @@ class Matcher {
       }
     }
     for (std::size_t i = 0; i < cand.size(); ++i) {
-      CorrespondencePairStats& st = out.pairs[static_cast<std::size_t>(cand[i].pair)];
+      CorrespondencePairStats& st = out.pairs[pairOf(cand[i])];
       if (take[i]) {
         ++st.kept;
         out.correspondences.push_back(std::move(cand[i].c));
+        refs_.push_back(std::move(cand[i].ref));
       } else {
         ++st.rejected_budget;
       }
@@ -379,31 +500,74 @@ class Matcher {
     return out;
   }
 
-
  private:
-  struct Pair {
-    int a = 0, b = 0;
-    double r = 0;                      // plane-fit radius of the pair [m]
-    std::vector<std::size_t> samples;  // indices into strip a
-  };
+  /// Pair files: each pair's strips by id, in strip order, once.
+  void takeGiven(const std::vector<PairCandidates>& given) {
+    std::map<std::string, int> by_id;
+    for (std::size_t s = 0; s < data_.strips.size(); ++s) by_id[data_.strips[s].id] = static_cast<int>(s);
+    std::vector<std::pair<std::pair<int, int>, const PairCandidates*>> order;
+    for (const PairCandidates& p : given) {
+      auto a = by_id.find(p.strip_a), b = by_id.find(p.strip_b);
+      if (a == by_id.end() || b == by_id.end())
+        throw InvalidInput("correspondence candidates of strips '" + p.strip_a + "' and '" + p.strip_b + "': the job has no strip '" +
+                           (a == by_id.end() ? p.strip_a : p.strip_b) + "'");
+      if (a->second >= b->second)
+        throw InvalidInput("correspondence candidates of strips '" + p.strip_a + "' and '" + p.strip_b +
+                           "': the strips must be in the job's order (match the pair as '" + p.strip_b + "' '" + p.strip_a + "')");
+      if (!p.overlap) continue;
+      order.push_back({{a->second, b->second}, &p});
+    }
+    std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (std::size_t k = 1; k < order.size(); ++k)
+      if (order[k].first == order[k - 1].first)
+        throw InvalidInput("correspondence candidates of strips '" + order[k].second->strip_a + "' and '" + order[k].second->strip_b + "' given twice");
+    for (const auto& e : order) {
+      index_.push_back(e.first);
+      pairs_.push_back(*e.second);
+    }
+  }
+
   const CalibrationData& data_;
   CorrespondenceOptions o_;
-  std::vector<std::vector<Vec3>> x0_;
-  std::vector<std::vector<std::size_t>> active_;
-  std::vector<std::vector<Mat3>> R_mb_;
-  std::vector<std::unordered_map<std::size_t, std::size_t>> local_;
-  std::vector<std::vector<double>> ref_;  // active points at the mounting used, xyz
-  std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<double>>>> tree_;
-  std::vector<Pair> pairs_;
+  int threads_ = 0;
+  std::vector<std::pair<int, int>> index_;  // strip indices of each pair
+  std::vector<PairCandidates> pairs_;
+  std::vector<std::unique_ptr<PointTree>> trees_;
+  std::vector<Ref> refs_;                   // of the last matching's correspondences
   double spacing_ = 0, r_ = 0;
 };
 
 }  // namespace detail
 
+void PairCandidates::attitudesFrom(const Trajectory& trajectory) {
+  for (auto* table : {&samples_a, &points_b})
+    for (PairPoint& q : *table) q.R_mb = trajectory.pose(q.time_s).R_mb;
+}
+
 CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
-                                      const CorrespondenceOptions& options, bool first_round) {
-  detail::Matcher matcher(data, options);
+                                      const CorrespondenceOptions& options, bool first_round, int threads) {
+  detail::Matcher matcher(data, options, threads);
   return matcher.match(mounting, first_round);
+}
+
+std::vector<std::pair<int, int>> candidateStripPairs(const CalibrationData& data, const CorrespondenceOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
+  data.requirePoses();
+  std::vector<detail::StripRef> refs(data.strips.size());
+  detail::parallelFor(refs.size(), 0, [&](std::size_t s) { refs[s] = detail::stripRef(data, data.strips[s]); });
+  return detail::Matcher::pairsOf(data, refs, options);
+}
+
+PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, const CorrespondenceOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
+  const int n = static_cast<int>(data.strips.size());
+  if (a < 0 || b < 0 || a >= n || b >= n || a == b) throw InvalidInput("findPairCandidates: strips " + std::to_string(a) + " and " + std::to_string(b) + " are not two strips of the data");
+  data.requirePoses();
+  const detail::StripRef A = detail::stripRef(data, data.strips[static_cast<std::size_t>(a)]);
+  const detail::StripRef B = detail::stripRef(data, data.strips[static_cast<std::size_t>(b)]);
+  return detail::extractPair(data, a, b, A, B, options);
 }
 
 namespace {
@@ -456,8 +620,8 @@ struct CorrespondenceResidual {
 
 CorrespondenceObservations::~CorrespondenceObservations() = default;
 
-CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options)
-    : data_(data), options_(options) {
+CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options, int threads)
+    : data_(data), options_(options), threads_(threads) {
   std::string why;
   if (!options_.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
 }
@@ -552,7 +716,7 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
     addDenseBlocks(mounting, P);
     return;
   }
-  if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_);
+  if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
   detail::Matcher& matcher = *matcher_;
   set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray());
   ++section_.rounds;
@@ -564,26 +728,29 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   ceres::NumericDiffOptions nd;
   nd.relative_step_size = P->numericDiffRelativeStep();
   blocks_.clear();
-  for (const Correspondence& c : set_.correspondences) {
+  for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
+    const Correspondence& c = set_.correspondences[k];
+    const detail::Matcher::Ref& ref = matcher.refs()[k];
+    const PairCandidates& pr = matcher.pair(ref.pair);
     auto* f = new CorrespondenceResidual;
-    const StripData& A = data_.strips[static_cast<std::size_t>(c.strip_a)];
-    const StripData& B = data_.strips[static_cast<std::size_t>(c.strip_b)];
     const Vec3& n = c.normal;
     Vec3 cb = Vec3::Zero(), hb = Vec3::Zero();
     Eigen::Matrix<double, 9, 1> gb = Eigen::Matrix<double, 9, 1>::Zero();
-    for (std::size_t j : c.points_b) {
-      cb += matcher.x0(c.strip_b)[j];
-      const Vec3 nR = matcher.R_mb(c.strip_b, j).transpose() * n;
+    for (std::uint32_t j : ref.b) {
+      const PairPoint& q = pr.points_b[j];
+      cb += q.x0_m;
+      const Vec3 nR = q.R_mb.transpose() * n;
       hb += nR;
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) gb[3 * k + l] += nR[k] * B.r_s[j][l];
+      for (int kk = 0; kk < 3; ++kk)
+        for (int l = 0; l < 3; ++l) gb[3 * kk + l] += nR[kk] * q.r_s_m[l];
     }
-    const double kb = static_cast<double>(c.points_b.size());
-    const Vec3 nRa = matcher.R_mb(c.strip_a, c.point_a).transpose() * n;
-    for (int k = 0; k < 3; ++k)
-      for (int l = 0; l < 3; ++l) f->g[3 * k + l] = nRa[k] * A.r_s[c.point_a][l] - gb[3 * k + l] / kb;
+    const double kb = static_cast<double>(ref.b.size());
+    const PairPoint& qa = pr.samples_a[ref.a];
+    const Vec3 nRa = qa.R_mb.transpose() * n;
+    for (int kk = 0; kk < 3; ++kk)
+      for (int l = 0; l < 3; ++l) f->g[3 * kk + l] = nRa[kk] * qa.r_s_m[l] - gb[3 * kk + l] / kb;
     f->h = nRa - hb / kb;
-    f->c0 = n.dot(matcher.x0(c.strip_a)[c.point_a] - cb / kb);
+    f->c0 = n.dot(qa.x0_m - cb / kb);
     f->n = n;
     f->used = &data_.mounting_used;
     f->R_bs_used = R_bs_used;
@@ -601,11 +768,21 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
     finishDense(m0, m, P, analysis);
     return;
   }
-  detail::Matcher& matcher = *matcher_;
-  fillSection(P, [&](int s, std::size_t i) -> const Vec3& { return matcher.x0(s)[i]; });
+  // Before: each correspondence's distance at the mounting used (its points' x0).
+  const detail::Matcher& matcher = *matcher_;
+  std::vector<double> before(set_.correspondences.size());
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    const detail::Matcher::Ref& ref = matcher.refs()[k];
+    const PairCandidates& pr = matcher.pair(ref.pair);
+    Vec3 cb = Vec3::Zero();
+    for (std::uint32_t j : ref.b) cb += pr.points_b[j].x0_m;
+    cb /= static_cast<double>(ref.b.size());
+    before[k] = std::abs(set_.correspondences[k].normal.dot(pr.samples_a[ref.a].x0_m - cb));
+  }
+  fillSection(P, before);
 }
 
-void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const std::function<const Vec3&(int, std::size_t)>& before) {
+void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const std::vector<double>& distance_before_m) {
   section_.used = static_cast<int>(set_.correspondences.size());
   section_.radius_m = set_.radius_m;
   section_.sigma_m = set_.sigma_m;
@@ -615,10 +792,7 @@ void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const s
   std::vector<double> all_b, all_a;
   for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
     const Correspondence& c = set_.correspondences[k];
-    Vec3 cb = Vec3::Zero();
-    for (std::size_t j : c.points_b) cb += before(c.strip_b, j);
-    cb /= static_cast<double>(c.points_b.size());
-    const double d_before = std::abs(c.normal.dot(before(c.strip_a, c.point_a) - cb));
+    const double d_before = distance_before_m[k];
     const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
     dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
     dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
@@ -649,7 +823,14 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
                                              const AnalysisOptions& /*analysis*/) {
   // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
   dense_->place(m0, {});
-  fillSection(P, [&](int s, std::size_t i) -> const Vec3& { return dense_->x(s, i); });
+  std::vector<double> before;
+  for (const Correspondence& c : set_.correspondences) {
+    Vec3 cb = Vec3::Zero();
+    for (std::size_t j : c.points_b) cb += dense_->x(c.strip_b, j);
+    cb /= static_cast<double>(c.points_b.size());
+    before.push_back(std::abs(c.normal.dot(dense_->x(c.strip_a, c.point_a) - cb)));
+  }
+  fillSection(P, before);
   // Per-laser elevation offsets: values, σ and correlation with the boresight (a-priori σ of
   // the distances; the mounting's own σ in the summary eliminates these offsets).
   const int L = static_cast<int>(laser_dl_.size());

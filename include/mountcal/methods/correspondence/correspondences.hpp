@@ -17,9 +17,11 @@
 /// `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 3, 3>`.
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
@@ -119,9 +121,74 @@ struct CorrespondenceSet {
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
 /// [m, rad]). `first_round`: the gates of a first matching before calibration (distance gate
 /// max(3 r, 2 × the a-priori misalignment), no MAD rejection); otherwise 3 r and 3 σ_MAD.
-/// Throws InvalidInput for invalid options or strips.
+/// `threads`: the pairs are searched on this many threads (0: every core); the result does
+/// not depend on it. Throws InvalidInput for invalid options or strips.
 CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
-                                      const CorrespondenceOptions& options, bool first_round = true);
+                                      const CorrespondenceOptions& options, bool first_round = true, int threads = 0);
+
+/// A point of a strip pair's candidate neighbourhoods, with what a matching at any mounting
+/// needs: its position at the mounting used, the IMU attitude that measured it and its laser
+/// vector (SPEC §2 eq. 1: x(M) = x0 + R_mb (ΔR_bs r_s + Δa_b)).
+struct PairPoint {
+  std::uint64_t index = 0;          ///< the point's index in its strip
+  double time_s = 0.0;              ///< its time [s]
+  Vec3 x0_m = Vec3::Zero();         ///< at the mounting used [m]
+  Mat3 R_mb = Mat3::Identity();     ///< body to mapping frame: the pose at time_s (or the point's own pose) [-]
+  Vec3 r_s_m = Vec3::Zero();        ///< laser vector in the scanner frame [m]
+};
+
+/// The candidate neighbourhoods of one strip pair (A, B), found from the two strips alone at
+/// the mounting used — the part of the correspondence search that does not depend on the
+/// mounting, and the work of one `mountcal match` job. For every sample of A in the pair's
+/// overlap: A's local plane there (normal and spread of its max_neighbours nearest within r, at
+/// the mounting used; A's points move together, so it holds at any mounting up to the
+/// mounting's rotation, well inside the normal-angle gate); and every point of B that a later
+/// matching can take as a neighbour of a sample — within the distance of the sample's
+/// max_neighbours-th nearest point of B plus `apriori_misalignment_m`. Every matching searches
+/// these points of B as the whole search would search all of B's, so a calibration from these
+/// sets (CalibrationData::correspondence_candidates) equals one that searched the strips itself,
+/// and both find the neighbours the full strips would give while A and B move against each
+/// other by less than the a-priori misalignment.
+struct PairCandidates {
+  std::string strip_a, strip_b;          ///< strip ids
+  bool overlap = false;                  ///< the pair's coarse voxel hulls meet
+  bool attitudes_stored = false;         ///< per-point poses: R_mb is data, not the trajectory's at time_s
+  double radius_m = 0.0;                 ///< r of the pair [m]
+  double spacing_a_m = 0.0, spacing_b_m = 0.0;  ///< each strip's point spacing [m]
+  std::uint64_t overlap_points = 0;      ///< A's and B's points in the overlap hulls
+  int sparse_samples = 0;                ///< samples with fewer than min_neighbours points near them (rejected as sparse)
+  std::vector<PairPoint> samples_a;      ///< the samples of A
+  std::vector<Vec3> normal_a;            ///< A's plane normal at each sample [-]
+  std::vector<double> spread_a;          ///< √(λ_mid/λ_max) of A's plane at each sample [-]
+  std::vector<PairPoint> points_b;       ///< B's points near the samples, in strip order
+  std::size_t samples() const { return samples_a.size() + static_cast<std::size_t>(sparse_samples); }
+  /// R_mb of every point from `trajectory` at its time (pair files of trajectory jobs store the
+  /// time, not the attitude).
+  void attitudesFrom(const Trajectory& trajectory);
+};
+
+/// Strip pairs (a < b, strip order) worth searching: their points' bounding boxes, grown by
+/// twice the pair's voxel, meet. A superset of the pairs whose hulls overlap.
+std::vector<std::pair<int, int>> candidateStripPairs(const CalibrationData& data, const CorrespondenceOptions& options);
+
+/// The candidate neighbourhoods of strips `a` and `b` of `data` (indices, a ≠ b). Throws
+/// InvalidInput for invalid options or strips.
+PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, const CorrespondenceOptions& options);
+
+/// The matching options a pair file records: a solve refuses candidates found with others.
+bool sameMatchingOptions(const CorrespondenceOptions& x, const CorrespondenceOptions& y);
+
+/// Pair files (`mountcal match --out`): PairCandidates in a documented little-endian binary
+/// format (README "Correspondence pair files"), with the matching options and the mounting
+/// used they were found with. Every double is stored exactly. Written through a temporary
+/// name; reading throws FileError naming the file and the byte offset where it went wrong.
+void writePairCandidates(const std::string& path, const PairCandidates& pair, const CorrespondenceOptions& options,
+                         const std::array<double, 6>& mounting_used);
+PairCandidates readPairCandidates(const std::string& path, CorrespondenceOptions* options = nullptr,
+                                  std::array<double, 6>* mounting_used = nullptr);
+/// The same from bytes in memory (`name` for messages; the fuzz target's entry).
+PairCandidates parsePairCandidates(const std::string& name, const std::uint8_t* data, std::size_t size,
+                                   CorrespondenceOptions* options = nullptr, std::array<double, 6>* mounting_used = nullptr);
 
 /// The residual section of the correspondences.
 struct CorrespondenceSection {
@@ -142,7 +209,8 @@ struct CorrespondenceSection {
 class CorrespondenceObservations final : public ObservationSource {
  public:
   /// Throws InvalidInput for invalid options or inconsistent strips.
-  CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options);
+  /// `threads`: the searches run on this many threads (0: every core); results do not depend on it.
+  CorrespondenceObservations(const CalibrationData& data, const CorrespondenceOptions& options, int threads = 0);
   ~CorrespondenceObservations() override;
 
   std::string kind() const override { return "correspondences"; }
@@ -158,6 +226,7 @@ class CorrespondenceObservations final : public ObservationSource {
  private:
   const CalibrationData& data_;
   CorrespondenceOptions options_;
+  int threads_ = 0;
   CorrespondenceSet set_;
   std::vector<int> blocks_;
   std::unique_ptr<detail::Matcher> matcher_;
@@ -171,9 +240,9 @@ class CorrespondenceObservations final : public ObservationSource {
   void addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem);
   void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
                    const AdjustmentProblem& problem, const AnalysisOptions& analysis);
-  // The section's distances: before from `before(strip, point)` (positions at the mounting
-  // used), after from the residuals.
-  void fillSection(const AdjustmentProblem& problem, const std::function<const Vec3&(int, std::size_t)>& before);
+  // The section's distances: before as given (each correspondence's at the mounting used),
+  // after from the residuals.
+  void fillSection(const AdjustmentProblem& problem, const std::vector<double>& distance_before_m);
   CorrespondenceSection section_;
 };
 

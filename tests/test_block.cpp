@@ -1,0 +1,290 @@
+// A block's calibration split into pair jobs, threads, and the Snakemake workflow (issue 13:
+// "Fast on one machine, and a block of thousands of strips on an existing workflow engine").
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "mountcal/mountcal.hpp"
+
+using namespace mountcal;
+using namespace mountcal::simulation;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The 12-strip block, simulated within 5 m of its features (a light block for the suites).
+const SimulatedSurvey& block() {
+  static const SimulatedSurvey s = [] {
+    Scene scene;
+    SurveyConfig c;
+    makeBlock(12, 7, &c, &scene);
+    c.roi_radius_m = 5.0;
+    return simulate(c, scene);
+  }();
+  return s;
+}
+
+MountingCalibrator::Options correspondenceOptions(int threads) {
+  MountingCalibrator::Options o;
+  o.methods = {CalibrationMethod::kCorrespondences};
+  o.estimate = {false, true, false, true, true, true};  // one height: lever x and z are not determined
+  o.threads = threads;
+  return o;
+}
+
+fs::path tempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("mountcal_block_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct ShellRun {
+  int code;
+  std::string out;
+};
+
+/// A shell command's exit code and its stdout and stderr together.
+ShellRun sh(const std::string& cmd) {
+  const fs::path log = fs::temp_directory_path() / ("mountcal_block_log_" + std::to_string(::getpid()));
+  const int status = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
+  ShellRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(log)};
+  fs::remove(log);
+  return r;
+}
+
+std::string cli() { return MOUNTCAL_CLI; }
+
+void expectSameMounting(const MountingParameters& a, const MountingParameters& b, double tol, const std::string& what) {
+  const auto x = a.toArray(), y = b.toArray();
+  for (int j = 0; j < 6; ++j) EXPECT_NEAR(x[j], y[j], tol) << what << ", parameter " << j;
+}
+
+}  // namespace
+
+TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
+  const CalibrationData d = toCalibrationData(block());
+  const auto o = correspondenceOptions(0);
+  const MountingCalibrator::Summary whole = calibrate(d, o);
+  ASSERT_TRUE(whole.IsSolutionUsable()) << whole.message;
+  ASSERT_GT(whole.correspondences.used, 500);
+  // Each pair from its two strips alone, through a pair file and back.
+  const fs::path dir = tempDir("pairs");
+  auto given = std::make_shared<std::vector<PairCandidates>>();
+  int overlapping = 0;
+  for (const auto& [a, b] : candidateStripPairs(d, o.correspondence)) {
+    CalibrationData two;
+    two.trajectory = d.trajectory;
+    two.mounting_used = d.mounting_used;
+    two.strips = {d.strips[static_cast<std::size_t>(a)], d.strips[static_cast<std::size_t>(b)]};
+    const PairCandidates p = findPairCandidates(two, 0, 1, o.correspondence);
+    const std::string file = (dir / (p.strip_a + "__" + p.strip_b + ".mcpair")).string();
+    writePairCandidates(file, p, o.correspondence, d.mounting_used.toArray());
+    CorrespondenceOptions read_options;
+    std::array<double, 6> read_mounting{};
+    PairCandidates q = readPairCandidates(file, &read_options, &read_mounting);
+    EXPECT_TRUE(sameMatchingOptions(read_options, o.correspondence));
+    EXPECT_EQ(read_mounting, d.mounting_used.toArray());
+    ASSERT_EQ(q.samples_a.size(), p.samples_a.size());
+    ASSERT_EQ(q.points_b.size(), p.points_b.size());
+    for (std::size_t k = 0; k < p.points_b.size(); k += 97) {
+      EXPECT_EQ(q.points_b[k].index, p.points_b[k].index);
+      EXPECT_EQ(q.points_b[k].x0_m, p.points_b[k].x0_m);
+      EXPECT_EQ(q.points_b[k].r_s_m, p.points_b[k].r_s_m);
+    }
+    q.attitudesFrom(*d.trajectory);  // the file holds times: attitudes from the trajectory, as the whole search took them
+    for (std::size_t k = 0; k < p.points_b.size(); k += 97) EXPECT_EQ(q.points_b[k].R_mb, p.points_b[k].R_mb);
+    overlapping += q.overlap;
+    given->push_back(std::move(q));
+  }
+  EXPECT_GT(overlapping, 30);  // 36 crossings and the side overlaps
+  CalibrationData from_files;
+  from_files.trajectory = d.trajectory;
+  from_files.mounting_used = d.mounting_used;
+  for (const StripData& s : d.strips) {
+    StripData id_only;
+    id_only.id = s.id;
+    from_files.strips.push_back(id_only);
+  }
+  from_files.correspondence_candidates = given;
+  const MountingCalibrator::Summary split = calibrate(from_files, o);
+  ASSERT_TRUE(split.IsSolutionUsable()) << split.message;
+  expectSameMounting(split.mounting, whole.mounting, 1e-9, "pair files against the whole search");
+  EXPECT_EQ(split.mounting.toArray(), whole.mounting.toArray());  // to the last bit, in fact
+  EXPECT_EQ(split.correspondences.used, whole.correspondences.used);
+  EXPECT_EQ(split.correspondences.rounds, whole.correspondences.rounds);
+  for (int j : {1, 3, 4, 5}) EXPECT_NEAR(split.sigma[j], whole.sigma[j], 1e-12 * whole.sigma[j]);  // the analysis rounds alike to 1e-16
+  // And the block calibrates: the boresight within a few σ of the truth (lever x held at zero
+  // moves pitch by 0.1 m / 300 m = 0.019°).
+  const Vec3 truth = block().config.true_mounting.boresightDeg(), got = whole.mounting.boresightDeg();
+  EXPECT_NEAR(got.x(), truth.x(), 0.003);
+  EXPECT_NEAR(got.y(), truth.y() + rad2deg(0.1 / 300.0), 0.01);
+  EXPECT_NEAR(got.z(), truth.z(), 0.01);
+  fs::remove_all(dir);
+}
+
+TEST(Block, ThreadsDoNotChangeTheResult) {
+  const CalibrationData d = toCalibrationData(block());
+  const CorrespondenceSet one = findCorrespondences(d, d.mounting_used.toArray(), CorrespondenceOptions{}, true, 1);
+  const CorrespondenceSet two = findCorrespondences(d, d.mounting_used.toArray(), CorrespondenceOptions{}, true, 2);
+  ASSERT_EQ(one.correspondences.size(), two.correspondences.size());
+  ASSERT_GT(one.correspondences.size(), 1000u);
+  for (std::size_t k = 0; k < one.correspondences.size(); ++k) {
+    const Correspondence &a = one.correspondences[k], &b = two.correspondences[k];
+    ASSERT_EQ(a.strip_a, b.strip_a);
+    ASSERT_EQ(a.point_a, b.point_a);
+    ASSERT_EQ(a.points_b, b.points_b);
+    ASSERT_EQ(a.distance_m, b.distance_m);
+  }
+  const auto S1 = calibrate(d, correspondenceOptions(1));
+  const auto S2 = calibrate(d, correspondenceOptions(2));
+  EXPECT_EQ(S1.mounting.toArray(), S2.mounting.toArray());
+  EXPECT_EQ(S1.final_cost, S2.final_cost);
+  EXPECT_EQ(S1.correspondences.rounds, S2.correspondences.rounds);
+}
+
+TEST(Block, PairFileErrorsNameTheFileAndTheByte) {
+  const CalibrationData d = toCalibrationData(block());
+  const CorrespondenceOptions o;
+  const auto pairs = candidateStripPairs(d, o);
+  ASSERT_FALSE(pairs.empty());
+  const PairCandidates p = findPairCandidates(d, pairs[0].first, pairs[0].second, o);
+  ASSERT_TRUE(p.overlap);
+  const fs::path dir = tempDir("errors");
+  const std::string good = (dir / "good.mcpair").string();
+  writePairCandidates(good, p, o, d.mounting_used.toArray());
+  const std::string bytes = slurp(good);
+  auto expectRefused = [&](const std::string& content, const std::string& needle) {
+    const std::string f = (dir / "bad.mcpair").string();
+    std::ofstream(f, std::ios::binary) << content;
+    try {
+      readPairCandidates(f);
+      ADD_FAILURE() << "accepted: " << needle;
+    } catch (const FileError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(f), std::string::npos) << m;
+      EXPECT_NE(m.find("byte"), std::string::npos) << m;
+      EXPECT_NE(m.find(needle), std::string::npos) << m;
+    }
+  };
+  expectRefused(bytes.substr(0, bytes.size() / 2), "truncated");
+  expectRefused("LASF" + bytes.substr(4), "MCPAIRS2");
+  expectRefused(bytes + "x", "after the end mark");
+  std::string huge = bytes;
+  const std::uint64_t n = 1ull << 60;  // the sample count: right after the options and mounting
+  const std::size_t at = 8 + 4 + 4 + p.strip_a.size() + 4 + p.strip_b.size() + 24 + 8 + 4 + 32 + 8 + 48;
+  std::memcpy(&huge[at], &n, 8);
+  expectRefused(huge, "do not fit");
+  // A folder of pair files: a missing pair, and files matched with other settings, are named.
+  const fs::path jobdir = tempDir("job");
+  writeSurvey(block(), jobdir.string(), SurveyWriteOptions{});
+  Job job = readJob((jobdir / "job.json").string());
+  job.options.methods = {CalibrationMethod::kCorrespondences};
+  const fs::path pairdir = jobdir / "pairs";
+  fs::create_directories(pairdir);
+  try {
+    loadJobFromPairFiles(job, pairdir.string());
+    ADD_FAILURE() << "an empty folder was accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("no pair file for strips"), std::string::npos) << e.what();
+  }
+  const auto job_pairs = jobStripPairs(job);
+  ASSERT_GE(job_pairs.size(), pairs.size());  // from the headers: a superset
+  CorrespondenceOptions other = job.options.correspondence;
+  other.max_neighbours += 1;
+  const PairCandidates q = jobPairCandidates(job, job_pairs[0].first, job_pairs[0].second);
+  writePairCandidates((pairdir / "x.mcpair").string(), q, other, job.mounting_used.toArray());
+  try {
+    loadJobFromPairFiles(job, pairdir.string());
+    ADD_FAILURE() << "other options accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("other correspondence options"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+  fs::remove_all(jobdir);
+}
+
+TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
+  // The test setup (scripts/test.sh) installs Snakemake: its absence is a failure here.
+  ASSERT_EQ(sh("snakemake --version").code, 0) << "snakemake is not installed (scripts/test.sh installs it)";
+  const fs::path dir = tempDir("snakemake");
+  {
+    std::ofstream sc(dir / "scenario.json");
+    sc << "{\"preset\": \"block\", \"seed\": 7, \"roi_radius_m\": 5}\n";
+  }
+  ShellRun r = sh(cli() + " simulate " + (dir / "scenario.json").string() + " --no-ties --out " + (dir / "block").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string job = (dir / "block" / "job.json").string();
+  r = sh(cli() + " calibrate " + job + " --result " + (dir / "serial.json").string() + " --quiet --threads 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string snake = "snakemake -s " + std::string(MOUNTCAL_SOURCE_DIR) + "/workflows/block/Snakefile --cores 2 --directory " +
+                            (dir / "run").string() + " --config job=" + job + " out=" + (dir / "wf").string() + " mountcal=" + cli();
+  r = sh(snake);
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto mounting = [](const fs::path& result) {
+    const nlohmann::json j = nlohmann::json::parse(slurp(result));
+    std::vector<double> v;
+    for (const char* k : {"lever_arm_m", "boresight_deg"})
+      for (double x : j["mounting"][k]) v.push_back(x);
+    return v;
+  };
+  const std::vector<double> serial = mounting(dir / "serial.json"), workflow = mounting(dir / "wf" / "result.json");
+  ASSERT_EQ(serial.size(), 6u);
+  for (int j = 0; j < 6; ++j) EXPECT_NEAR(workflow[j], serial[j], 1e-9) << "parameter " << j;
+  // Twelve strips applied, one job each, equal to applying the serial result to the whole job.
+  int strips = 0;
+  for (const auto& e : fs::directory_iterator(dir / "wf" / "strips")) strips += e.path().extension() == ".las";
+  EXPECT_EQ(strips, 12);
+  r = sh(cli() + " apply " + job + " --result " + (dir / "serial.json").string() + " --out " + (dir / "whole").string() + " --threads 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(slurp(dir / "wf" / "strips" / "strip_ew2.las"), slurp(dir / "whole" / "strip_ew2.las"));
+  EXPECT_EQ(slurp(dir / "wf" / "strips" / "strip_ns5.las"), slurp(dir / "whole" / "strip_ns5.las"));
+  // Delete one pair's file: the rerun matches that pair only, then solves and applies again.
+  const fs::path victim = dir / "wf" / "pairs" / "ew2__ns3.mcpair";
+  ASSERT_TRUE(fs::exists(victim));
+  const std::string before = slurp(victim);
+  fs::remove(victim);
+  r = sh(snake);
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto count = [&](const std::string& rule) {
+    std::size_t n = 0;
+    for (std::size_t at = r.out.find("rule " + rule + ":"); at != std::string::npos; at = r.out.find("rule " + rule + ":", at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count("match"), 1u) << r.out;
+  EXPECT_NE(r.out.find("wildcards: a=ew2, b=ns3"), std::string::npos) << r.out;
+  EXPECT_EQ(count("solve"), 1u);
+  EXPECT_EQ(slurp(victim), before);  // the same pair file again
+  const std::vector<double> again = mounting(dir / "wf" / "result.json");
+  for (int j = 0; j < 6; ++j) EXPECT_EQ(again[j], workflow[j]);
+  // The commands refuse what they cannot do, with exit 2 and the file.
+  r = sh(cli() + " match " + job + " --pair ew1 nowhere --out " + (dir / "x.mcpair").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("no strip 'nowhere'"), std::string::npos) << r.out;
+  r = sh(cli() + " match " + job + " --pair ew1 ew2 --out " + job);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("is an input of the job"), std::string::npos) << r.out;
+  fs::create_directories(dir / "empty");
+  r = sh(cli() + " calibrate " + job + " --correspondences " + (dir / "empty").string() + " --result " + (dir / "e.json").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("no pair file for strips"), std::string::npos) << r.out;
+  r = sh(cli() + " apply " + job + " --result " + (dir / "serial.json").string() + " --strip nowhere --out " + (dir / "y").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("no strip 'nowhere'"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}
