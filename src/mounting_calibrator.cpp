@@ -68,7 +68,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   std::vector<ObservationSource*> sources;
   std::vector<GroundControlPoint> free_gcps = data.gcps;  // GCPs not tied to a VTPM tie
   if (methods.count(CalibrationMethod::kVtpm)) {
-    ties = std::make_unique<TieObservations>(data, data.ties, data.gcps, o, o.vtp, "ties");
+    ties = std::make_unique<TieObservations>(data, data.ties, data.gcps, o, o.vtp, "ties", o.threads);
     std::set<std::string> tie_ids;
     for (const TieObservation& t : data.ties) tie_ids.insert(t.tie_id);
     free_gcps.erase(std::remove_if(free_gcps.begin(), free_gcps.end(), [&](const GroundControlPoint& g) { return tie_ids.count(g.id) > 0; }),
@@ -76,7 +76,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
     if (ties->observationCount() > 0) sources.push_back(ties.get());
   }
   if (!free_gcps.empty()) {
-    control = TieObservations::control(data, free_gcps, o, o.vtp);
+    control = TieObservations::control(data, free_gcps, o, o.vtp, o.threads);
     if (control->observationCount() > 0) sources.push_back(control.get());
   }
   if (methods.count(CalibrationMethod::kPlanes)) {

@@ -158,6 +158,31 @@ TEST(Block, ThreadsDoNotChangeTheResult) {
   EXPECT_EQ(S1.correspondences.rounds, S2.correspondences.rounds);
 }
 
+TEST(Block, VirtualTiePointsAndSimulationDoNotDependOnThreads) {
+  // VTPM construction on 1 and 2 threads: the same virtual tie points, bit for bit.
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 3, &c, &scene);
+  c.roi_radius_m = 6.0;
+  c.threads = 1;
+  const SimulatedSurvey s1 = simulate(c, scene);
+  c.threads = 2;
+  const SimulatedSurvey s2 = simulate(c, scene);
+  ASSERT_EQ(s1.strips.size(), s2.strips.size());
+  for (std::size_t k = 0; k < s1.strips.size(); ++k) EXPECT_EQ(s1.strips[k].points_m, s2.strips[k].points_m) << "strip " << k;
+  ASSERT_EQ(s1.ties.size(), s2.ties.size());
+  for (std::size_t k = 0; k < s1.ties.size(); ++k) EXPECT_EQ(s1.ties[k].x_m, s2.ties[k].x_m);
+  const CalibrationData d = toCalibrationData(s1);
+  MountingCalibrator::Options o;
+  const TieObservations one(d, d.ties, d.gcps, o, o.vtp, "ties", 1), two(d, d.ties, d.gcps, o, o.vtp, "ties", 2);
+  ASSERT_GT(one.virtualTiePoints().size(), 100u);
+  ASSERT_EQ(one.virtualTiePoints().size(), two.virtualTiePoints().size());
+  for (std::size_t k = 0; k < one.virtualTiePoints().size(); ++k) {
+    EXPECT_EQ(one.virtualTiePoints()[k].referencePosition(), two.virtualTiePoints()[k].referencePosition()) << k;
+  }
+  EXPECT_EQ(one.section().rejected.size(), two.section().rejected.size());
+}
+
 TEST(Block, PairFileErrorsNameTheFileAndTheByte) {
   const CalibrationData d = toCalibrationData(block());
   const CorrespondenceOptions o;

@@ -329,7 +329,10 @@ TEST_F(Hardening, ByteOrderMarkIsAccepted) {
   const CliRun r = cli("calibrate --quiet " + bom);
   ASSERT_EQ(r.code, 0) << r.err;
   const json a = json::parse(slurp(field() / "bom0.result.json")), b = json::parse(slurp(field() / "bom1.result.json"));
-  EXPECT_EQ(a["mounting"], b["mounting"]);
+  // The same observations; two VTPM solves agree to ~1e-11 (Ceres orders the eliminated tie
+  // blocks by their addresses, so its Schur sums round differently from run to run).
+  for (const char* k : {"lever_arm_m", "boresight_deg"})
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(a["mounting"][k][j].get<double>(), b["mounting"][k][j].get<double>(), 1e-9) << k << j;
 }
 
 // Geographic CRSs (degrees) for strips: refused by the simulator and in jobs.

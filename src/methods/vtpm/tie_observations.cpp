@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <set>
 
+#include "mountcal/detail/parallel.hpp"
 #include "mountcal/detail/vtp_cost.hpp"
 #include "mountcal/error.hpp"
 
@@ -126,8 +127,9 @@ TieObservations::~TieObservations() = default;
 
 TieObservations::TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
                                  const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
-                                 const VtpOptions& vtp, std::string kind)
+                                 const VtpOptions& vtp, std::string kind, int threads)
     : kind_(std::move(kind)), options_(options), gcps_(gcps), data_(&data), picks_(picks), vtp_(vtp) {
+  threads_ = threads;
   data.requirePoses();
   built_at_ = data.mounting_used.toArray();
   build(data.mounting_used);
@@ -175,31 +177,45 @@ void TieObservations::build(const MountingParameters& reference) {
     }
     return sub;
   };
-  std::map<std::string, VtpStrip> vtp_strips;
-  for (const std::string& id : needed) {
-    const StripData& strip = data.strips[strip_index[id]];
+  // Each strip's points and k-d tree, then each pick's virtual tie point, on all threads (slots
+  // filled in parallel, read in order: the result does not depend on the threads).
+  const std::vector<std::string> ids(needed.begin(), needed.end());
+  std::vector<std::unique_ptr<VtpStrip>> built(ids.size());
+  detail::parallelFor(ids.size(), threads_, [&](std::size_t k) {
+    const StripData& strip = data.strips[strip_index.at(ids[k])];
     if (control && !strip.x_m.empty() && strip.x_m.size() == strip.time_s.size()) {
       StripData sub = nearPicks(strip);  // georeferenced at the reference mounting by VtpStrip
-      if (sub.time_s.size() >= 3) vtp_strips.emplace(id, VtpStrip(std::move(sub), data.trajectory, reference));
-      else vtp_strips.emplace(id, VtpStrip(strip, data.trajectory, data.mounting_used));
+      if (sub.time_s.size() >= 3) built[k] = std::make_unique<VtpStrip>(std::move(sub), data.trajectory, reference);
+      else built[k] = std::make_unique<VtpStrip>(strip, data.trajectory, data.mounting_used);
     } else if (reference.toArray() == data.mounting_used.toArray()) {
-      vtp_strips.emplace(id, VtpStrip(strip, data.trajectory, data.mounting_used));
+      built[k] = std::make_unique<VtpStrip>(strip, data.trajectory, data.mounting_used);
     } else {
       StripData at = strip;
       at.x_m.clear();  // georeferenced again at the reference mounting
-      vtp_strips.emplace(id, VtpStrip(std::move(at), data.trajectory, reference));
+      built[k] = std::make_unique<VtpStrip>(std::move(at), data.trajectory, reference);
     }
-  }
-  vtps_.reserve(picks.size());
-  std::map<std::string, std::vector<int>> by_tie;
-  for (const TieObservation& t : picks) {
+  });
+  std::map<std::string, const VtpStrip*> vtp_strips;
+  for (std::size_t k = 0; k < ids.size(); ++k) vtp_strips.emplace(ids[k], built[k].get());
+  struct Built {
+    bool ok = false;
     VirtualTiePoint v;
     std::string reason;
-    if (vtp_strips.at(t.strip_id).build(t, vtp, &v, &reason)) {
+  };
+  std::vector<Built> results(picks.size());
+  detail::parallelFor(picks.size(), threads_, [&](std::size_t k) {
+    Built& r = results[k];
+    r.ok = vtp_strips.at(picks[k].strip_id)->build(picks[k], vtp, &r.v, &r.reason);
+  });
+  vtps_.reserve(picks.size());
+  std::map<std::string, std::vector<int>> by_tie;
+  for (std::size_t k = 0; k < picks.size(); ++k) {
+    const TieObservation& t = picks[k];
+    if (results[k].ok) {
       by_tie[t.tie_id].push_back(static_cast<int>(vtps_.size()));
-      vtps_.push_back(std::move(v));
-    } else if (!(control && reason.rfind("too few points", 0) == 0)) {  // control: a strip not covering it
-      section_.rejected.push_back({t.tie_id, t.strip_id, reason});
+      vtps_.push_back(std::move(results[k].v));
+    } else if (!(control && results[k].reason.rfind("too few points", 0) == 0)) {  // control: a strip not covering it
+      section_.rejected.push_back({t.tie_id, t.strip_id, results[k].reason});
     }
   }
   std::map<std::string, const GroundControlPoint*> gcp_by_id;
@@ -246,11 +262,11 @@ void TieObservations::build(const MountingParameters& reference) {
 
 std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData& data,
                                                           const std::vector<GroundControlPoint>& gcps,
-                                                          const TieObservationOptions& options, const VtpOptions& vtp) {
+                                                          const TieObservationOptions& options, const VtpOptions& vtp, int threads) {
   std::vector<TieObservation> picks;
   for (const GroundControlPoint& g : gcps)
     for (const StripData& s : data.strips) picks.push_back({g.id, s.id, g.x_m, g.y_m, 0});
-  return std::make_unique<TieObservations>(data, picks, gcps, options, vtp, "control");
+  return std::make_unique<TieObservations>(data, picks, gcps, options, vtp, "control", threads);
 }
 
 void TieObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {

@@ -71,14 +71,16 @@ class TieObservations final : public ObservationSource {
   /// Builds the virtual tie points of `picks` at `data.mounting_used`. GCPs whose id equals a
   /// tie's become priors on that tie's position. Throws InvalidInput for a pick naming a strip
   /// that is not in `data`.
+  /// `threads`: the strips' k-d trees and the virtual tie points are built on this many
+  /// threads (0: every core); the result does not depend on it.
   TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
                   const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
-                  const VtpOptions& vtp, std::string kind = "ties");
+                  const VtpOptions& vtp, std::string kind = "ties", int threads = 0);
   /// Ground control with any method: each GCP picked at its plan position on every strip whose
   /// points cover it (strips that do not are skipped, not rejected).
   static std::unique_ptr<TieObservations> control(const CalibrationData& data,
                                                   const std::vector<GroundControlPoint>& gcps,
-                                                  const TieObservationOptions& options, const VtpOptions& vtp);
+                                                  const TieObservationOptions& options, const VtpOptions& vtp, int threads = 0);
   ~TieObservations() override;
 
   std::string kind() const override { return kind_; }
@@ -98,6 +100,7 @@ class TieObservations final : public ObservationSource {
 
  private:
   void build(const MountingParameters& reference);
+  int threads_ = 0;
   bool estimatesSigma() const { return kind_ == "ties" && options_.estimate_tie_sigma; }
   struct Tie {
     std::string id;
