@@ -88,6 +88,28 @@ void BM_Apply(benchmark::State& state) {
 // 1 M first: RUSAGE_CHILDREN's maximum only grows, so the 10 M figure is its own when larger.
 BENCHMARK(BM_Apply)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
 
+// Issue 13: four files of 2 M points each, rewritten on 1 and 2 threads (apply --threads),
+// measured in the same run.
+void BM_ApplyFourFilesThreads(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  const std::string one = makeJob(2'000'000);
+  const fs::path dir = fs::path(one).parent_path();
+  const fs::path job4 = dir / "job4.json";
+  if (!fs::exists(job4)) {
+    for (int k = 1; k <= 4; ++k) fs::copy_file(dir / "strip.las", dir / ("s" + std::to_string(k) + ".las"), fs::copy_options::overwrite_existing);
+    std::ofstream(job4) << "{\"frame\": {\"type\": \"local\"}, \"trajectory\": {\"path\": \"trajectory.csv\"},"
+                           " \"sensor\": {\"type\": \"line\"}, \"mounting_used\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]},"
+                           " \"strips\": [{\"id\": \"1\", \"path\": \"s1.las\"}, {\"id\": \"2\", \"path\": \"s2.las\"},"
+                           " {\"id\": \"3\", \"path\": \"s3.las\"}, {\"id\": \"4\", \"path\": \"s4.las\"}], \"ties\": \"none.csv\"}";
+  }
+  const auto mounting = MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12));
+  const Job job = readJob(job4.string());
+  for (auto _ : state) applyMounting(job, mounting, (dir / "out4").string(), 1u << 20, {}, StripFormat::same_as_input, {}, threads);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * 8'000'000);
+  state.counters["threads"] = threads;
+}
+BENCHMARK(BM_ApplyFourFilesThreads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+
 }  // namespace
 
 BENCHMARK_MAIN();

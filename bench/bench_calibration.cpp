@@ -122,6 +122,24 @@ void BM_VtpConstruction1000TiesOn1MPointStrip(benchmark::State& state) {
 }
 BENCHMARK(BM_VtpConstruction1000TiesOn1MPointStrip)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+// Issue 13: the VTPM construction of the 10,000-observation survey (4 strips' k-d trees, then
+// every virtual tie point) on 1 and 2 threads, measured in the same run.
+void BM_VtpmConstructionThreads(benchmark::State& state) {
+  const CalibrationData d = toCalibrationData(bigSurvey());
+  MountingCalibrator::Options o;
+  const int threads = static_cast<int>(state.range(0));
+  std::size_t built = 0;
+  for (auto _ : state) {
+    const TieObservations ties(d, d.ties, d.gcps, o, o.vtp, "ties", threads);
+    built = ties.virtualTiePoints().size();
+    benchmark::DoNotOptimize(built);
+  }
+  state.counters["threads"] = threads;
+  state.counters["observations"] = static_cast<double>(d.ties.size());
+  state.counters["built"] = static_cast<double>(built);
+}
+BENCHMARK(BM_VtpmConstructionThreads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -31,6 +31,25 @@ void BM_SimulateLineScannerFullStrip(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulateLineScannerFullStrip)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+// Issue 13: a survey of several lines on 1 and 2 threads (the four lines of the calibration
+// field within 12 m of its features, as the preset is written), measured in the same run.
+void BM_SimulateFourLinesThreads(benchmark::State& state) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 1, &c, &scene);
+  c.threads = static_cast<int>(state.range(0));
+  std::size_t returns = 0;
+  for (auto _ : state) {
+    const SimulatedSurvey s = simulate(c, scene);
+    returns = 0;
+    for (const auto& st : s.strips) returns += st.pulses.size();
+    benchmark::DoNotOptimize(s.strips.data());
+  }
+  state.counters["threads"] = static_cast<double>(c.threads);
+  state.counters["returns"] = static_cast<double>(returns);
+}
+BENCHMARK(BM_SimulateFourLinesThreads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
 }  // namespace
 
 BENCHMARK_MAIN();

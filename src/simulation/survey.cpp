@@ -10,6 +10,7 @@
 #include "mountcal/detail/random.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
+#include "../interval_expansion.hpp"
 
 namespace mountcal::simulation {
 
@@ -59,15 +60,6 @@ double mirrorAngle(const LineScannerConfig& c, double t) {
   }
   return 0.0;
 }
-
-/// The true pose at one time; the measured pose is computed only for pulses that return.
-struct Poses {
-  Pose truth;
-  const Trajectory* measured_trajectory;
-  std::size_t* measured_cursor;
-  double t;
-  Pose measured() const { return measured_trajectory->pose(t, measured_cursor); }
-};
 
 void validate(const SurveyConfig& c) {
   if (c.lines.empty()) throw InvalidInput("survey '" + c.name + "': no flight lines");
@@ -237,10 +229,11 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     strip.true_points_m.reserve(expected);
     strip.kinds.reserve(expected);
     std::size_t cur_true = 0, cur_meas = 0;
-    auto emit = [&](double t, const Vec3& origin_s, const Vec3& dir_s, std::uint64_t pulse_id,
-                    const Poses& poses, RawPulse raw, double max_range, double range_offset) {
-      const Vec3 origin = poses.truth.p_m + poses.truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
-      const Vec3 dir = poses.truth.R_mb * (R_bs_true * dir_s);
+    detail::IntervalExpansion e_true, e_meas;
+    // One pulse from the true origin and direction (mapping frame); `measured(r_s)` georeferences
+    // the observed laser vector with the measured trajectory and the nominal mounting.
+    auto emit = [&](double t, const Vec3& origin, const Vec3& dir, std::uint64_t pulse_id, auto&& measured, RawPulse raw,
+                    double max_range, double range_offset) {
       if (!roi.empty()) {
         const double ground = scene.groundHeight(origin.x(), origin.y());
         if (dir.z() > -1e-6) return;
@@ -261,7 +254,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
         r_s_obs = config.multibeam.model.vector(raw.laser_id, raw.angle_rad, raw.range_m);
       }
       raw.r_s = r_s_obs;
-      strip.points_m.push_back(georeference(poses.measured(), R_bs_nom, M_nom.a_b, r_s_obs));  // seed eq. (1)
+      strip.points_m.push_back(measured(r_s_obs));  // seed eq. (1)
       strip.true_points_m.push_back(hit.point_m);
       strip.kinds.push_back(hit.kind);
       strip.pulses.push_back(raw);
@@ -275,14 +268,31 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
         const double prf = scanner.prf_hz;
         const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
         const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
+        // Both trajectories' attitudes expanded once per interval (detail::IntervalExpansion,
+        // exact within 1e-11 m), not a slerp per pulse.
         for (long k = k0; k <= k1; ++k) {
           const double t = f.t0 + static_cast<double>(k) / prf;
-          Poses poses{T_true.pose(t, &cur_true), &T_meas, &cur_meas, t};
           RawPulse raw;
           raw.angle_rad = mirrorAngle(scanner, t - f.t0);
           const Vec3 dir_s(0.0, std::sin(raw.angle_rad), std::cos(raw.angle_rad));
-          emit(t, Vec3::Zero(), dir_s, (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(k),
-               poses, raw, 1e5, 0.0);
+          const std::size_t i = T_true.locate(t, &cur_true);
+          if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
+          Vec3 origin, dir;
+          if (e_true.exact) {
+            const Pose truth = T_true.interpolateInInterval(i, t);
+            origin = truth.p_m + truth.R_mb * M_true.a_b;
+            dir = truth.R_mb * (R_bs_true * dir_s);
+          } else {
+            origin = detail::forwardExpanded(e_true, t, Vec3::Zero());
+            dir = detail::rotateExpanded(e_true, t, dir_s);
+          }
+          auto measured = [&](const Vec3& r_s) {
+            const std::size_t j = T_meas.locate(t, &cur_meas);
+            if (j != e_meas.interval) detail::expandInterval(T_meas, j, R_bs_nom, M_nom.a_b, false, &e_meas);
+            return e_meas.exact ? georeference(T_meas.interpolateInInterval(j, t), R_bs_nom, M_nom.a_b, r_s)
+                                : detail::forwardExpanded(e_meas, t, r_s);
+          };
+          emit(t, origin, dir, (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0);
         }
       } else {
         const MultiBeamModel& mb = config.multibeam.model;
@@ -293,7 +303,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
           for (int laser = 0; laser < mb.laserCount(); ++laser) {
             const double t = f.t0 + mb.firingTime(laser, s);
             if (t > f.t1) break;
-            Poses poses{T_true.pose(t, &cur_true), &T_meas, &cur_meas, t};
+            const Pose truth = T_true.pose(t, &cur_true);
             RawPulse raw;
             raw.laser_id = laser;
             double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
@@ -303,9 +313,12 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
             const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
             const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
             const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
-            emit(t, origin_s, dir_s,
+            const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
+            const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
+            auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
+            emit(t, origin, dir,
                  (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser),
-                 poses, raw, config.multibeam.max_range_m, spec.range_offset_m);
+                 measured, raw, config.multibeam.max_range_m, spec.range_offset_m);
           }
         }
       }
