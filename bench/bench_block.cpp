@@ -15,14 +15,15 @@ using namespace mountcal::simulation;
 
 namespace {
 
-const CalibrationData& blockData(int strips) {
-  static std::map<int, CalibrationData> cache;
-  auto it = cache.find(strips);
+const CalibrationData& blockData(int strips, BlockLayout layout = BlockLayout::kCrossing) {
+  static std::map<std::pair<int, int>, CalibrationData> cache;
+  const std::pair<int, int> key{strips, static_cast<int>(layout)};
+  auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   Scene scene;
   SurveyConfig c;
-  makeBlock(strips, 1, &c, &scene);
-  return cache.emplace(strips, toCalibrationData(simulate(c, scene))).first->second;
+  makeBlock(strips, 1, &c, &scene, layout);
+  return cache.emplace(key, toCalibrationData(simulate(c, scene))).first->second;
 }
 
 MountingCalibrator::Options options(int threads) {
@@ -58,6 +59,31 @@ void BM_BlockCalibrate(benchmark::State& state) {
 BENCHMARK(BM_BlockCalibrate)
     ->Args({4, 1})->Args({8, 1})->Args({16, 1})->Args({32, 1})
     ->Args({12, 1})->Args({12, 2})
+    ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true);
+
+// The same with parallel lines of one length (BlockLayout::kParallel): pairs, and each pair's
+// size, grow linearly with the strips — the time should too.
+void BM_ParallelBlockCalibrate(benchmark::State& state) {
+  const int strips = static_cast<int>(state.range(0));
+  const CalibrationData& d = blockData(strips, BlockLayout::kParallel);
+  std::size_t points = 0;
+  for (const auto& s : d.strips) points += s.time_s.size();
+  MountingCalibrator::Summary S;
+  for (auto _ : state) {
+    S = calibrate(d, options(1));
+    benchmark::DoNotOptimize(S.final_cost);
+  }
+  int overlapping = 0;
+  for (const auto& p : S.correspondences.pairs) overlapping += p.samples > 0;
+  state.counters["strips"] = strips;
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["pairs"] = overlapping;
+  state.counters["matchings"] = S.correspondences.rounds;
+  state.counters["construction_s"] = S.construction_time_s;
+  state.counters["s_per_pair"] = S.time_s / std::max(overlapping, 1);
+  state.counters["usable"] = S.IsSolutionUsable();
+}
+BENCHMARK(BM_ParallelBlockCalibrate)->Arg(4)->Arg(8)->Arg(16)->Arg(32)
     ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true);
 
 // One matching from scratch on the 12-strip block (candidates of every pair, then the matching):

@@ -182,15 +182,18 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
 
 }  // namespace
 
-void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s) {
+void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s, BlockLayout layout) {
   if (strips < 4 || strips > 256 || strips % 2 != 0) throw InvalidInput("a block has an even number of strips from 4 to 256 (got " + std::to_string(strips) + ")");
   *c = SurveyConfig{};
   *s = Scene{};
-  const int n_ew = strips / 2, n_ns = strips - n_ew;
+  const bool crossing = layout == BlockLayout::kCrossing;
+  const int n_ew = crossing ? strips / 2 : strips, n_ns = crossing ? strips - n_ew : 0;
   const double height = 300, half_fov = deg2rad(20);
   const double swath = 2 * height * std::tan(half_fov);
   const double spacing = 0.5 * swath;  // 50 % side overlap
-  const double ext_x = (n_ns - 1) * spacing, ext_y = (n_ew - 1) * spacing;
+  // Crossing: the E–W lines span the N–S lines and the other way round; parallel: lines of one
+  // length (eight line spacings), side by side.
+  const double ext_x = crossing ? (n_ns - 1) * spacing : 8 * spacing, ext_y = (n_ew - 1) * spacing;
   s->setGround(0.0, 0.0008, -0.0006, 40.0f);
   // A town on a 70 m grid: gable houses with ridges in every direction (sloped roofs give the
   // horizontal information), flat-roof blocks, and ground targets between them.
@@ -205,7 +208,7 @@ void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s) {
       if (k % 4 == 0) s->addGroundTarget("target_" + id, x + 25, y + 20, 2.0, heading);
     }
   }
-  c->name = "block-" + std::to_string(strips);
+  c->name = (crossing ? "block-" : "parallel-block-") + std::to_string(strips);
   c->sensor = SensorType::kLine;
   c->true_mounting = presetTruth();
   c->nominal_mounting = MountingParameters{};

@@ -167,7 +167,10 @@ const std::vector<std::string>& presetNames();
 /// overlap, at 300 m with a line scanner (30 kHz, 40 Hz, ±20°; ≈ 0.5 m spacing), over a town on a
 /// 70 m grid (gable houses with ridges in every direction, flat roofs, targets) simulated within
 /// 9 m of its features. The area grows with N. Throws InvalidInput unless N is even in [4, 256].
-void makeBlock(int strips, std::uint64_t seed, SurveyConfig* config, Scene* scene);
+/// BlockLayout::kParallel instead: N E–W lines of one length (≈ 870 m) side by side, flown back
+/// and forth — the overlapping pairs (and each pair's size) grow linearly with N.
+enum class BlockLayout { kCrossing, kParallel };
+void makeBlock(int strips, std::uint64_t seed, SurveyConfig* config, Scene* scene, BlockLayout layout = BlockLayout::kCrossing);
 
 /// A preset's scene and configuration; `seed` varies the noise. Throws InvalidInput for an
 /// unknown name (the message lists the presets).
