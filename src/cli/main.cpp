@@ -412,7 +412,7 @@ int main(int argc, char** argv) {
   std::string cal_result;
   cal->add_option("--result", cal_result, "Write the result file here (instead of the job's output.result)");
   cal->add_option("--correspondences", pair_dir, "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
-  cal->add_option("--threads", threads, "Threads for the correspondence search (default: every core); results do not depend on it")
+  cal->add_option("--threads", threads, "Threads for building the observations: correspondence search, VTPM construction (default: every core); results do not depend on it")
       ->check(CLI::Range(1, 4096));
 
   std::string result_path, apply_out;
