@@ -1,9 +1,11 @@
 #include "mountcal/georeference_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "mountcal/error.hpp"
 #include "interval_expansion.hpp"
+#include "sincos_batch.hpp"
 
 namespace mountcal {
 
@@ -43,18 +45,17 @@ using detail::forwardExpanded;
 using detail::kTerms;
 
 /// The batch forward of every pulse k with laser vector laser(k): the interval walk, the
-/// expansion per interval, the exact slerp where an interval turns too fast.
+/// expansion per interval, the exact slerp where an interval turns too fast. `cursor` and `e`
+/// carry the walk from one call to the next.
 template <typename LaserVector>
 void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const double* time_s, double* x_m, std::size_t n,
-                  LaserVector laser) {
-  std::size_t cursor = 0;
-  IntervalExpansion e;
+                  LaserVector laser, std::size_t* cursor, IntervalExpansion* e) {
   for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = T.locate(time_s[k], &cursor);
+    const std::size_t i = T.locate(time_s[k], cursor);
     const Vec3 r = laser(k);
-    if (i != e.interval) expandInterval(T, i, R_bs, a, false, &e);
+    if (i != e->interval) expandInterval(T, i, R_bs, a, false, e);
     Eigen::Map<Vec3>(x_m + 3 * k) =
-        e.exact ? georeference(T.interpolateInInterval(i, time_s[k]), R_bs, a, r) : forwardExpanded(e, time_s[k], r);
+        e->exact ? georeference(T.interpolateInInterval(i, time_s[k]), R_bs, a, r) : forwardExpanded(*e, time_s[k], r);
   }
 }
 
@@ -62,8 +63,10 @@ void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const do
 
 void GeoreferenceModel::forward(const double* time_s, const double* r_s, double* x_m,
                                 std::size_t n) const {
+  std::size_t cursor = 0;
+  IntervalExpansion e;
   forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n,
-               [&](std::size_t k) { return Vec3(r_s[3 * k], r_s[3 * k + 1], r_s[3 * k + 2]); });
+               [&](std::size_t k) { return Vec3(r_s[3 * k], r_s[3 * k + 1], r_s[3 * k + 2]); }, &cursor, &e);
 }
 
 void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double* r_s,
@@ -91,8 +94,23 @@ void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double*
 void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const double* time_s,
                                         const double* scan_angle_rad, const double* range_m,
                                         double* x_m, std::size_t n) const {
-  forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n,
-               [&](std::size_t k) { return scanner.vector(scan_angle_rad[k], range_m[k]); });
+  // Blocks of pulses: the scan angles' sines and cosines in one vectorised loop
+  // (sincos_batch.hpp), then the laser vectors of SPEC §2 (0, ρ sin θ, ρ cos θ) as
+  // LineScannerModel::vector forms them.
+  constexpr std::size_t kBlock = 512;
+  double theta[kBlock], sin_theta[kBlock], cos_theta[kBlock], rho[kBlock];
+  std::size_t cursor = 0;
+  IntervalExpansion e;
+  for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {
+    const std::size_t m = std::min(kBlock, n - k0);
+    for (std::size_t k = 0; k < m; ++k) {
+      theta[k] = scanner.scan_angle_scale * scan_angle_rad[k0 + k] + scanner.scan_angle_offset_rad;
+      rho[k] = range_m[k0 + k] + scanner.range_offset_m;
+    }
+    detail::sinCosBatch(theta, sin_theta, cos_theta, m);
+    forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s + k0, x_m + 3 * k0, m,
+                 [&](std::size_t k) { return Vec3(0.0, rho[k] * sin_theta[k], rho[k] * cos_theta[k]); }, &cursor, &e);
+  }
 }
 
 }  // namespace mountcal

@@ -1,10 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "mountcal/error.hpp"
 #include "mountcal/geodesy.hpp"
 #include "mountcal/georeference_model.hpp"
+#include "sincos_batch.hpp"  // internal (src/)
 
 using namespace mountcal;
 
@@ -234,4 +238,62 @@ TEST(Georeference, BatchIntervalExpansionEqualsExactSlerp) {
   T.intervalAttitude(3000, &R, &w_fast);
   EXPECT_LT(w_slow.norm(), 0.004);
   EXPECT_GT(w_fast.norm(), 0.004);
+}
+
+// The batch line scan takes sin and cos of its scan angles from a vectorised series
+// (src/sincos_batch.hpp); the reference is the C library's sin and cos.
+TEST(Georeference, SinCosBatchAgreesWithTheCLibrary) {
+  std::vector<double> theta;
+  for (int k = -4000; k <= 4000; ++k) theta.push_back(k * 1.0e-3 * kPi);  // ±4π, every quadrant
+  for (int q = -16; q <= 16; ++q) {  // the quadrant boundaries and either side of them
+    for (double d : {0.0, 1e-17, -1e-17, 1e-9, -1e-9}) theta.push_back(q * kPi / 4 + d);
+  }
+  for (double x : {0.0, -0.0, 1e-300, 12345.678, -99999.9, 1e5, -1e5}) theta.push_back(x);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1e5, 1e5);
+  for (int k = 0; k < 20000; ++k) theta.push_back(u(rng));
+  std::vector<double> s(theta.size()), c(theta.size());
+  mountcal::detail::sinCosBatch(theta.data(), s.data(), c.data(), theta.size());
+  double worst = 0;
+  for (std::size_t k = 0; k < theta.size(); ++k) {
+    worst = std::max({worst, std::fabs(s[k] - std::sin(theta[k])), std::fabs(c[k] - std::cos(theta[k]))});
+  }
+  EXPECT_LE(worst, 4e-16);
+  // Beyond ±1e5 rad, infinities and NaN: the C library's values (the whole batch takes them).
+  const double big[] = {1.5e5, -3e12, 0.7, std::numeric_limits<double>::infinity(), std::numeric_limits<double>::quiet_NaN()};
+  double sb[5], cb[5];
+  mountcal::detail::sinCosBatch(big, sb, cb, 5);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(sb[k], std::sin(big[k]));
+    EXPECT_EQ(cb[k], std::cos(big[k]));
+  }
+  EXPECT_TRUE(std::isnan(sb[3]) && std::isnan(cb[3]) && std::isnan(sb[4]) && std::isnan(cb[4]));
+}
+
+// The batch line scan forms the laser vectors itself: with a calibrated scanner (range offset,
+// angle scale and offset) and a batch that is not a whole number of its blocks it equals the
+// scanner's own vector() pulse by pulse.
+TEST(Georeference, BatchLineScanAppliesTheScannerCalibration) {
+  std::mt19937 rng(11);
+  const auto T = randomTrajectory(rng, PositionInterpolation::kCubic);
+  const GeoreferenceModel model(T, MountingParameters::fromDegrees(Vec3(0.1, 0.2, -0.3), Vec3(-0.2, 0.1, 0.4)));
+  LineScannerModel line;
+  line.range_offset_m = 0.043;
+  line.scan_angle_scale = 1.0007;
+  line.scan_angle_offset_rad = deg2rad(0.02);
+  for (std::size_t n : {std::size_t{1}, std::size_t{511}, std::size_t{1537}}) {
+    std::vector<double> t(n), theta(n), rho(n), x(3 * n);
+    for (std::size_t k = 0; k < n; ++k) {
+      t[k] = T->startTime() + 9.0 * static_cast<double>(k) / static_cast<double>(n);
+      theta[k] = deg2rad(75.0) * std::sin(0.013 * static_cast<double>(k) + 0.3);
+      rho[k] = 50.0 + 0.7 * static_cast<double>(k % 997);
+    }
+    model.forwardLineScan(line, t.data(), theta.data(), rho.data(), x.data(), n);
+    double worst = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec3 exact = model.forward(t[k], line.vector(theta[k], rho[k]));
+      worst = std::max(worst, (Vec3(x[3 * k], x[3 * k + 1], x[3 * k + 2]) - exact).norm());
+    }
+    EXPECT_LT(worst, 1e-9) << n << " pulses";
+  }
 }
