@@ -2,7 +2,9 @@
 // EVLRs, both scan-angle forms, streaming, and malformed headers.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -253,4 +255,44 @@ TEST(Las, ExtraBytesDescriptorsDecodeHandBuiltValues) {
   d[2] = 77;
   h.vlrs[0].data = d;
   EXPECT_THROW(io::extraBytesAttributes(h, "hand.las"), FileError);
+}
+
+TEST(Las, QuantizeRoundsHalvesAwayFromZeroAndRefusesWhatDoesNotFit) {
+  // The writer's quantiser (no library call) against std::round, at halves, near halves, and
+  // at the ends of the 32-bit range.
+  LasHeader h = header(1, 2, 0);
+  h.offset = {100.0, -50.0, 0.0};
+  h.scale = {0.01, 0.25, 1.0};
+  const std::string path = tmp("quantize.las");
+  {
+    LasWriter writer(path, h);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1e6, 1e6);
+    for (int i = 0; i < 100000; ++i) {
+      const double v = u(rng);
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(writer.quantize(a, v), static_cast<std::int32_t>(std::round((v - h.offset[a]) / h.scale[a]))) << v;
+      }
+    }
+    // Exact halves of the stored unit (scale 1, offset 0): away from zero.
+    EXPECT_EQ(writer.quantize(2, 2.5), 3);
+    EXPECT_EQ(writer.quantize(2, -2.5), -3);
+    EXPECT_EQ(writer.quantize(2, 0.49999999999999994), 0);
+    EXPECT_EQ(writer.quantize(2, -0.49999999999999994), 0);
+    EXPECT_EQ(writer.quantize(2, 2147483647.0), 2147483647);
+    EXPECT_EQ(writer.quantize(2, 2147483647.4), 2147483647);
+    EXPECT_EQ(writer.quantize(2, -2147483648.0), std::numeric_limits<std::int32_t>::min());
+    EXPECT_EQ(writer.quantize(2, -2147483648.4), std::numeric_limits<std::int32_t>::min());
+    EXPECT_THROW(writer.quantize(2, 2147483647.5), FileError);
+    EXPECT_THROW(writer.quantize(2, -2147483648.5), FileError);
+    EXPECT_THROW(writer.quantize(2, std::nan("")), FileError);
+    EXPECT_THROW(writer.quantize(2, std::numeric_limits<double>::infinity()), FileError);
+    try {
+      writer.quantize(2, 1e12, 41);
+      FAIL() << "no error";
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("record 41"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove(path);
 }

@@ -481,12 +481,17 @@ LasWriter::~LasWriter() {
   }
 }
 
-std::int32_t LasWriter::quantize(int axis, double value) const {
-  const double q = std::round((value - header_.offset[axis]) / header_.scale[axis]);
-  if (!(q >= std::numeric_limits<std::int32_t>::min() && q <= std::numeric_limits<std::int32_t>::max())) {
-    throw FileError(path_, "record " + std::to_string(header_.point_count), "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
+std::int32_t LasWriter::quantize(int axis, double value, std::uint64_t record) const {
+  const double v = (value - header_.offset[axis]) / header_.scale[axis];
+  // round(v) fits in 32 bits exactly when v lies in (−2³¹ − ½, 2³¹ − ½); NaN fails too.
+  if (!(v > -2147483648.5 && v < 2147483647.5)) {
+    throw FileError(path_, "record " + std::to_string(record), "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
   }
-  return static_cast<std::int32_t>(q);
+  // std::round without the library call: truncate, then step away from zero at a half
+  // (v − trunc(v) is exact).
+  const auto i = static_cast<std::int64_t>(v);
+  const double frac = v - static_cast<double>(i);
+  return static_cast<std::int32_t>(i + (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0));
 }
 
 void LasWriter::write(const LasPoint& p) {
@@ -529,11 +534,12 @@ void LasWriter::write(const std::vector<LasPoint>& points) {
 
 void LasWriter::writeRaw(const std::uint8_t* records, std::size_t n) {
   const std::size_t len = header_.point_record_length;
-  for (std::size_t i = 0; i < n; ++i) {
-    const char* r = reinterpret_cast<const char*>(records + i * len);
-    account(r);
-    emit(r);
+  for (std::size_t i = 0; i < n; ++i) account(reinterpret_cast<const char*>(records + i * len));
+  if (!compress_) {
+    out_.write(reinterpret_cast<const char*>(records), static_cast<std::streamsize>(n * len));
+    return;
   }
+  for (std::size_t i = 0; i < n; ++i) emit(reinterpret_cast<const char*>(records + i * len));
 }
 
 void LasWriter::keepHeaderStatistics() { keep_statistics_ = true; }

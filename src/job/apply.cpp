@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -80,38 +81,54 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
       used_model = std::make_unique<GeoreferenceModel>(loaded.data.trajectory, job.mounting_used);
       new_model = std::make_unique<GeoreferenceModel>(loaded.data.trajectory, mounting);
     }
+    // The batch path works on the records as stored: X, Y, Z and the GPS time are read from
+    // their bytes, the new X, Y, Z written back, every other byte (extra bytes included) passes
+    // through untouched.
+    std::vector<std::uint8_t> records;
     std::vector<double> times, xyz, r_s_batch, xyz_new;
+    const std::size_t len = h.point_record_length;
+    const std::size_t time_at = h.point_format < 6 ? 20 : 22;  // LAS 1.4 R15 tables 7–16
+    const auto int32At = [](const std::uint8_t* r) {
+      std::int32_t v;
+      std::memcpy(&v, r, 4);
+      return v;
+    };
+    const auto crs = [&](const std::uint8_t* r, int a) { return int32At(r + 4 * a) * h.scale[a] + h.offset[a]; };
     constexpr std::size_t kBatch = 1u << 16;  // points per batch: the arrays stay in the caches' reach
-    while (batch && reader.read(&chunk, chunk_points) > 0) {
-      for (std::size_t k0 = 0; k0 < chunk.size(); k0 += kBatch) {
-        const std::size_t n = std::min(kBatch, chunk.size() - k0);
+    while (batch && reader.readRaw(&records, chunk_points) > 0) {
+      const std::size_t in_chunk = records.size() / len;
+      for (std::size_t k0 = 0; k0 < in_chunk; k0 += kBatch) {
+        const std::size_t n = std::min(kBatch, in_chunk - k0);
+        std::uint8_t* block = records.data() + k0 * len;
         times.resize(n);
         xyz.resize(3 * n);
         r_s_batch.resize(3 * n);
         xyz_new.resize(3 * n);
         for (std::size_t k = 0; k < n; ++k) {
-          const io::LasPoint& p = chunk[k0 + k];
-          if (!(p.gps_time >= T->startTime() && p.gps_time <= T->endTime())) {
-            throw FileError(in_path, "record " + std::to_string(record + k), "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
+          const std::uint8_t* r = block + k * len;
+          double t;
+          std::memcpy(&t, r + time_at, 8);
+          if (!(t >= T->startTime() && t <= T->endTime())) {
+            throw FileError(in_path, "record " + std::to_string(record + k), "GPS time " + std::to_string(t) + " s is outside the trajectory");
           }
-          times[k] = p.gps_time;
-          Vec3 x(reader.x(p), reader.y(p), reader.z(p));
+          times[k] = t;
+          Vec3 x(crs(r, 0), crs(r, 1), crs(r, 2));
           if (!frame.isLocal()) x = frame.toLocal(x);
           xyz[3 * k] = x.x(), xyz[3 * k + 1] = x.y(), xyz[3 * k + 2] = x.z();
         }
         used_model->inverse(times.data(), xyz.data(), r_s_batch.data(), n);
         new_model->forward(times.data(), r_s_batch.data(), xyz_new.data(), n);
         for (std::size_t k = 0; k < n; ++k) {
-          io::LasPoint& p = chunk[k0 + k];
+          std::uint8_t* r = block + k * len;
           Vec3 x_new(xyz_new[3 * k], xyz_new[3 * k + 1], xyz_new[3 * k + 2]);
           if (!frame.isLocal()) x_new = frame.fromLocal(x_new);
-          const double dx = x_new.x() - reader.x(p), dy = x_new.y() - reader.y(p), dz = x_new.z() - reader.z(p);
+          const double dx = x_new.x() - crs(r, 0), dy = x_new.y() - crs(r, 1), dz = x_new.z() - crs(r, 2);
           stats.max_shift_m = std::max(stats.max_shift_m, std::sqrt(dx * dx + dy * dy + dz * dz));
-          p.X = writer.quantize(0, x_new.x());
-          p.Y = writer.quantize(1, x_new.y());
-          p.Z = writer.quantize(2, x_new.z());
-          writer.write(p);
+          const std::int32_t X[3] = {writer.quantize(0, x_new.x(), record + k), writer.quantize(1, x_new.y(), record + k),
+                                     writer.quantize(2, x_new.z(), record + k)};
+          std::memcpy(r, X, 12);
         }
+        writer.writeRaw(block, n);
         record += n;
       }
     }

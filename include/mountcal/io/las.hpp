@@ -145,8 +145,13 @@ class LasWriter {
   LasWriter& operator=(const LasWriter&) = delete;
 
   const LasHeader& header() const { return header_; }
-  /// Stored integer of a coordinate [m] (throws FileError when it does not fit in 32 bits).
-  std::int32_t quantize(int axis, double value) const;
+  /// Stored integer of a coordinate [m]: round((value − offset) / scale), halves away from
+  /// zero. Throws FileError naming the record about to be written when it does not fit in 32
+  /// bits.
+  std::int32_t quantize(int axis, double value) const { return quantize(axis, value, header_.point_count); }
+  /// The same, naming record `record` in the error (a caller that quantises a block of records
+  /// before writing them).
+  std::int32_t quantize(int axis, double value, std::uint64_t record) const;
   void write(const LasPoint& p);
   void write(const std::vector<LasPoint>& points);
   /// Writes `n` point records as stored (point_record_length bytes each).
