@@ -6,6 +6,10 @@
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "normal_batch.hpp"  // internal (src/)
+
+#include <cmath>
+#include <random>
 
 using namespace mountcal;
 using namespace mountcal::simulation;
@@ -151,6 +155,64 @@ TEST(Simulator, SameSeedSameOutputOtherSeedOtherNoise) {
   c.seed = 43;
   const SimulatedSurvey d = simulate(c, scene);
   EXPECT_NE(a.ties[0].x_m, d.ties[0].x_m);
+}
+
+// The pulse loop's noise comes from detail::BufferedNormals (src/normal_batch.hpp): Rng::normal()'s
+// stream drawn in batches, with a logarithm of its own. References: the C library's log, and
+// Rng::normal() itself.
+TEST(Simulator, BatchedNormalsFollowTheRngStream) {
+  std::vector<double> x;
+  for (int k = 1; k <= 4096; ++k) x.push_back(k / 4096.0);  // (0, 1]: q of the polar method
+  for (double v : {1e-300, 2.2250738585072014e-308, 0.7071067811865475, 0.7071067811865476, 1.4142135623730951,
+                   1.4142135623730950, 1.0 - 1e-16, 1.0 + 2.2e-16, 2.0, 3.0, 1e300})
+    x.push_back(v);
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> e(-700, 700);
+  for (int k = 0; k < 20000; ++k) x.push_back(std::exp(e(gen)));
+  std::vector<double> ln(x.size());
+  detail::logBatch(x.data(), ln.data(), x.size());
+  double worst_ulp = 0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const double ref = std::log(x[k]);
+    const double ulp = ref == 0 ? 5e-324 : std::nextafter(std::fabs(ref), INFINITY) - std::fabs(ref);
+    worst_ulp = std::max(worst_ulp, std::fabs(ln[k] - ref) / ulp);
+  }
+  EXPECT_LE(worst_ulp, 2.0);
+
+  detail::Rng a(77), b(77);
+  detail::BufferedNormals batched(&b);
+  double worst = 0, sum = 0, sum2 = 0;
+  const int n = 100000;  // several batches
+  for (int k = 0; k < n; ++k) {
+    const double ref = a.normal(), got = batched.next();
+    worst = std::max(worst, std::fabs(got - ref) / std::max(1.0, std::fabs(ref)));
+    sum += got;
+    sum2 += got * got;
+  }
+  EXPECT_LE(worst, 1e-15);
+  EXPECT_NEAR(sum / n, 0.0, 0.02);        // 6 standard errors
+  EXPECT_NEAR(sum2 / n, 1.0, 0.03);
+}
+
+// The line scanner's noisy laser vector is formed from the block's sin θ, cos θ by the angle sum;
+// it must still be the scanner model's vector of the recorded (noisy) angle and range.
+TEST(Simulator, NoisyLineScannerVectorsAreTheModelsVectorOfTheRecordedAngleAndRange) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 9, &c, &scene);
+  c.noise.scan_angle_sigma_rad = deg2rad(0.01);
+  c.roi_radius_m = 2.0;
+  const SimulatedSurvey s = simulate(c, scene);
+  std::size_t n = 0;
+  double worst = 0;
+  for (const SimulatedStrip& strip : s.strips) {
+    for (const RawPulse& p : strip.pulses) {
+      worst = std::max(worst, (p.r_s - LineScannerModel{}.vector(p.angle_rad, p.range_m)).norm());
+      ++n;
+    }
+  }
+  ASSERT_GT(n, 10000u);
+  EXPECT_LE(worst, 1e-12);  // 1e-15 relative at ranges under 1.5 km
 }
 
 TEST(Simulator, MultiBeamPresetScansTheGroundAroundTheTargets) {

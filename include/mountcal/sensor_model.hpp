@@ -17,9 +17,9 @@ struct RawPulse {
   double angle_rad = 0.0;   ///< line scanner: scan angle θ; multi-beam: azimuth α [rad]
   double range_m = 0.0;     ///< measured range ρ [m]
   int laser_id = 0;         ///< multi-beam laser index (0-based); unused otherwise
-  Vec3 r_s = Vec3::Zero();  ///< vector sensors: the Cartesian laser vector [m]
   float intensity = 0.0f;   ///< return intensity (sensor units)
-};
+  Vec3 r_s = Vec3::Zero();  ///< vector sensors: the Cartesian laser vector [m]
+};  // 56 bytes: the simulator keeps one per return
 
 /// Line scanner with an oscillating or rotating mirror (e.g. Leica ALS50-II):
 /// `r_s = ρ' · (0, sin θ', cos θ')` with θ positive to starboard and θ = 0 at nadir, where

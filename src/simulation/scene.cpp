@@ -93,6 +93,7 @@ PlanePatch insetBox(const std::string& id, const Vec3& c, const Vec3& u, double 
 
 struct Scene::Impl {
   double z0 = 0, gx = 0, gy = 0;
+  Vec3 ground_normal = Vec3::UnitZ();  // (−gx, −gy, 1) normalised, once (not per pulse)
   float ground_intensity = 40.0f;
   TriMesh mesh;
   std::vector<std::pair<float, SurfaceKind>> face_props;  // by face index
@@ -103,7 +104,9 @@ struct Scene::Impl {
   std::vector<Tree> trees;
   bool built = false;
   // Uniform plan grid over markings and tree crowns: each cell lists what overlaps it.
-  double grid_x0 = 0, grid_y0 = 0, cell = 8.0;
+  double grid_x0 = 0, grid_y0 = 0;
+  // A power of two: x · inv_cell is x / cell to the bit, without a division per lookup.
+  static constexpr double cell = 8.0, inv_cell = 1.0 / cell;
   int grid_nx = 0, grid_ny = 0;
   std::vector<std::vector<int>> cell_markings, cell_trees;
   std::vector<char> cell_has_triangles;  // a triangle's plan box overlaps the cell
@@ -111,7 +114,7 @@ struct Scene::Impl {
   double max_triangle_z = -1e300;
 
   int cellIndex(double x, double y) const {
-    const int i = floorInt((x - grid_x0) / cell), j = floorInt((y - grid_y0) / cell);
+    const int i = floorInt((x - grid_x0) * inv_cell), j = floorInt((y - grid_y0) * inv_cell);
     if (i < 0 || j < 0 || i >= grid_nx || j >= grid_ny) return -1;
     return j * grid_nx + i;
   }
@@ -138,14 +141,14 @@ struct Scene::Impl {
     }
     grid_x0 = b.lo.x() - cell;
     grid_y0 = b.lo.y() - cell;
-    grid_nx = static_cast<int>((b.hi.x() - grid_x0) / cell) + 2;
-    grid_ny = static_cast<int>((b.hi.y() - grid_y0) / cell) + 2;
+    grid_nx = static_cast<int>((b.hi.x() - grid_x0) * inv_cell) + 2;
+    grid_ny = static_cast<int>((b.hi.y() - grid_y0) * inv_cell) + 2;
     cell_markings.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
     cell_trees.assign(static_cast<std::size_t>(grid_nx) * grid_ny, {});
     cell_has_triangles.assign(static_cast<std::size_t>(grid_nx) * grid_ny, 0);
     auto fill = [&](std::vector<std::vector<int>>& cells, int id, double x0, double y0, double x1, double y1) {
-      const int i0 = floorInt((x0 - grid_x0) / cell), i1 = floorInt((x1 - grid_x0) / cell);
-      const int j0 = floorInt((y0 - grid_y0) / cell), j1 = floorInt((y1 - grid_y0) / cell);
+      const int i0 = floorInt((x0 - grid_x0) * inv_cell), i1 = floorInt((x1 - grid_x0) * inv_cell);
+      const int j0 = floorInt((y0 - grid_y0) * inv_cell), j1 = floorInt((y1 - grid_y0) * inv_cell);
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) cells[static_cast<std::size_t>(j * grid_nx + i)].push_back(id);
     };
@@ -159,10 +162,10 @@ struct Scene::Impl {
     }
     for (const Triangle& t : tris) {
       const Vec3 p1 = t.a + t.e1, p2 = t.a + t.e2;
-      const int i0 = floorInt((std::min({t.a.x(), p1.x(), p2.x()}) - grid_x0) / cell);
-      const int i1 = floorInt((std::max({t.a.x(), p1.x(), p2.x()}) - grid_x0) / cell);
-      const int j0 = floorInt((std::min({t.a.y(), p1.y(), p2.y()}) - grid_y0) / cell);
-      const int j1 = floorInt((std::max({t.a.y(), p1.y(), p2.y()}) - grid_y0) / cell);
+      const int i0 = floorInt((std::min({t.a.x(), p1.x(), p2.x()}) - grid_x0) * inv_cell);
+      const int i1 = floorInt((std::max({t.a.x(), p1.x(), p2.x()}) - grid_x0) * inv_cell);
+      const int j0 = floorInt((std::min({t.a.y(), p1.y(), p2.y()}) - grid_y0) * inv_cell);
+      const int j1 = floorInt((std::max({t.a.y(), p1.y(), p2.y()}) - grid_y0) * inv_cell);
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) cell_has_triangles[static_cast<std::size_t>(j * grid_nx + i)] = 1;
     }
@@ -176,10 +179,10 @@ struct Scene::Impl {
     const double t_top = (max_triangle_z - o.z()) / d.z();
     const Vec3 a = (t_top > 0 && t_top < t_end) ? Vec3(o + t_top * d) : o;
     const Vec3 b = o + t_end * d;
-    const int i0 = floorInt((std::min(a.x(), b.x()) - grid_x0) / cell);
-    const int i1 = floorInt((std::max(a.x(), b.x()) - grid_x0) / cell);
-    const int j0 = floorInt((std::min(a.y(), b.y()) - grid_y0) / cell);
-    const int j1 = floorInt((std::max(a.y(), b.y()) - grid_y0) / cell);
+    const int i0 = floorInt((std::min(a.x(), b.x()) - grid_x0) * inv_cell);
+    const int i1 = floorInt((std::max(a.x(), b.x()) - grid_x0) * inv_cell);
+    const int j0 = floorInt((std::min(a.y(), b.y()) - grid_y0) * inv_cell);
+    const int j1 = floorInt((std::max(a.y(), b.y()) - grid_y0) * inv_cell);
     if (i1 - i0 > 4 || j1 - j0 > 4) return true;  // a long path: let the BVH decide
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
@@ -314,6 +317,7 @@ void Scene::setGround(double z0_m, double gx, double gy, float intensity) {
   impl_->z0 = z0_m;
   impl_->gx = gx;
   impl_->gy = gy;
+  impl_->ground_normal = Vec3(-gx, -gy, 1.0).normalized();
   impl_->ground_intensity = intensity;
 }
 
@@ -461,7 +465,7 @@ bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
       found = true;
       hit->kind = SurfaceKind::kGround;
       hit->intensity = s.ground_intensity;
-      hit->normal_m = n.normalized();
+      hit->normal_m = s.ground_normal;
     }
   }
   int tri = -1;
@@ -478,10 +482,10 @@ bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
     const Vec3 hit_point = o + best * d;
     const double t_top = (s.max_crown_top - o.z()) / d.z();
     const Vec3 top_point = (t_top > 0 && t_top < best) ? Vec3(o + t_top * d) : o;
-    const int i0 = floorInt((std::min(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell);
-    const int i1 = floorInt((std::max(hit_point.x(), top_point.x()) - s.grid_x0) / s.cell);
-    const int j0 = floorInt((std::min(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell);
-    const int j1 = floorInt((std::max(hit_point.y(), top_point.y()) - s.grid_y0) / s.cell);
+    const int i0 = floorInt((std::min(hit_point.x(), top_point.x()) - s.grid_x0) * s.inv_cell);
+    const int i1 = floorInt((std::max(hit_point.x(), top_point.x()) - s.grid_x0) * s.inv_cell);
+    const int j0 = floorInt((std::min(hit_point.y(), top_point.y()) - s.grid_y0) * s.inv_cell);
+    const int j1 = floorInt((std::max(hit_point.y(), top_point.y()) - s.grid_y0) * s.inv_cell);
     const bool narrow = (i1 - i0) <= 2 && (j1 - j0) <= 2;
     int candidates[16];
     int n_cand = 0;
