@@ -296,3 +296,91 @@ TEST(Las, QuantizeRoundsHalvesAwayFromZeroAndRefusesWhatDoesNotFit) {
   }
   fs::remove(path);
 }
+
+TEST(Las, RecordsWrittenAsStoredGiveTheHeaderOfRecordsWrittenOneByOne) {
+  // writeRaw() takes a block's bounds from its extreme stored integers; the reference is the
+  // same records through write() one by one (bounds from each point's coordinates), for
+  // formats with 3- and 4-bit return numbers (a scale must be positive: the writer says so).
+  for (const std::uint8_t format : {std::uint8_t{1}, std::uint8_t{6}}) {
+    {
+      LasHeader h = header(format, format < 6 ? 2 : 4, 0);
+      h.scale = {0.01, 0.25, 0.001};
+      std::mt19937 rng(format);
+      std::uniform_int_distribution<std::int32_t> coord(-2000000, 2000000);
+      std::uniform_int_distribution<int> ret(0, 15);
+      std::vector<LasPoint> pts(5000);
+      for (LasPoint& p : pts) {
+        p.X = coord(rng), p.Y = coord(rng), p.Z = coord(rng);
+        p.return_number = static_cast<std::uint8_t>(ret(rng) & (format < 6 ? 7 : 15));
+        p.number_of_returns = 7;
+        p.gps_time = 1.0;
+      }
+      const std::string one = tmp("one_by_one.las"), raw = tmp("as_stored.las");
+      {
+        LasWriter w(one, h);
+        w.write(pts);
+        w.close();
+      }
+      {
+        LasReader r(one);
+        std::vector<std::uint8_t> records;
+        r.readRaw(&records, pts.size());
+        LasWriter w(raw, h);
+        w.writeRaw(records.data(), 1234);  // two blocks
+        w.writeRaw(records.data() + 1234 * h.point_record_length, pts.size() - 1234);
+        w.close();
+      }
+      const LasHeader a = LasReader(one).header(), b = LasReader(raw).header();
+      EXPECT_EQ(a.point_count, b.point_count);
+      EXPECT_EQ(a.points_by_return, b.points_by_return);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(a.min[k], b.min[k]) << k;
+        EXPECT_EQ(a.max[k], b.max[k]) << k;
+      }
+      EXPECT_EQ(slurp(one), slurp(raw));
+      fs::remove(one);
+      fs::remove(raw);
+    }
+  }
+}
+
+TEST(Las, BlockQuantizeEqualsStdRoundAndNamesTheFirstRecordThatDoesNotFit) {
+  // apply quantises a block of points at once; the reference is std::round, at random values,
+  // exact and near halves, and the ends of the 32-bit range.
+  LasHeader h = header(1, 2, 0);
+  h.offset = {100.0, -50.0, 0.0};
+  h.scale = {0.01, 0.25, 1.0};
+  const std::string path = tmp("quantize_block.las");
+  {
+    LasWriter writer(path, h);
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(-1e6, 1e6);
+    std::vector<double> xyz;
+    for (int i = 0; i < 30000; ++i) xyz.push_back(u(rng));
+    for (double v : {2.5, -2.5, 0.5, -0.5, 0.49999999999999994, -0.49999999999999994, 2147483647.0, 2147483647.4,
+                     -2147483648.0, -2147483648.4, 0.0, -0.0})
+      for (int a = 0; a < 3; ++a) xyz.push_back(a == 2 ? v : h.offset[a] + v * h.scale[a]);
+    const std::size_t n = xyz.size() / 3;
+    std::vector<std::int32_t> XYZ(xyz.size());
+    writer.quantize(xyz.data(), XYZ.data(), n, 0);
+    for (std::size_t k = 0; k < xyz.size(); ++k) {
+      const int a = static_cast<int>(k % 3);
+      const double v = (xyz[k] - h.offset[a]) / h.scale[a];
+      ASSERT_EQ(XYZ[k], static_cast<std::int32_t>(std::round(v))) << k << " " << xyz[k];
+    }
+    // The first point that does not fit is named (record first_record + its index), whichever
+    // axis it is on; a NaN does not fit either.
+    for (double bad : {2147483647.5, -2147483648.5, 1e12, std::nan("")}) {
+      std::vector<double> b(xyz.begin(), xyz.begin() + 3 * 10);
+      b[3 * 6 + 2] = bad;
+      b[3 * 8 + 2] = 1e15;
+      try {
+        writer.quantize(b.data(), XYZ.data(), 10, 100);
+        FAIL() << "no error for " << bad;
+      } catch (const FileError& e) {
+        EXPECT_NE(std::string(e.what()).find("record 106"), std::string::npos) << e.what();
+      }
+    }
+  }
+  fs::remove(path);
+}

@@ -494,6 +494,33 @@ std::int32_t LasWriter::quantize(int axis, double value, std::uint64_t record) c
   return static_cast<std::int32_t>(i + (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0));
 }
 
+void LasWriter::quantize(const double* xyz, std::int32_t* XYZ, std::size_t n, std::uint64_t first_record) const {
+  // The single-value quantize() above, without its call and test per value: the fit of the
+  // whole block is tested once at the end (a value that does not fit is clamped meanwhile, then
+  // quantize() names it), and truncation goes through 32 bits, where it cannot overflow.
+  const double o0 = header_.offset[0], o1 = header_.offset[1], o2 = header_.offset[2];
+  const double s0 = header_.scale[0], s1 = header_.scale[1], s2 = header_.scale[2];
+  const auto round = [](double v) {
+    // max(lo, NaN) is lo: no conversion of a NaN. frac ∈ (−1, 1) and 2·frac is exact, so its
+    // truncation is +1 from a half up, −1 from a half down, 0 between: halves away from zero.
+    const double vc = std::min(2147483647.0, std::max(-2147483648.0, v));
+    const auto i = static_cast<std::int32_t>(vc);
+    const double frac = vc - static_cast<double>(i);
+    return static_cast<std::int32_t>(i + static_cast<std::int32_t>(2.0 * frac));
+  };
+  bool all_fit = true;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double v0 = (xyz[3 * k] - o0) / s0, v1 = (xyz[3 * k + 1] - o1) / s1, v2 = (xyz[3 * k + 2] - o2) / s2;
+    all_fit &= (v0 > -2147483648.5) & (v0 < 2147483647.5) & (v1 > -2147483648.5) & (v1 < 2147483647.5) &
+               (v2 > -2147483648.5) & (v2 < 2147483647.5);
+    XYZ[3 * k] = round(v0);
+    XYZ[3 * k + 1] = round(v1);
+    XYZ[3 * k + 2] = round(v2);
+  }
+  if (all_fit) return;
+  for (std::size_t k = 0; k < 3 * n; ++k) (void)quantize(static_cast<int>(k % 3), xyz[k], first_record + k / 3);  // throws
+}
+
 void LasWriter::write(const LasPoint& p) {
   char* r = record_.data();
   std::memset(r, 0, record_.size());
@@ -534,7 +561,7 @@ void LasWriter::write(const std::vector<LasPoint>& points) {
 
 void LasWriter::writeRaw(const std::uint8_t* records, std::size_t n) {
   const std::size_t len = header_.point_record_length;
-  for (std::size_t i = 0; i < n; ++i) account(reinterpret_cast<const char*>(records + i * len));
+  accountBlock(records, n);
   if (!compress_) {
     out_.write(reinterpret_cast<const char*>(records), static_cast<std::streamsize>(n * len));
     return;
@@ -556,6 +583,38 @@ void LasWriter::account(const char* r) {
   const int ret = header_.point_format < 6 ? (b14 & 7) : (b14 & 15);
   if (ret >= 1 && ret <= 15) ++header_.points_by_return[static_cast<std::size_t>(ret - 1)];
   ++header_.point_count;
+}
+
+void LasWriter::accountBlock(const std::uint8_t* records, std::size_t n) {
+  if (n == 0) return;
+  const std::size_t len = header_.point_record_length;
+  // account() record by record, with the bounds taken on the stored integers: x = X·scale +
+  // offset is monotonic in X, so the block's extreme coordinates are those of its extreme
+  // integers (the lower one of the two for the minimum, whatever the sign of the scale).
+  std::int32_t lo[3], hi[3];
+  std::memcpy(lo, records, 12);
+  std::memcpy(hi, records, 12);
+  const int mask = header_.point_format < 6 ? 7 : 15;
+  std::uint64_t by_return[16] = {};
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint8_t* r = records + i * len;
+    std::int32_t X[3];
+    std::memcpy(X, r, 12);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], X[a]);
+      hi[a] = std::max(hi[a], X[a]);
+    }
+    ++by_return[r[14] & mask];
+  }
+  for (int a = 0; a < 3; ++a) {
+    const double x_lo = lo[a] * header_.scale[a] + header_.offset[a], x_hi = hi[a] * header_.scale[a] + header_.offset[a];
+    const double mn = x_hi < x_lo ? x_hi : x_lo, mx = x_hi < x_lo ? x_lo : x_hi;
+    if (!any_ || mn < header_.min[a]) header_.min[a] = mn;
+    if (!any_ || mx > header_.max[a]) header_.max[a] = mx;
+  }
+  any_ = true;
+  for (std::size_t ret = 1; ret <= 15; ++ret) header_.points_by_return[ret - 1] += by_return[ret];
+  header_.point_count += n;
 }
 
 void LasWriter::emit(const char* r) {

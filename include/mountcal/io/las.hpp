@@ -152,6 +152,10 @@ class LasWriter {
   /// The same, naming record `record` in the error (a caller that quantises a block of records
   /// before writing them).
   std::int32_t quantize(int axis, double value, std::uint64_t record) const;
+  /// quantize() of n points at once: xyz holds x, y, z of each point [m], XYZ receives the
+  /// three stored integers of each, the same values as quantize() gives one by one. Throws
+  /// FileError naming record first_record + k for the first point k that does not fit.
+  void quantize(const double* xyz, std::int32_t* XYZ, std::size_t n, std::uint64_t first_record) const;
   void write(const LasPoint& p);
   void write(const std::vector<LasPoint>& points);
   /// Writes `n` point records as stored (point_record_length bytes each).
@@ -166,6 +170,7 @@ class LasWriter {
 
  private:
   void account(const char* record);
+  void accountBlock(const std::uint8_t* records, std::size_t n);  ///< account() of n records
   void emit(const char* record);
   void flushChunks(bool all);
 
