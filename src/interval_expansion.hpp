@@ -68,6 +68,15 @@ inline Vec3 rotateExpanded(const IntervalExpansion& e, double time_s, const Vec3
   return acc;
 }
 
+/// forwardExpanded() of r = (0, y, z), a line scanner's laser vector: the zero component's
+/// products left out (the same sums, so the same values).
+inline Vec3 forwardExpandedYZ(const IntervalExpansion& e, double time_s, double y, double z) {
+  const double s = (time_s - e.t0) * e.inv_h;
+  Vec3 acc = e.M[kTerms - 1].col(1) * y + e.M[kTerms - 1].col(2) * z + e.m[kTerms - 1];
+  for (int j = kTerms - 2; j >= 0; --j) acc = acc * s + (e.M[j].col(1) * y + e.M[j].col(2) * z + e.m[j]);
+  return acc;
+}
+
 /// forwardExpanded() of r = 0: the lever arm's end, p(s) + R_mb(s) a, from the m_j alone.
 inline Vec3 originExpanded(const IntervalExpansion& e, double time_s) {
   const double s = (time_s - e.t0) * e.inv_h;

@@ -335,7 +335,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
               const std::size_t jm = i;
               if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
               return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
-                                  : detail::forwardExpanded(e_meas, t, r_s);
+                                  : detail::forwardExpandedYZ(e_meas, t, r_s.y(), r_s.z());  // r_s.x() = 0
             };
             emit(t, origin, dir, (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0, sc);
           }
