@@ -481,41 +481,43 @@ LasWriter::~LasWriter() {
   }
 }
 
+namespace {
+
+/// std::round to 32 bits without the library call, halves away from zero. Values outside the
+/// 32-bit range (and NaN) are clamped first: callers test the fit themselves. frac ∈ (−1, 1) and
+/// 2·frac is exact, so its truncation is +1 from a half up, −1 from a half down, 0 between.
+inline std::int32_t roundToInt32(double v) {
+  const double vc = std::min(2147483647.0, std::max(-2147483648.0, v));  // max(lo, NaN) is lo
+  const auto i = static_cast<std::int32_t>(vc);
+  const double frac = vc - static_cast<double>(i);
+  return static_cast<std::int32_t>(i + static_cast<std::int32_t>(2.0 * frac));
+}
+
+}  // namespace
+
 std::int32_t LasWriter::quantize(int axis, double value, std::uint64_t record) const {
   const double v = (value - header_.offset[axis]) / header_.scale[axis];
   // round(v) fits in 32 bits exactly when v lies in (−2³¹ − ½, 2³¹ − ½); NaN fails too.
   if (!(v > -2147483648.5 && v < 2147483647.5)) {
     throw FileError(path_, "record " + std::to_string(record), "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
   }
-  // std::round without the library call: truncate, then step away from zero at a half
-  // (v − trunc(v) is exact).
-  const auto i = static_cast<std::int64_t>(v);
-  const double frac = v - static_cast<double>(i);
-  return static_cast<std::int32_t>(i + (frac >= 0.5 ? 1 : 0) - (frac <= -0.5 ? 1 : 0));
+  return roundToInt32(v);
 }
 
 void LasWriter::quantize(const double* xyz, std::int32_t* XYZ, std::size_t n, std::uint64_t first_record) const {
   // The single-value quantize() above, without its call and test per value: the fit of the
   // whole block is tested once at the end (a value that does not fit is clamped meanwhile, then
-  // quantize() names it), and truncation goes through 32 bits, where it cannot overflow.
+  // quantize() names it).
   const double o0 = header_.offset[0], o1 = header_.offset[1], o2 = header_.offset[2];
   const double s0 = header_.scale[0], s1 = header_.scale[1], s2 = header_.scale[2];
-  const auto round = [](double v) {
-    // max(lo, NaN) is lo: no conversion of a NaN. frac ∈ (−1, 1) and 2·frac is exact, so its
-    // truncation is +1 from a half up, −1 from a half down, 0 between: halves away from zero.
-    const double vc = std::min(2147483647.0, std::max(-2147483648.0, v));
-    const auto i = static_cast<std::int32_t>(vc);
-    const double frac = vc - static_cast<double>(i);
-    return static_cast<std::int32_t>(i + static_cast<std::int32_t>(2.0 * frac));
-  };
   bool all_fit = true;
   for (std::size_t k = 0; k < n; ++k) {
     const double v0 = (xyz[3 * k] - o0) / s0, v1 = (xyz[3 * k + 1] - o1) / s1, v2 = (xyz[3 * k + 2] - o2) / s2;
     all_fit &= (v0 > -2147483648.5) & (v0 < 2147483647.5) & (v1 > -2147483648.5) & (v1 < 2147483647.5) &
                (v2 > -2147483648.5) & (v2 < 2147483647.5);
-    XYZ[3 * k] = round(v0);
-    XYZ[3 * k + 1] = round(v1);
-    XYZ[3 * k + 2] = round(v2);
+    XYZ[3 * k] = roundToInt32(v0);
+    XYZ[3 * k + 1] = roundToInt32(v1);
+    XYZ[3 * k + 2] = roundToInt32(v2);
   }
   if (all_fit) return;
   for (std::size_t k = 0; k < 3 * n; ++k) (void)quantize(static_cast<int>(k % 3), xyz[k], first_record + k / 3);  // throws
@@ -551,7 +553,7 @@ void LasWriter::write(const LasPoint& p) {
   }
   const std::size_t std_len = LasHeader::standardRecordLength(f);
   if (!p.extra.empty()) std::memcpy(r + std_len, p.extra.data(), std::min(p.extra.size(), record_.size() - std_len));
-  account(r);
+  accountBlock(reinterpret_cast<const std::uint8_t*>(r), 1);
   emit(r);
 }
 
@@ -571,26 +573,12 @@ void LasWriter::writeRaw(const std::uint8_t* records, std::size_t n) {
 
 void LasWriter::keepHeaderStatistics() { keep_statistics_ = true; }
 
-void LasWriter::account(const char* r) {
-  const double xyz[3] = {get<std::int32_t>(r, 0) * header_.scale[0] + header_.offset[0], get<std::int32_t>(r, 4) * header_.scale[1] + header_.offset[1],
-                         get<std::int32_t>(r, 8) * header_.scale[2] + header_.offset[2]};
-  for (int a = 0; a < 3; ++a) {
-    if (!any_ || xyz[a] < header_.min[a]) header_.min[a] = xyz[a];
-    if (!any_ || xyz[a] > header_.max[a]) header_.max[a] = xyz[a];
-  }
-  any_ = true;
-  const std::uint8_t b14 = get<std::uint8_t>(r, 14);
-  const int ret = header_.point_format < 6 ? (b14 & 7) : (b14 & 15);
-  if (ret >= 1 && ret <= 15) ++header_.points_by_return[static_cast<std::size_t>(ret - 1)];
-  ++header_.point_count;
-}
-
 void LasWriter::accountBlock(const std::uint8_t* records, std::size_t n) {
   if (n == 0) return;
   const std::size_t len = header_.point_record_length;
-  // account() record by record, with the bounds taken on the stored integers: x = X·scale +
-  // offset is monotonic in X, so the block's extreme coordinates are those of its extreme
-  // integers (the lower one of the two for the minimum, whatever the sign of the scale).
+  // The header's bounds and counts over n records, the bounds taken on the stored integers:
+  // x = X·scale + offset is monotonic in X, so the block's extreme coordinates are those of its
+  // extreme integers (the lower one of the two for the minimum, whatever the sign of the scale).
   std::int32_t lo[3], hi[3];
   std::memcpy(lo, records, 12);
   std::memcpy(hi, records, 12);

@@ -50,9 +50,14 @@ LineFrame lineFrame(const FlightLine& line, double t0) {
   return f;
 }
 
-double mirrorAngle(const LineScannerConfig& c, double t) {
+/// The fraction of its period the mirror has swept at time t after the start of its line.
+double mirrorFraction(const LineScannerConfig& c, double t) {
   const double phase = c.scan_rate_hz * t;  // t ≥ 0 within a line: truncation is the floor
-  const double frac = phase - static_cast<double>(static_cast<long long>(phase));
+  return phase - static_cast<double>(static_cast<long long>(phase));
+}
+
+double mirrorAngle(const LineScannerConfig& c, double t) {
+  const double frac = mirrorFraction(c, t);
   switch (c.pattern) {
     case MirrorPattern::kSinusoidal:
       return c.half_fov_rad * std::sin(2.0 * kPi * frac);
@@ -302,10 +307,8 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
           const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
           for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
           if (scanner.pattern == MirrorPattern::kSinusoidal) {
-            for (std::size_t j = 0; j < nb; ++j) {  // mirrorAngle(): half_fov · sin(2π frac(rate · t))
-              const double phase = scanner.scan_rate_hz * (t_blk[j] - f.t0);
-              arg_blk[j] = 2.0 * kPi * (phase - static_cast<double>(static_cast<long long>(phase)));
-            }
+            // mirrorAngle(): half_fov · sin(2π frac), the sines of the block at once
+            for (std::size_t j = 0; j < nb; ++j) arg_blk[j] = 2.0 * kPi * mirrorFraction(scanner, t_blk[j] - f.t0);
             detail::sinCosBatch(arg_blk, sin_blk, cos_blk, nb);
             for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = scanner.half_fov_rad * sin_blk[j];
           } else {

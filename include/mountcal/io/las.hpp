@@ -169,8 +169,7 @@ class LasWriter {
   void close();
 
  private:
-  void account(const char* record);
-  void accountBlock(const std::uint8_t* records, std::size_t n);  ///< account() of n records
+  void accountBlock(const std::uint8_t* records, std::size_t n);  ///< header bounds and counts of n records
   void emit(const char* record);
   void flushChunks(bool all);
 
