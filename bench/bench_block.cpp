@@ -28,7 +28,7 @@ const CalibrationData& blockData(int strips, BlockLayout layout = BlockLayout::k
 
 MountingCalibrator::Options options(int threads) {
   MountingCalibrator::Options o;
-  o.methods = {CalibrationMethod::kCorrespondences};
+  o.methods = {"correspondences"};
   o.estimate = {false, true, false, true, true, true};  // one height: lever x and z not determined
   o.threads = threads;
   return o;
@@ -45,12 +45,12 @@ void BM_BlockCalibrate(benchmark::State& state) {
     benchmark::DoNotOptimize(S.final_cost);
   }
   int overlapping = 0;
-  for (const auto& p : S.correspondences.pairs) overlapping += p.samples > 0;
+  for (const auto& p : S.section<CorrespondenceSection>().pairs) overlapping += p.samples > 0;
   state.counters["strips"] = strips;
   state.counters["threads"] = threads;
   state.counters["points"] = static_cast<double>(points);
   state.counters["pairs"] = overlapping;
-  state.counters["matchings"] = S.correspondences.rounds;
+  state.counters["matchings"] = S.section<CorrespondenceSection>().rounds;
   state.counters["construction_s"] = S.construction_time_s;  // the pairs' candidates and every matching
   state.counters["solve_s"] = S.solve_time_s;
   state.counters["s_per_pair"] = S.time_s / std::max(overlapping, 1);
@@ -74,11 +74,11 @@ void BM_ParallelBlockCalibrate(benchmark::State& state) {
     benchmark::DoNotOptimize(S.final_cost);
   }
   int overlapping = 0;
-  for (const auto& p : S.correspondences.pairs) overlapping += p.samples > 0;
+  for (const auto& p : S.section<CorrespondenceSection>().pairs) overlapping += p.samples > 0;
   state.counters["strips"] = strips;
   state.counters["points"] = static_cast<double>(points);
   state.counters["pairs"] = overlapping;
-  state.counters["matchings"] = S.correspondences.rounds;
+  state.counters["matchings"] = S.section<CorrespondenceSection>().rounds;
   state.counters["construction_s"] = S.construction_time_s;
   state.counters["s_per_pair"] = S.time_s / std::max(overlapping, 1);
   state.counters["usable"] = S.IsSolutionUsable();

@@ -69,7 +69,7 @@ void BM_Calibrate12Observations(benchmark::State& state) {
     const auto S = calibrate(d);
     benchmark::DoNotOptimize(S.mounting);
     state.SetIterationTime(S.solve_time_s);
-    state.counters["observations"] = S.observations_used;
+    state.counters["observations"] = S.section<VtpmSection>().observations_used;
     state.counters["total_ms"] = 1e3 * S.time_s;
     state.counters["construction_ms"] = 1e3 * S.construction_time_s;
   }
@@ -82,7 +82,7 @@ void BM_Calibrate10000Observations(benchmark::State& state) {
     const auto S = calibrate(d);
     benchmark::DoNotOptimize(S.mounting);
     state.SetIterationTime(S.solve_time_s);
-    state.counters["observations"] = S.observations_used;
+    state.counters["observations"] = S.section<VtpmSection>().observations_used;
     state.counters["total_ms"] = 1e3 * S.time_s;
     state.counters["construction_ms"] = 1e3 * S.construction_time_s;
     state.counters["analysis_ms"] = 1e3 * S.analysis_time_s;
@@ -130,7 +130,7 @@ void BM_VtpmConstructionThreads(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
   std::size_t built = 0;
   for (auto _ : state) {
-    const TieObservations ties(d, d.ties, d.gcps, o, o.vtp, "ties", threads);
+    const TieObservations ties(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", threads);
     built = ties.virtualTiePoints().size();
     benchmark::DoNotOptimize(built);
   }

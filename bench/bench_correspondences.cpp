@@ -32,7 +32,7 @@ const CalibrationData& fieldData() {
 
 MountingCalibrator::Options correspondenceOptions() {
   MountingCalibrator::Options o;
-  o.methods = {CalibrationMethod::kCorrespondences};
+  o.methods = {"correspondences"};
   return o;
 }
 
@@ -46,9 +46,9 @@ void BM_CalibrateWithCorrespondences(benchmark::State& state) {
     benchmark::DoNotOptimize(S.final_cost);
   }
   state.counters["strip_points"] = static_cast<double>(points);
-  state.counters["correspondences"] = S.correspondences.used;
-  state.counters["matchings"] = S.correspondences.rounds;
-  state.counters["search_s"] = S.correspondences.search_time_s;
+  state.counters["correspondences"] = S.section<CorrespondenceSection>().used;
+  state.counters["matchings"] = S.section<CorrespondenceSection>().rounds;
+  state.counters["search_s"] = S.section<CorrespondenceSection>().search_time_s;
   state.counters["construction_s"] = S.construction_time_s;  // matchings included
   state.counters["solve_s"] = S.solve_time_s;
   state.counters["analysis_s"] = S.analysis_time_s;

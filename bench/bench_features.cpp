@@ -28,7 +28,7 @@ const CalibrationData& uavData() {
 void BM_FeaturesCalibrateUavVlp16(benchmark::State& state) {
   const CalibrationData& d = uavData();
   MountingCalibrator::Options o;
-  o.methods = {CalibrationMethod::kFeatures};
+  o.methods = {"features"};
   o.estimate = {true, true, false, true, true, true};
   double extraction = 0, matching = 0, solve = 0;
   std::size_t points = 0;
@@ -36,8 +36,8 @@ void BM_FeaturesCalibrateUavVlp16(benchmark::State& state) {
   for (auto _ : state) {
     const auto S = calibrate(d, o);
     if (!S.IsSolutionUsable()) state.SkipWithError(S.message.c_str());
-    extraction += S.features.extraction_time_s;
-    matching += S.features.matching_time_s;
+    extraction += S.section<FeatureSection>().extraction_time_s;
+    matching += S.section<FeatureSection>().matching_time_s;
     solve += S.solve_time_s + S.analysis_time_s;
     benchmark::DoNotOptimize(S.mounting.boresight);
   }

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 
+#include "mountcal/mountcal.hpp"
 #include "mountcal/evaluation.hpp"
 #include "mountcal/job/load.hpp"
 #include "mountcal/job/result.hpp"
@@ -30,10 +31,10 @@ void calibrateSet(benchmark::State& state, const char* name) {
   }
   CalibrationData d = loadJob(job).data;
   std::vector<double> lasers;
-  for (double v : S.correspondences.laser_elevation_deg) lasers.push_back(deg2rad(v));
+  for (double v : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(v));
   applyLaserElevation(&d, lasers);
   state.counters["median_after_m"] = pooledDiscrepancy(d, S.mounting).median_m;
-  state.counters["matchings"] = S.correspondences.rounds;
+  state.counters["matchings"] = S.section<CorrespondenceSection>().rounds;
 }
 
 }  // namespace

@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
   c.roi_radius_m = 12.0;
   const SimulatedSurvey s = simulate(c, scene);
   MountingCalibrator::Options base;
-  base.tie_sigma_xy_m = 0.03;
-  base.tie_sigma_z_m = 0.03;
+  base.method<VtpmOptions>().tie_sigma_xy_m = 0.03;
+  base.method<VtpmOptions>().tie_sigma_z_m = 0.03;
   base.strip_offset_sigma_m = 0.005;
   base.estimate = {true, true, false, true, true, true};
 
@@ -44,19 +44,19 @@ int main(int argc, char** argv) {
     MountingCalibrator::Options options;
   };
   std::vector<Row> rows;
-  auto add = [&](const std::string& name, std::vector<CalibrationMethod> methods, auto edit) {
+  auto add = [&](const std::string& name, std::vector<std::string> methods, auto edit) {
     Row r{name, toCalibrationData(s), base};
     r.options.methods = std::move(methods);
     edit(r);
     rows.push_back(std::move(r));
   };
-  add("VTPM, the paper's 5 ties (12 obs.)", {CalibrationMethod::kVtpm}, [&](Row& r) { r.data.ties = paperFiveTies(s); });
-  add("VTPM, all ties", {CalibrationMethod::kVtpm}, [](Row&) {});
-  add("planes, flat ground only", {CalibrationMethod::kPlanes}, [&](Row& r) { r.data.plane_regions = flatGroundRegions(s); });
-  add("planes, roofs of 4 aspects (regions)", {CalibrationMethod::kPlanes}, [](Row&) {});
-  add("planes, found automatically", {CalibrationMethod::kPlanes}, [](Row& r) { r.options.planes.automatic = true; });
-  add("correspondences (automatic)", {CalibrationMethod::kCorrespondences}, [](Row&) {});
-  add("VTPM (all ties) + planes (regions)", {CalibrationMethod::kVtpm, CalibrationMethod::kPlanes}, [](Row&) {});
+  add("VTPM, the paper's 5 ties (12 obs.)", {"vtpm"}, [&](Row& r) { r.data.ties = paperFiveTies(s); });
+  add("VTPM, all ties", {"vtpm"}, [](Row&) {});
+  add("planes, flat ground only", {"planes"}, [&](Row& r) { r.data.plane_regions = flatGroundRegions(s); });
+  add("planes, roofs of 4 aspects (regions)", {"planes"}, [](Row&) {});
+  add("planes, found automatically", {"planes"}, [](Row& r) { r.options.method<PlaneOptions>().automatic = true; });
+  add("correspondences (automatic)", {"correspondences"}, [](Row&) {});
+  add("VTPM (all ties) + planes (regions)", {"vtpm", "planes"}, [](Row&) {});
 
   std::printf("Crossing field (seed %llu), survey-grade noise; lever_arm_z held (no ground control).\n",
               static_cast<unsigned long long>(seed));

@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     const MountingCalibrator::Summary S = calibrate(data);
     std::vector<std::string> labels;
     std::vector<Vec3> before, after;
-    for (const TieResidual& r : S.residuals) {
+    for (const TieResidual& r : S.section<VtpmSection>().residuals) {
       labels.push_back(r.tie_id + "/" + r.strip_id);
       before.push_back(r.before_m);
       after.push_back(r.after_m);

@@ -289,6 +289,11 @@ std::string histogram(const std::string& title, const std::vector<double>& befor
 std::string visualReport(const MountingCalibrator::Summary& S, const CalibrationData& data, const ResultEvaluation* ev,
                          const ReportOptions& o) {
   std::ostringstream v;  // the visual sections, inserted after the mounting table
+  std::vector<PlanResidual> plan_residuals;  // every method's residual arrows
+  for (const auto& section : S.sections) {
+    std::vector<PlanResidual> r = section->planResiduals(data);
+    plan_residuals.insert(plan_residuals.end(), r.begin(), r.end());
+  }
   const auto& names = mountingParameterNames();
 
   // ---- warnings ----------------------------------------------------------------------------
@@ -300,12 +305,11 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
         warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + detail::formatNumber(S.correlation(a, b), "%+.3f") + ")");
   if (S.degrees_of_freedom > 0 && (S.variance_factor < 0.5 || S.variance_factor > 2.0))
     warn.push_back("the variance factor σ₀² = " + detail::formatNumber(S.variance_factor, "%.3g") + " is far from 1: the stated σ do not match the residuals");
-  if (!S.rejected.empty()) warn.push_back(std::to_string(S.rejected.size()) + " tie observations rejected (reasons in the table below)");
-  if (!S.planes.rejected.empty()) warn.push_back(std::to_string(S.planes.rejected.size()) + " plane patches or strip parts rejected");
-  if (!S.features.rejected.empty()) warn.push_back(std::to_string(S.features.rejected.size()) + " targets or strip views rejected");
   int outliers = 0;
-  for (const auto& r : S.residuals) outliers += r.outlier;
-  for (const auto& r : S.planes.patches) outliers += r.outlier;
+  for (const auto& section : S.sections) {
+    for (const std::string& w : section->warnings()) warn.push_back(w);
+    outliers += section->outliers();
+  }
   if (outliers) warn.push_back(std::to_string(outliers) + " observations flagged as outliers");
   if (!S.IsSolutionUsable()) warn.push_back(std::string("the solve is not usable: ") + toString(S.termination) + " — " + S.message);
   v << "<h2>Warnings</h2>";
@@ -361,11 +365,10 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
     }
     auto PX = [&](double x) { return (x - box.x0) * scale; };
     auto PY = [&](double y) { return (box.y1 - y) * scale; };
-    // Tie residual vectors at the picks, before (red) and after (blue), one common scale.
-    std::map<std::pair<std::string, std::string>, const TieObservation*> pick;
-    for (const TieObservation& t : data.ties) pick[{t.tie_id, t.strip_id}] = &t;
+    // Residual vectors of the methods that have them (ties at the picks), before (red) and after
+    // (blue), one common scale.
     double longest = 0;
-    for (const auto& r : S.residuals) longest = std::max(longest, r.before_m.head<2>().norm());
+    for (const PlanResidual& r : plan_residuals) longest = std::max(longest, r.before_m.head<2>().norm());
     const double vec_scale = longest > 0 ? 0.08 * Wd / longest : 0.0;  // px per metre of residual
     v << "<h2>Plan view</h2><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << Wd << "\" height=\"" << Hd + 40
       << "\" class=\"mapview\" font-family=\"sans-serif\" font-size=\"11\"><image width=\"" << Wd << "\" height=\"" << Hd
@@ -376,14 +379,13 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
     for (const PlaneRegion& r : data.target_regions)
       v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\"" << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\""
         << detail::formatNumber((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << detail::htmlEscape(r.id) << "</title></rect>";
-    for (const auto& p : S.planes.patches)
-      v << "<circle cx=\"" << detail::formatNumber(PX(p.centre_m.x())) << "\" cy=\"" << detail::formatNumber(PY(p.centre_m.y())) << "\" r=\"3\" fill=\"#8c564b\"><title>patch "
-        << detail::htmlEscape(p.patch_id) << "</title></circle>";
-    for (const auto& r : S.residuals) {
-      const auto it = pick.find({r.tie_id, r.strip_id});
-      if (it == pick.end()) continue;
-      const double x = PX(it->second->x_m), y = PY(it->second->y_m);
-      v << "<circle cx=\"" << detail::formatNumber(x) << "\" cy=\"" << detail::formatNumber(y) << "\" r=\"2\" fill=\"#000\"><title>" << detail::htmlEscape(r.tie_id) << " on strip " << detail::htmlEscape(r.strip_id)
+    for (const auto& section : S.sections)
+      for (const PlanMark& p : section->planMarks())
+        v << "<circle cx=\"" << detail::formatNumber(PX(p.x_m)) << "\" cy=\"" << detail::formatNumber(PY(p.y_m)) << "\" r=\"3\" fill=\"#8c564b\"><title>"
+          << detail::htmlEscape(p.label) << "</title></circle>";
+    for (const PlanResidual& r : plan_residuals) {
+      const double x = PX(r.x_m), y = PY(r.y_m);
+      v << "<circle cx=\"" << detail::formatNumber(x) << "\" cy=\"" << detail::formatNumber(y) << "\" r=\"2\" fill=\"#000\"><title>" << detail::htmlEscape(r.label)
         << "</title></circle>";
       v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\"" << detail::formatNumber(x + r.before_m.x() * vec_scale) << "\" y2=\""
         << detail::formatNumber(y - r.before_m.y() * vec_scale) << "\" stroke=\"#d62728\" stroke-width=\"1.5\"/>";
@@ -407,12 +409,12 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
   }
 
   // ---- residual histograms -----------------------------------------------------------------
-  if (!S.residuals.empty()) {
+  if (!plan_residuals.empty()) {
     v << "<h2>Residual histograms</h2><div>";
     const char* axis[3] = {"x (east)", "y (north)", "z (up)"};
     for (int a = 0; a < 3; ++a) {
       std::vector<double> b, af;
-      for (const auto& r : S.residuals) b.push_back(r.before_m[a]), af.push_back(r.after_m[a]);
+      for (const PlanResidual& r : plan_residuals) b.push_back(r.before_m[a]), af.push_back(r.after_m[a]);
       v << histogram(std::string("tie residuals, ") + axis[a], b, af);
     }
     v << "</div>";

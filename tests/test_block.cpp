@@ -34,7 +34,7 @@ const SimulatedSurvey& block() {
 
 MountingCalibrator::Options correspondenceOptions(int threads) {
   MountingCalibrator::Options o;
-  o.methods = {CalibrationMethod::kCorrespondences};
+  o.methods = {"correspondences"};
   o.estimate = {false, true, false, true, true, true};  // one height: lever x and z are not determined
   o.threads = threads;
   return o;
@@ -82,23 +82,23 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   const auto o = correspondenceOptions(0);
   const MountingCalibrator::Summary whole = calibrate(d, o);
   ASSERT_TRUE(whole.IsSolutionUsable()) << whole.message;
-  ASSERT_GT(whole.correspondences.used, 500);
+  ASSERT_GT(whole.section<CorrespondenceSection>().used, 500);
   // Each pair from its two strips alone, through a pair file and back.
   const fs::path dir = tempDir("pairs");
   auto given = std::make_shared<std::vector<PairCandidates>>();
   int overlapping = 0;
-  for (const auto& [a, b] : candidateStripPairs(d, o.correspondence)) {
+  for (const auto& [a, b] : candidateStripPairs(d, o.method<CorrespondenceOptions>())) {
     CalibrationData two;
     two.trajectory = d.trajectory;
     two.mounting_used = d.mounting_used;
     two.strips = {d.strips[static_cast<std::size_t>(a)], d.strips[static_cast<std::size_t>(b)]};
-    const PairCandidates p = findPairCandidates(two, 0, 1, o.correspondence);
+    const PairCandidates p = findPairCandidates(two, 0, 1, o.method<CorrespondenceOptions>());
     const std::string file = (dir / (p.strip_a + "__" + p.strip_b + ".mcpair")).string();
-    writePairCandidates(file, p, o.correspondence, d.mounting_used.toArray());
+    writePairCandidates(file, p, o.method<CorrespondenceOptions>(), d.mounting_used.toArray());
     CorrespondenceOptions read_options;
     std::array<double, 6> read_mounting{};
     PairCandidates q = readPairCandidates(file, &read_options, &read_mounting);
-    EXPECT_TRUE(sameMatchingOptions(read_options, o.correspondence));
+    EXPECT_TRUE(sameMatchingOptions(read_options, o.method<CorrespondenceOptions>()));
     EXPECT_EQ(read_mounting, d.mounting_used.toArray());
     ASSERT_EQ(q.samples_a.size(), p.samples_a.size());
     ASSERT_EQ(q.points_b.size(), p.points_b.size());
@@ -126,8 +126,8 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   ASSERT_TRUE(split.IsSolutionUsable()) << split.message;
   expectSameMounting(split.mounting, whole.mounting, 1e-9, "pair files against the whole search");
   EXPECT_EQ(split.mounting.toArray(), whole.mounting.toArray());  // to the last bit, in fact
-  EXPECT_EQ(split.correspondences.used, whole.correspondences.used);
-  EXPECT_EQ(split.correspondences.rounds, whole.correspondences.rounds);
+  EXPECT_EQ(split.section<CorrespondenceSection>().used, whole.section<CorrespondenceSection>().used);
+  EXPECT_EQ(split.section<CorrespondenceSection>().rounds, whole.section<CorrespondenceSection>().rounds);
   for (int j : {1, 3, 4, 5}) EXPECT_NEAR(split.sigma[j], whole.sigma[j], 1e-12 * whole.sigma[j]);  // the analysis rounds alike to 1e-16
   // And the block calibrates: the boresight within a few σ of the truth (lever x held at zero
   // moves pitch by 0.1 m / 300 m = 0.019°).
@@ -155,7 +155,7 @@ TEST(Block, ThreadsDoNotChangeTheResult) {
   const auto S2 = calibrate(d, correspondenceOptions(2));
   EXPECT_EQ(S1.mounting.toArray(), S2.mounting.toArray());
   EXPECT_EQ(S1.final_cost, S2.final_cost);
-  EXPECT_EQ(S1.correspondences.rounds, S2.correspondences.rounds);
+  EXPECT_EQ(S1.section<CorrespondenceSection>().rounds, S2.section<CorrespondenceSection>().rounds);
 }
 
 TEST(Block, VirtualTiePointsAndSimulationDoNotDependOnThreads) {
@@ -174,7 +174,7 @@ TEST(Block, VirtualTiePointsAndSimulationDoNotDependOnThreads) {
   for (std::size_t k = 0; k < s1.ties.size(); ++k) EXPECT_EQ(s1.ties[k].x_m, s2.ties[k].x_m);
   const CalibrationData d = toCalibrationData(s1);
   MountingCalibrator::Options o;
-  const TieObservations one(d, d.ties, d.gcps, o, o.vtp, "ties", 1), two(d, d.ties, d.gcps, o, o.vtp, "ties", 2);
+  const TieObservations one(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 1), two(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 2);
   ASSERT_GT(one.virtualTiePoints().size(), 100u);
   ASSERT_EQ(one.virtualTiePoints().size(), two.virtualTiePoints().size());
   for (std::size_t k = 0; k < one.virtualTiePoints().size(); ++k) {
@@ -219,7 +219,7 @@ TEST(Block, PairFileErrorsNameTheFileAndTheByte) {
   const fs::path jobdir = tempDir("job");
   writeSurvey(block(), jobdir.string(), SurveyWriteOptions{});
   Job job = readJob((jobdir / "job.json").string());
-  job.options.methods = {CalibrationMethod::kCorrespondences};
+  job.options.methods = {"correspondences"};
   const fs::path pairdir = jobdir / "pairs";
   fs::create_directories(pairdir);
   try {
@@ -230,7 +230,7 @@ TEST(Block, PairFileErrorsNameTheFileAndTheByte) {
   }
   const auto job_pairs = jobStripPairs(job);
   ASSERT_GE(job_pairs.size(), pairs.size());  // from the headers: a superset
-  CorrespondenceOptions other = job.options.correspondence;
+  CorrespondenceOptions other = job.options.method<CorrespondenceOptions>();
   other.max_neighbours += 1;
   const PairCandidates q = jobPairCandidates(job, job_pairs[0].first, job_pairs[0].second);
   writePairCandidates((pairdir / "x.mcpair").string(), q, other, job.mounting_used.toArray());

@@ -7,6 +7,7 @@
 #include <memory>
 #include <set>
 
+#include "mountcal/mountcal.hpp"
 #include "mountcal/error.hpp"
 
 #include "mountcal/detail/vtp_cost.hpp"
@@ -32,8 +33,8 @@ NoiseModel surveyGrade() {
 /// Calibrator options that state the same stochastic model.
 MountingCalibrator::Options surveyGradeOptions() {
   MountingCalibrator::Options o;
-  o.tie_sigma_xy_m = 0.03;
-  o.tie_sigma_z_m = 0.03;
+  o.method<VtpmOptions>().tie_sigma_xy_m = 0.03;
+  o.method<VtpmOptions>().tie_sigma_z_m = 0.03;
   o.strip_offset_sigma_m = 0.005;
   return o;
 }
@@ -72,8 +73,8 @@ TEST(VtpmCalibration, NoiseFreeCrossingFieldRecoversTheTruth) {
   const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
   for (int j : {kBoresightRoll, kBoresightPitch, kBoresightHeading}) EXPECT_LT(std::abs(e[j] - t[j]), 1e-4 * kDeg) << j;
   for (int j : {kLeverX, kLeverY, kLeverZ}) EXPECT_LT(std::abs(e[j] - t[j]), 1e-3) << j;
-  EXPECT_LT(S.rms_after_m.maxCoeff(), 0.005);
-  EXPECT_GT(S.rms_before_m.head<2>().minCoeff(), 0.5);  // the misalignment was real
+  EXPECT_LT(S.section<VtpmSection>().rms_after_m.maxCoeff(), 0.005);
+  EXPECT_GT(S.section<VtpmSection>().rms_before_m.head<2>().minCoeff(), 0.5);  // the misalignment was real
   // Without ground control and with the default estimate (lever z held at its used value),
   // the boresight is still within 3e-4° and the horizontal lever arm within 1 mm.
   const auto H = calibrate(toCalibrationData(s));
@@ -196,7 +197,7 @@ TEST(VtpmCalibration, UnbuildableTiesAreRejectedWithAReason) {
   const auto S = calibrate(d);
   ASSERT_TRUE(S.IsSolutionUsable());
   std::map<std::string, std::string> reasons;
-  for (const RejectedTie& r : S.rejected) reasons[r.tie_id + "/" + r.strip_id] = r.reason;
+  for (const RejectedTie& r : S.section<VtpmSection>().rejected) reasons[r.tie_id + "/" + r.strip_id] = r.reason;
   EXPECT_EQ(reasons[far.tie_id + "/" + far.strip_id].rfind("too few points", 0), 0u) << reasons[far.tie_id + "/" + far.strip_id];
   bool outside = false;
   for (const auto& [k, r] : reasons) outside |= k.rfind("edge/", 0) == 0 && r.rfind("outside the hull", 0) == 0;
@@ -225,7 +226,7 @@ TEST(VtpmCalibration, MisPickedTieUnderRobustLossIsFlaggedAndHarmless) {
     for (int j : {kBoresightRoll, kBoresightPitch, kBoresightHeading}) EXPECT_LT(std::abs(e[j] - t[j]), 0.003 * kDeg) << j;
     for (int j : {kLeverX, kLeverY}) EXPECT_LT(std::abs(e[j] - t[j]), 0.05) << j;
     int flagged = 0, found = 0;
-    for (const TieResidual& r : S.residuals) {
+    for (const TieResidual& r : S.section<VtpmSection>().residuals) {
       if (r.tie_id == d.ties[victim].tie_id && r.strip_id == d.ties[victim].strip_id) {
         ++found;
         EXPECT_TRUE(r.outlier);
@@ -329,8 +330,8 @@ HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correl
     c.roi_radius_m = 8.0;
     const SimulatedSurvey s = simulate(c, scene);
     MountingCalibrator::Options o = surveyGradeOptions();  // picks 3 cm
-    o.tie_sigma_z_m = 0.01;
-    o.estimate_tie_sigma = true;
+    o.method<VtpmOptions>().tie_sigma_z_m = 0.01;
+    o.method<VtpmOptions>().estimate_tie_sigma = true;
     o.pulse_noise.range_m = c.noise.range_sigma_m;
     o.pulse_noise.beam_deg = rad2deg(c.noise.scan_angle_sigma_rad);
     o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.attitude_sigma_rad);
@@ -450,21 +451,21 @@ TEST(VtpmCalibration, EstimatedTieSigmaIsThePickingPrecision) {
   c.roi_radius_m = 8.0;
   const SimulatedSurvey s = simulate(c, scene);
   MountingCalibrator::Options o = surveyGradeOptions();
-  o.tie_sigma_xy_m = 0.02;
-  o.tie_sigma_z_m = 0.01;
+  o.method<VtpmOptions>().tie_sigma_xy_m = 0.02;
+  o.method<VtpmOptions>().tie_sigma_z_m = 0.01;
   o.pulse_noise.range_m = c.noise.range_sigma_m;
   o.pulse_noise.beam_deg = rad2deg(c.noise.scan_angle_sigma_rad);
   o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.attitude_sigma_rad);
   o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.attitude_sigma_rad);
   const auto stated = calibrate(toCalibrationData(s), o);
-  o.estimate_tie_sigma = true;
+  o.method<VtpmOptions>().estimate_tie_sigma = true;
   const auto S = calibrate(toCalibrationData(s), o);
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
-  EXPECT_TRUE(S.tie_sigma_estimated);
-  EXPECT_FALSE(stated.tie_sigma_estimated);
-  EXPECT_DOUBLE_EQ(stated.tie_sigma_xy_m, 0.02);
+  EXPECT_TRUE(S.section<VtpmSection>().sigma_estimated);
+  EXPECT_FALSE(stated.section<VtpmSection>().sigma_estimated);
+  EXPECT_DOUBLE_EQ(stated.section<VtpmSection>().sigma_xy_m, 0.02);
   // ≈ 500 observations: the estimate is good to a few per cent; 10 % allowed.
-  EXPECT_NEAR(S.tie_sigma_xy_m, 0.04, 0.004) << S.FullReport();
+  EXPECT_NEAR(S.section<VtpmSection>().sigma_xy_m, 0.04, 0.004) << S.FullReport();
   // With the σ the data show, σ₀² is 1; with the stated 2 cm it was 1.76 (the horizontal
   // residuals (4/2)² = 4 times their variance, diluted by the vertical ones and the pulse noise).
   EXPECT_GT(stated.variance_factor, 1.5);

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mountcal/mountcal.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
@@ -53,7 +54,7 @@ const Uav& uav(std::uint64_t seed, bool noise, bool one_height = false) {
 
 MountingCalibrator::Options featureOptions(bool lever_arm_xy) {
   MountingCalibrator::Options o;
-  o.methods = {CalibrationMethod::kFeatures};
+  o.methods = {"features"};
   o.estimate = {lever_arm_xy, lever_arm_xy, false, true, true, true};
   return o;
 }
@@ -153,7 +154,7 @@ TEST(FeatureMethod, NoiseFreeClosedFormAndRigorousRecoverTheBoresight) {
   ASSERT_FALSE(data.target_regions.empty());
   const auto S = calibrate(data, featureOptions(true));
   ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
-  const FeatureSection& F = S.features;
+  const FeatureSection& F = S.section<FeatureSection>();
   EXPECT_GE(F.targets_used, 9);
   const FeatureClosedForm& C = F.closed_form;
   ASSERT_TRUE(C.valid) << C.message;
@@ -185,8 +186,8 @@ TEST(FeatureMethod, OneHeightNamesThePitchLeverArmCouplingTwoHeightsDetermineBot
   const Uav& one = uav(1, false, true);
   const auto S1 = calibrate(toCalibrationData(one.survey), featureOptions(true));
   ASSERT_EQ(one.survey.strips.size(), 3u);
-  EXPECT_TRUE(S1.features.closed_form.pitch_lever_arm_coupled);
-  EXPECT_NE(S1.features.closed_form.message.find("coupled"), std::string::npos) << S1.features.closed_form.message;
+  EXPECT_TRUE(S1.section<FeatureSection>().closed_form.pitch_lever_arm_coupled);
+  EXPECT_NE(S1.section<FeatureSection>().closed_form.message.find("coupled"), std::string::npos) << S1.section<FeatureSection>().closed_form.message;
   const bool lever_x_named = std::find(S1.unobservable.begin(), S1.unobservable.end(), "lever_arm_x") != S1.unobservable.end() ||
                              std::find(S1.unobservable.begin(), S1.unobservable.end(), "boresight_pitch") != S1.unobservable.end();
   EXPECT_TRUE(lever_x_named || std::abs(S1.correlation(0, 4)) > 0.99) << S1.FullReport();
@@ -194,7 +195,7 @@ TEST(FeatureMethod, OneHeightNamesThePitchLeverArmCouplingTwoHeightsDetermineBot
   const Uav& two = uav(1, false);
   const auto S2 = calibrate(toCalibrationData(two.survey), featureOptions(true));
   ASSERT_TRUE(S2.IsSolutionUsable());
-  EXPECT_FALSE(S2.features.closed_form.pitch_lever_arm_coupled);
+  EXPECT_FALSE(S2.section<FeatureSection>().closed_form.pitch_lever_arm_coupled);
   EXPECT_TRUE(S2.unobservable.empty()) << S2.FullReport();
   EXPECT_TRUE(S2.estimated[0] && S2.estimated[4]);
   EXPECT_LT(std::abs(S2.correlation(0, 4)), 0.99);
@@ -237,7 +238,7 @@ TEST(FeatureMethod, UnusableRegionsAreRejectedWithTheirReasonsTheRestStillUsed) 
   const auto S = calibrate(data, featureOptions(!one_height));
   ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
   auto reasonFor = [&](const std::string& target, const std::string& strip) {
-    for (const RejectedFeature& r : S.features.rejected)
+    for (const RejectedFeature& r : S.section<FeatureSection>().rejected)
       if (r.target_id == target && r.strip_id == strip) return r.reason;
     return std::string();
   };
@@ -245,11 +246,11 @@ TEST(FeatureMethod, UnusableRegionsAreRejectedWithTheirReasonsTheRestStillUsed) 
   EXPECT_NE(reasonFor("two_boards", "").find("more than one target"), std::string::npos) << reasonFor("two_boards", "");
   EXPECT_NE(reasonFor("target_1", hidden_strip).find("does not see the target"), std::string::npos) << reasonFor("target_1", hidden_strip);
   // target_1 is still used with its other strips, and every preset target is used.
-  EXPECT_NE(std::find(S.features.target_ids.begin(), S.features.target_ids.end(), "target_1"), S.features.target_ids.end());
+  EXPECT_NE(std::find(S.section<FeatureSection>().target_ids.begin(), S.section<FeatureSection>().target_ids.end(), "target_1"), S.section<FeatureSection>().target_ids.end());
   // target_3 of the preset lies on the road's centre line: the bright stripe runs through its
   // region on every strip, and the region is refused for it.
   EXPECT_NE(reasonFor("target_3", "1").find("run to the region's edge"), std::string::npos) << reasonFor("target_3", "1");
-  EXPECT_EQ(S.features.targets_used, static_cast<int>(n_regions) - 1);
+  EXPECT_EQ(S.section<FeatureSection>().targets_used, static_cast<int>(n_regions) - 1);
   const MountingParameters& truth = s.config.true_mounting;
   const double bound[3] = {0.005, 0.03, 0.06};
   for (int a = 0; a < 3; ++a) EXPECT_LT(angleError(S.mounting, truth, a), bound[a]);

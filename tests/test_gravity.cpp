@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "mountcal/mountcal.hpp"
 #include "mountcal/evaluation.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
@@ -171,7 +172,7 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
   const DiscrepancyStats before = pooledDiscrepancy(L.data, job.mounting_used);
   CalibrationData after_data = L.data;
   std::vector<double> lasers;
-  for (double d : S.correspondences.laser_elevation_deg) lasers.push_back(deg2rad(d));
+  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
   ASSERT_EQ(lasers.size(), 32u);
   applyLaserElevation(&after_data, lasers);
   const DiscrepancyStats after = pooledDiscrepancy(after_data, S.mounting);
@@ -184,8 +185,8 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
   // and each has a σ.
   EXPECT_LT(S.mounting.boresightDeg().cwiseAbs().maxCoeff(), 3.0);
   for (std::size_t i = 0; i < lasers.size(); ++i) {
-    EXPECT_LT(std::abs(S.correspondences.laser_elevation_deg[i]), 0.6) << "laser " << i;
-    EXPECT_GT(S.correspondences.laser_elevation_sigma_deg[i], 0.0) << "laser " << i;
+    EXPECT_LT(std::abs(S.section<CorrespondenceSection>().laser_elevation_deg[i]), 0.6) << "laser " << i;
+    EXPECT_GT(S.section<CorrespondenceSection>().laser_elevation_sigma_deg[i], 0.0) << "laser " << i;
   }
   EXPECT_TRUE(S.estimated[3] && S.estimated[4] && S.estimated[5]);
 }
@@ -237,7 +238,7 @@ TEST(PerPointPoses, ApplyWritesWhatCalibrateEvaluated) {
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(L.data);
   ASSERT_TRUE(S.IsSolutionUsable());
   std::vector<double> lasers;
-  for (double d : S.correspondences.laser_elevation_deg) lasers.push_back(deg2rad(d));
+  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
   CalibrationData expected = L.data;
   applyLaserElevation(&expected, lasers);
   const DiscrepancyStats want = pooledDiscrepancy(expected, S.mounting);

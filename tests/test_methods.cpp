@@ -9,6 +9,7 @@
 #include <memory>
 #include <set>
 
+#include "mountcal/mountcal.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
@@ -65,18 +66,20 @@ CalibrationData withControl(const SimulatedSurvey& s, double sigma_m = 0.01) {
   return d;
 }
 
-MountingCalibrator::Options methodOptions(std::vector<CalibrationMethod> methods, bool automatic = false) {
+MountingCalibrator::Options methodOptions(std::vector<std::string> methods, bool automatic = false) {
   MountingCalibrator::Options o;
   o.methods = std::move(methods);
-  o.planes.automatic = automatic;
+  o.method<PlaneOptions>().automatic = automatic;
   o.estimate.fill(true);
   return o;
 }
 
 /// The stochastic model of surveyGrade() for the calibrator.
 MountingCalibrator::Options noisy(MountingCalibrator::Options o) {
-  o.tie_sigma_xy_m = 0.03;
-  o.tie_sigma_z_m = 0.03;
+  o.method<VtpmOptions>().tie_sigma_xy_m = 0.03;
+  o.method<VtpmOptions>().tie_sigma_z_m = 0.03;
+  o.method<ControlOptions>().tie_sigma_xy_m = 0.03;  // the control points are picked as the ties are
+  o.method<ControlOptions>().tie_sigma_z_m = 0.03;
   o.strip_offset_sigma_m = 0.005;
   return o;
 }
@@ -114,17 +117,17 @@ TEST(PlaneMethod, GivenRegionsRecoverTheTruthNoiseFree) {
   const SimulatedSurvey& s = field(1, false);
   CalibrationData d = withControl(s);
   ASSERT_GE(d.plane_regions.size(), 6u);  // two flat roofs, four gable faces
-  auto o = methodOptions({CalibrationMethod::kPlanes});
+  auto o = methodOptions({"planes"});
   o.strip_offset_sigma_m = 0;
   const auto S = calibrate(d, o);
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "planes (regions)");
   EXPECT_NEAR(S.mounting.a_b.z(), s.config.true_mounting.a_b.z(), 0.005);
-  EXPECT_GE(S.planes.patches_used, 6);
-  EXPECT_GT(S.planes.rms_before_m, 0.1);   // the misalignment was real
-  EXPECT_LT(S.planes.rms_after_m, 0.002);
-  EXPECT_GT(S.control.observations_used, 50);
+  EXPECT_GE(S.section<PlaneSection>().patches_used, 6);
+  EXPECT_GT(S.section<PlaneSection>().rms_before_m, 0.1);   // the misalignment was real
+  EXPECT_LT(S.section<PlaneSection>().rms_after_m, 0.002);
+  EXPECT_GT(S.section<ControlSection>().observations_used, 50);
   // Every patch reports its points, strips and RMS before and after.
-  for (const PatchResidual& p : S.planes.patches) {
+  for (const PatchResidual& p : S.section<PlaneSection>().patches) {
     EXPECT_GE(p.strips, 2) << p.patch_id;
     EXPECT_GT(p.points, 20) << p.patch_id;
     EXPECT_LT(p.rms_after_m, p.rms_before_m) << p.patch_id;
@@ -136,32 +139,32 @@ TEST(PlaneMethod, AutomaticPatchesRecoverTheTruthNoiseFree) {
   const SimulatedSurvey& s = field(1, false);
   CalibrationData d = withControl(s);
   d.plane_regions.clear();  // nothing given
-  auto o = methodOptions({CalibrationMethod::kPlanes}, /*automatic=*/true);
+  auto o = methodOptions({"planes"}, /*automatic=*/true);
   o.strip_offset_sigma_m = 0;
   const auto S = calibrate(d, o);
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "planes (auto)");
   // Patches of several orientations survive beside the flat ground: all four roof aspects.
   std::set<int> aspects;
-  for (const PatchResidual& p : S.planes.patches) {
+  for (const PatchResidual& p : S.section<PlaneSection>().patches) {
     if (std::abs(p.normal.z()) > std::cos(10 * kDeg)) continue;
     const double aspect = std::fmod(std::atan2(p.normal.x(), p.normal.y()) / kDeg + 360.0, 360.0);
     aspects.insert(static_cast<int>(std::lround(aspect / 90.0)) % 4);
   }
   EXPECT_EQ(aspects.size(), 4u);
-  EXPECT_TRUE(S.planes.automatic);
+  EXPECT_TRUE(S.section<PlaneSection>().automatic);
 }
 
 TEST(CorrespondenceMethod, RecoversTheTruthNoiseFree) {
   const SimulatedSurvey& s = field(1, false);
   CalibrationData d = withControl(s);
-  auto o = methodOptions({CalibrationMethod::kCorrespondences});
+  auto o = methodOptions({"correspondences"});
   o.strip_offset_sigma_m = 0;
   const auto S = calibrate(d, o);
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "correspondences");
-  const CorrespondenceSection& c = S.correspondences;
+  const CorrespondenceSection& c = S.section<CorrespondenceSection>();
   EXPECT_GE(c.rounds, 2);                  // re-matched until the mounting stopped changing
   EXPECT_EQ(c.pairs.size(), 6u);           // four crossing strips: every pair overlaps
-  EXPECT_LE(c.used, o.correspondence.budget);
+  EXPECT_LE(c.used, o.method<CorrespondenceOptions>().budget);
   EXPECT_GT(c.median_before_m, 0.05);
   EXPECT_LT(c.median_after_m, 0.002);
   for (const auto& p : c.pairs) EXPECT_GT(p.kept, 100) << p.strip_a << "/" << p.strip_b;
@@ -210,7 +213,7 @@ TEST(CorrespondenceMethod, LibraryCallReturnsCorrespondencesAndStatistics) {
 TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
-    const auto S = calibrate(withControl(s), noisy(methodOptions({CalibrationMethod::kPlanes})));
+    const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"})));
     expectWithinThreeSigma(S, s.config.true_mounting, "planes, seed " + std::to_string(seed));
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
@@ -220,7 +223,7 @@ TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
-    const auto S = calibrate(withControl(s), noisy(methodOptions({CalibrationMethod::kPlanes}, true)));
+    const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"}, true)));
     expectWithinThreeSigma(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed));
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
@@ -230,7 +233,7 @@ TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
-    const auto S = calibrate(withControl(s), noisy(methodOptions({CalibrationMethod::kCorrespondences})));
+    const auto S = calibrate(withControl(s), noisy(methodOptions({"correspondences"})));
     expectWithinThreeSigma(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed));
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
@@ -246,7 +249,7 @@ TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
   CalibrationData ties = toCalibrationData(s);
   ties.ties = paperFiveTies(s);
   ASSERT_EQ(ties.ties.size(), 12u);
-  auto ov = noisy(methodOptions({CalibrationMethod::kVtpm}));
+  auto ov = noisy(methodOptions({"vtpm"}));
   ov.estimate[kLeverZ] = false;
   const auto V = calibrate(ties, ov);
   ASSERT_TRUE(V.IsSolutionUsable()) << V.FullReport();
@@ -255,7 +258,7 @@ TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
   CalibrationData flat = toCalibrationData(s);
   flat.plane_regions = flatGroundRegions(s);
   ASSERT_GE(flat.plane_regions.size(), 10u);
-  auto op = noisy(methodOptions({CalibrationMethod::kPlanes}));
+  auto op = noisy(methodOptions({"planes"}));
   op.estimate[kLeverZ] = false;
   const auto F = calibrate(flat, op);
   ASSERT_TRUE(F.IsSolutionUsable()) << F.FullReport();
@@ -278,19 +281,19 @@ TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
 TEST(MethodComparison, CombiningTiesAndPlanesNeverWidensSigma) {
   const SimulatedSurvey& s = field(1, true);
   CalibrationData d = toCalibrationData(s);
-  auto o = noisy(methodOptions({CalibrationMethod::kVtpm}));
+  auto o = noisy(methodOptions({"vtpm"}));
   o.estimate[kLeverZ] = false;
   const auto T = calibrate(d, o);
-  o.methods = {CalibrationMethod::kPlanes};
+  o.methods = {"planes"};
   const auto P = calibrate(d, o);
-  o.methods = {CalibrationMethod::kVtpm, CalibrationMethod::kPlanes};
+  o.methods = {"vtpm", "planes"};
   const auto B = calibrate(d, o);
   ASSERT_TRUE(T.IsSolutionUsable() && P.IsSolutionUsable() && B.IsSolutionUsable());
   ASSERT_EQ(B.kinds.size(), 2u);
   EXPECT_EQ(B.kinds[0].kind, "ties");
   EXPECT_EQ(B.kinds[1].kind, "planes");
-  EXPECT_GT(B.observations_used, 0);
-  EXPECT_GT(B.planes.points_used, 0);
+  EXPECT_GT(B.section<VtpmSection>().observations_used, 0);
+  EXPECT_GT(B.section<PlaneSection>().points_used, 0);
   for (int j = 0; j < 6; ++j) {
     if (!B.estimated[j]) continue;
     ASSERT_TRUE(T.estimated[j] && P.estimated[j]) << j;
@@ -307,7 +310,7 @@ TEST(Adjustment, EliminatingPlaneParametersReproducesCeresCovariance) {
   // The reduced normal matrix (every plane, control and strip-offset block eliminated by a
   // Schur complement) inverted against ceres::Covariance on the mounting block.
   const SimulatedSurvey& s = field(2, true);
-  auto o = noisy(methodOptions({CalibrationMethod::kPlanes}));
+  auto o = noisy(methodOptions({"planes"}));
   const auto S = calibrate(withControl(s), o);
   ASSERT_TRUE(S.IsSolutionUsable());
   ASSERT_EQ(S.covariance_source, "ceres::Covariance");
@@ -429,13 +432,13 @@ TEST(Adjustment, OptionsGroupsValidateTheirFields) {
   o.observability_threshold = 2;
   EXPECT_FALSE(static_cast<const AnalysisOptions&>(o).IsValid(&why));
   o = {};
-  o.planes.max_points_per_strip = 1;
+  o.method<PlaneOptions>().max_points_per_strip = 1;
   EXPECT_FALSE(o.IsValid(&why));
-  EXPECT_EQ(why.rfind("planes:", 0), 0u) << why;
+  EXPECT_EQ(why.rfind("planes.max_points_per_strip", 0), 0u) << why;  // the method and its option
   o = {};
-  o.correspondence.max_normal_angle_deg = 95;
+  o.method<CorrespondenceOptions>().max_normal_angle_deg = 95;
   EXPECT_FALSE(o.IsValid(&why));
-  EXPECT_EQ(why.rfind("correspondence:", 0), 0u) << why;
+  EXPECT_EQ(why.rfind("correspondences.max_normal_angle_deg", 0), 0u) << why;
   o = {};
   o.methods.clear();
   EXPECT_FALSE(o.IsValid(&why));
@@ -451,18 +454,18 @@ TEST(PlaneMethod, RegionsThatCannotBeUsedAreRejectedWithAReason) {
   const PlaneRegion good = d.plane_regions.front();
   d.plane_regions.push_back({"nowhere", 5000, 5000, 5010, 5010});                  // no strip there
   d.plane_regions.push_back({"edge_of_data", good.xmin + 60, good.ymin + 60, good.xmin + 61, good.ymin + 61});  // a sliver
-  auto o = methodOptions({CalibrationMethod::kPlanes});
+  auto o = methodOptions({"planes"});
   o.strip_offset_sigma_m = 0;
   const auto S = calibrate(d, o);
   ASSERT_TRUE(S.IsSolutionUsable());
   std::map<std::string, std::string> reasons;
-  for (const RejectedPatch& r : S.planes.rejected)
+  for (const RejectedPatch& r : S.section<PlaneSection>().rejected)
     if (r.strip_id.empty()) reasons[r.patch_id] = r.reason;
   EXPECT_EQ(reasons["nowhere"], "no strip has points in the region");
   bool sliver_rejected = false;
-  for (const RejectedPatch& r : S.planes.rejected) sliver_rejected |= r.patch_id == "edge_of_data";
+  for (const RejectedPatch& r : S.section<PlaneSection>().rejected) sliver_rejected |= r.patch_id == "edge_of_data";
   EXPECT_TRUE(sliver_rejected);
-  for (const PatchResidual& p : S.planes.patches) EXPECT_NE(p.patch_id, "nowhere");
+  for (const PatchResidual& p : S.section<PlaneSection>().patches) EXPECT_NE(p.patch_id, "nowhere");
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "planes with unusable regions");
 }
 

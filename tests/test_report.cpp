@@ -153,9 +153,9 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     o.estimate = {true, true, false, true, true, true};
     cases.push_back({"vtpm", toCalibrationData(s), o});
 #ifndef MOUNTCAL_SANITIZE_BUILD  // the sanitizer build renders one method's report: the same code
-    o.methods = {CalibrationMethod::kPlanes};
+    o.methods = {"planes"};
     cases.push_back({"planes", toCalibrationData(s), o});
-    o.methods = {CalibrationMethod::kCorrespondences};
+    o.methods = {"correspondences"};
     CalibrationData d = toCalibrationData(s);
     d.ties.clear();
     cases.push_back({"correspondences", d, o});
@@ -170,7 +170,7 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     c.roi_radius_m = 1.5;
     const SimulatedSurvey s = simulate(c, scene);
     MountingCalibrator::Options o;
-    o.methods = {CalibrationMethod::kFeatures};
+    o.methods = {"features"};
     o.estimate = {false, false, false, true, true, true};
     CalibrationData d = toCalibrationData(s);
     d.ties.clear();

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/methods/vtpm/tie_observations.hpp"
+#include "mountcal/methods/common/tie_observations.hpp"
 
 namespace mountcal {
 

@@ -18,6 +18,7 @@
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/job.hpp"
+#include "mountcal/mounting_forms.hpp"
 #include "mountcal/plan/planner.hpp"
 #include "mountcal/report.hpp"
 #include "mountcal/simulation/survey.hpp"
@@ -63,10 +64,20 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   return 0;
 }
 
-std::vector<double> laserElevationOf(const mountcal::MountingCalibrator::Summary& S) {
-  std::vector<double> out;
-  for (double d : S.correspondences.laser_elevation_deg) out.push_back(mountcal::deg2rad(d));
-  return out;
+/// Notices for the user (deprecated job keys that were still read), printed on stderr when the
+/// command ends without bad input (bad input gets its one line alone).
+std::vector<std::string>& notices() {
+  static std::vector<std::string> n;
+  return n;
+}
+mountcal::Job readJobNoting(const std::string& path) {
+  mountcal::Job job = mountcal::readJob(path);
+  for (const std::string& n : job.notices) notices().push_back(path + ": " + n);
+  return job;
+}
+int withNotices(int code) {
+  for (const std::string& n : notices()) std::fprintf(stderr, "mountcal: notice: %s\n", n.c_str());
+  return code;
 }
 
 /// "x0,y0,x1,y1[,width]" of --profile.
@@ -100,7 +111,7 @@ std::vector<mountcal::ReportOptions::ProfileLine> profileLines(const std::vector
 int runCalibrate(const std::string& job_path, bool quiet, const std::string& report, const std::vector<std::string>& profiles,
                  const std::string& pair_dir, int threads, const std::string& result) {
   using namespace mountcal;
-  Job job = readJob(job_path);
+  Job job = readJobNoting(job_path);
   if (!report.empty()) job.report_path = report;
   if (!result.empty()) job.result_path = result;
   if (threads >= 0) job.options.threads = threads;
@@ -119,7 +130,7 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   progress("building the observations and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
   // Check data and the pass-to-pass discrepancy need the strips' points: not from pair files.
-  const ResultEvaluation ev = pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, laserElevationOf(S)) : ResultEvaluation{};
+  const ResultEvaluation ev = pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, S.laserElevationOffsetsRad()) : ResultEvaluation{};
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
   if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
@@ -138,7 +149,7 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
 int runApply(const std::string& job_path, const std::string& result_path, const std::string& out, const std::string& format,
              const std::vector<std::string>& only_strips, int threads) {
   using namespace mountcal;
-  Job job = readJob(job_path);
+  Job job = readJobNoting(job_path);
   std::vector<std::string> other_inputs{result_path};
   if (!only_strips.empty()) {
     // The files of the named strips (with every strip split from them); the others stay inputs.
@@ -171,7 +182,7 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
 
 int runEvaluate(const std::string& job_path, const std::string& result_path, const std::string& report, const std::vector<std::string>& profiles) {
   using namespace mountcal;
-  Job job = readJob(job_path);
+  Job job = readJobNoting(job_path);
   ReportOptions ro;
   ro.title = "mountcal evaluation — " + result_path + " on " + job_path;
   ro.profiles = profileLines(profiles);
@@ -330,7 +341,7 @@ int runCurves(const std::string& out, double delta_deg) {
 /// The strip pairs to match, one per line: "A<TAB>B" (stdout, or --out written atomically).
 int runPairs(const std::string& job_path, const std::string& out) {
   using namespace mountcal;
-  const Job job = readJob(job_path);
+  const Job job = readJobNoting(job_path);
   if (!out.empty()) {
     for (const std::string& in : jobInputPaths(job))
       if (io::samePath(out, in)) throw FileError(out, "", "is an input of the job (" + in + "); pairs --out writes a new file");
@@ -345,12 +356,12 @@ int runPairs(const std::string& job_path, const std::string& out) {
 /// One pair's candidate neighbourhoods into a pair file.
 int runMatch(const std::string& job_path, const std::vector<std::string>& pair, const std::string& out) {
   using namespace mountcal;
-  const Job job = readJob(job_path);
+  const Job job = readJobNoting(job_path);
   for (const std::string& in : jobInputPaths(job))
     if (io::samePath(out, in)) throw FileError(out, "", "is an input of the job (" + in + "); match --out writes a new file");
   const auto t0 = std::chrono::steady_clock::now();
   const PairCandidates p = jobPairCandidates(job, pair[0], pair[1]);
-  writePairCandidates(out, p, job.options.correspondence, job.mounting_used.toArray());
+  writePairCandidates(out, p, job.options.method<CorrespondenceOptions>(), job.mounting_used.toArray());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s / %s: %s, %zu samples (%d sparse), %zu + %zu points in %.2f s; wrote %s\n", p.strip_a.c_str(), p.strip_b.c_str(),
               p.overlap ? "overlap" : "no overlap", p.samples(), p.sparse_samples, p.samples_a.size(), p.points_b.size(), secs, out.c_str());
@@ -368,7 +379,7 @@ int runPlan(const std::string& plan_path, const std::string& report_path, bool n
   const plan::PlanAnalysis a = plan::analysePlan(p, o);
   if (!report_path.empty()) io::writeFilesAtomically({{report_path, plan::planReportHtml(p, a)}});
   std::printf("plan %s: %zu lines, methods", p.name.c_str(), p.lines.size());
-  for (CalibrationMethod m : p.options.methods) std::printf(" %s", toString(m));
+  for (const std::string& m : p.options.methods) std::printf(" %s", m.c_str());
   std::printf("\n%s", a.text().c_str());
   if (!report_path.empty()) std::printf("wrote %s\n", report_path.c_str());
   return 0;
@@ -380,6 +391,13 @@ int main(int argc, char** argv) {
   CLI::App app{"mountcal " MOUNTCAL_VERSION_STRING
                " — LiDAR mounting (lever arm and boresight) calibration from overlapping strips"};
   app.require_subcommand(1);
+  CLI::App* methodsc = app.add_subcommand("methods", "The calibration methods: what each observes, its job input and its options with defaults and units");
+  std::string forms_result, forms_job;
+  bool forms_json = false;
+  CLI::App* formsc = app.add_subcommand("mounting", "A result's mounting in other programs' forms: forward-right-down and forward-left-up axes, degrees and radians, matrices and quaternions");
+  formsc->add_option("result", forms_result, "Result JSON file of mountcal calibrate")->required();
+  formsc->add_option("--job", forms_job, "The job, for the sensor's nominal rotation in R_bs (default: none)");
+  formsc->add_flag("--json", forms_json, "Write JSON instead of text");
 
   std::string scenario, preset, out;
   std::uint64_t seed = 1;
@@ -462,6 +480,19 @@ int main(int argc, char** argv) {
   planc->add_option("--report", plan_report, "Also write the plan's HTML report to this file");
   planc->add_flag("--no-candidates", plan_no_candidates, "The prediction only, without trying additions");
 
+  // An unknown first word is named (CLI11 would only say that a subcommand is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "mountcal: unknown subcommand '%s' (subcommands: %s; mountcal --help)\n", argv[1], names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -475,15 +506,28 @@ int main(int argc, char** argv) {
       }
       return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties, sim_laz);
     }
-    if (cal->parsed()) return runCalibrate(job_path, quiet, report_path, profile_args, pair_dir, threads, cal_result);
-    if (apply->parsed()) return runApply(job_path, result_path, apply_out, apply_format, apply_strips, threads);
-    if (pairsc->parsed()) return runPairs(job_path, pairs_out);
-    if (matchc->parsed()) return runMatch(job_path, match_pair, match_out);
-    if (evaluate->parsed()) return runEvaluate(job_path, result_path, report_path, profile_args);
+    if (cal->parsed()) return withNotices(runCalibrate(job_path, quiet, report_path, profile_args, pair_dir, threads, cal_result));
+    if (apply->parsed()) return withNotices(runApply(job_path, result_path, apply_out, apply_format, apply_strips, threads));
+    if (pairsc->parsed()) return withNotices(runPairs(job_path, pairs_out));
+    if (matchc->parsed()) return withNotices(runMatch(job_path, match_pair, match_out));
+    if (evaluate->parsed()) return withNotices(runEvaluate(job_path, result_path, report_path, profile_args));
     if (info->parsed()) return runInfo(info_path);
     if (convert->parsed()) return runConvert(convert_in, convert_out);
     if (curves->parsed()) return runCurves(curves_out, curves_deg);
     if (planc->parsed()) return runPlan(plan_path, plan_report, plan_no_candidates);
+    if (formsc->parsed()) {
+      using namespace mountcal;
+      Mat3 R_nom = Mat3::Identity();
+      if (!forms_job.empty()) R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(forms_job).nominal_rotation_deg).R_nom;
+      const MountingParameters m = readResultMounting(forms_result, R_nom);
+      const std::vector<double> lasers = readResultLaserElevation(forms_result);
+      std::printf("%s", (forms_json ? mountingFormsJson(m, lasers) : mountingFormsText(m, lasers)).c_str());
+      return withNotices(0);
+    }
+    if (methodsc->parsed()) {
+      std::printf("%s", mountcal::describeMethods().c_str());
+      return 0;
+    }
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());
     return 2;

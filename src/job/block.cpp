@@ -18,12 +18,12 @@ namespace {
 /// Pair jobs run method "correspondences" in its sparse (block) form.
 void requireBlockMethod(const Job& job, bool only) {
   const auto& m = job.options.methods;
-  const bool has = std::find(m.begin(), m.end(), CalibrationMethod::kCorrespondences) != m.end();
+  const bool has = std::find(m.begin(), m.end(), CorrespondenceOptions::kMethod) != m.end();
   if (!has || (only && m.size() != 1))
     throw FileError(job.path, "field 'method'", only ? "a solve from pair files runs method \"correspondences\" alone"
                                                      : "pair jobs need method \"correspondences\"");
-  if (job.options.correspondence.dense)
-    throw FileError(job.path, "field 'correspondence.dense'", "dense matching rebuilds its k-d trees at every round and is not split into pair jobs; run mountcal calibrate on the whole job");
+  if (job.options.method<CorrespondenceOptions>().dense)
+    throw FileError(job.path, "field 'correspondences.dense'", "dense matching rebuilds its k-d trees at every round and is not split into pair jobs; run mountcal calibrate on the whole job");
 }
 
 int stripIndex(const Job& job, const std::string& id) {
@@ -52,7 +52,7 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job) {
     b.spacing = std::sqrt(std::max((b.x1 - b.x0) * (b.y1 - b.y0), 1.0) / static_cast<double>(std::max<std::uint64_t>(h.point_count, 1)));
     b.known = true;
   }
-  const CorrespondenceOptions& o = job.options.correspondence;
+  const CorrespondenceOptions& o = job.options.method<CorrespondenceOptions>();
   std::vector<std::pair<std::string, std::string>> out;
   for (std::size_t a = 0; a < box.size(); ++a) {
     for (std::size_t b = a + 1; b < box.size(); ++b) {
@@ -86,7 +86,7 @@ PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std
   two.check_points_path.clear();
   two.check_planes_path.clear();
   const LoadedJob loaded = loadJob(two);
-  return findPairCandidates(loaded.data, 0, 1, job.options.correspondence);
+  return findPairCandidates(loaded.data, 0, 1, job.options.method<CorrespondenceOptions>());
 }
 
 LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
@@ -108,7 +108,7 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
     CorrespondenceOptions o;
     std::array<double, 6> m{};
     PairCandidates p = readPairCandidates(f, &o, &m);
-    if (!sameMatchingOptions(o, job.options.correspondence))
+    if (!sameMatchingOptions(o, job.options.method<CorrespondenceOptions>()))
       throw FileError(f, "", "was matched with other correspondence options than " + job.path + "; rerun mountcal match");
     if (m != used) throw FileError(f, "", "was matched at another mounting_used than " + job.path + "'s; rerun mountcal match");
     if (!p.attitudes_stored) {

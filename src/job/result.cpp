@@ -6,6 +6,7 @@
 
 #include "json_fields.hpp"
 #include "mountcal/error.hpp"
+#include "mountcal/methods/vtpm/vtpm.hpp"
 
 namespace mountcal {
 
@@ -31,8 +32,8 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
   const std::vector<PlaneRegion> planes = loadCheckPlanes(job, loaded);
   if (!check.ties.empty()) {
     ev.has_check_points = true;
-    ev.check_points_before = evaluateCheckPoints(check, job.mounting_used, job.options.vtp);
-    ev.check_points_after = evaluateCheckPoints(check, mounting, job.options.vtp);
+    ev.check_points_before = evaluateCheckPoints(check, job.mounting_used, job.options.method<VtpmOptions>().vtp);
+    ev.check_points_after = evaluateCheckPoints(check, mounting, job.options.method<VtpmOptions>().vtp);
   }
   if (!planes.empty()) {
     ev.check_planes_before = evaluateCheckPlanes(check, planes, job.mounting_used);
@@ -60,6 +61,11 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
   const Vec3 b = S.mounting.boresightDeg();
   json j;
   j["mounting"] = {{"lever_arm_m", vec(S.mounting.a_b)}, {"boresight_deg", vec(b)}};
+  // SPEC §2, stated where a reader of the file looks (`mountcal mounting` writes other forms).
+  j["conventions"] = {{"body_frame", "x forward, y right, z down (IMU body frame)"},
+                      {"lever_arm", "IMU origin to scanner origin, body axes, metres"},
+                      {"boresight", "R_bore = Rz(heading) * Ry(pitch) * Rx(roll), active, right-handed, degrees; R_bs = R_bore * R_nom"},
+                      {"sigma", "standard deviations in the same units (metres, degrees); null: not estimated"}};
   json sl = json::array(), sb = json::array();
   for (int i = 0; i < 3; ++i) {
     sl.push_back(numOrNull(S.sigma[i]));
@@ -77,16 +83,6 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
                     {"boresight", {S.estimated[3], S.estimated[4], S.estimated[5]}}};
   j["unobservable"] = S.unobservable;
   j["observability_report"] = S.observability_report;
-  json rejected = json::array();
-  for (const RejectedTie& r : S.rejected) rejected.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-  j["ties"] = {{"used", S.ties_used}, {"observations", S.observations_used}, {"rejected", rejected}};
-  j["rms_before_m"] = vec(S.rms_before_m);
-  j["rms_after_m"] = vec(S.rms_after_m);
-  json res = json::array();
-  for (const TieResidual& r : S.residuals) {
-    res.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}, {"outlier", r.outlier}});
-  }
-  j["residuals"] = res;
   json offs = json::object();
   for (const auto& [id, o] : S.strip_offsets_m) offs[id] = vec(o);
   j["strip_offsets_m"] = offs;
@@ -102,108 +98,12 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
   j["kinds"] = kinds;
   j["covariance_source"] = S.covariance_source;
   j["condition_number"] = numOrNull(S.condition_number);
-  if (S.uses(CalibrationMethod::kPlanes)) {
-    const PlaneSection& p = S.planes;
-    json patches = json::array();
-    for (const PatchResidual& r : p.patches) {
-      patches.push_back({{"patch_id", r.patch_id}, {"centre_m", vec(r.centre_m)}, {"normal", vec(r.normal)}, {"points", r.points},
-                         {"strips", r.strips}, {"rms_before_m", r.rms_before_m}, {"rms_after_m", r.rms_after_m}, {"outlier", r.outlier}});
-    }
-    json rej = json::array();
-    for (const RejectedPatch& r : p.rejected) rej.push_back({{"patch_id", r.patch_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-    j["planes"] = {{"automatic", p.automatic}, {"patches_used", p.patches_used}, {"points_used", p.points_used}, {"sigma_m", p.sigma_m},
-                   {"rms_before_m", p.rms_before_m}, {"rms_after_m", p.rms_after_m}, {"patches", patches}, {"rejected", rej}};
-  }
-  if (S.uses(CalibrationMethod::kFeatures)) {
-    const FeatureSection& F = S.features;
-    json targets = json::array();
-    for (std::size_t k = 0; k < F.target_ids.size(); ++k) {
-      json views = json::array();
-      for (const FeatureView& v : F.views[k]) {
-        views.push_back({{"strip_id", v.strip_id}, {"points", v.points}, {"centroid_m", vec(v.centroid_m)}, {"normal", vec(v.normal)},
-                         {"plane_sigma_m", v.plane_sigma_m}, {"sigma_normal_m", v.sigma_normal_m}, {"sigma_in_plane_m", v.sigma_in_plane_m},
-                         {"intensity_threshold", v.threshold}});
-      }
-      targets.push_back({{"target_id", F.target_ids[k]}, {"views", views}});
-    }
-    json pairs = json::array();
-    for (const FeaturePairOffset& p : F.pairs) {
-      pairs.push_back({{"target_id", p.target_id}, {"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"relation", p.relation},
-                       {"offset_m", vec(p.offset_m)}, {"offset_along_cross_down_m", vec(p.offset_afd_m)},
-                       {"sigma_along_cross_down_m", vec(p.covariance_afd.diagonal().cwiseSqrt())}, {"height_m", p.height_m},
-                       {"lateral_a_m", p.lateral_a_m}, {"line_offset_m", p.line_offset_m}, {"icp_iterations", p.icp_iterations},
-                       {"icp_rms_m", p.icp_rms_m}});
-    }
-    json rej = json::array();
-    for (const RejectedFeature& r : F.rejected) rej.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-    json res = json::array();
-    for (const FeatureSection::Residual& r : F.residuals)
-      res.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}});
-    const FeatureClosedForm& C = F.closed_form;
-    json cf = {{"valid", C.valid}, {"message", C.message}};
-    if (C.valid) {
-      auto degOrNull = [&](const Vec3& v) {
-        json a = json::array();
-        for (int i = 0; i < 3; ++i) a.push_back(numOrNull(rad2deg(v(i))));
-        return a;
-      };
-      auto mOrNull = [&](const Vec3& v) {
-        json a = json::array();
-        for (int i = 0; i < 3; ++i) a.push_back(numOrNull(v(i)));
-        return a;
-      };
-      cf["mounting"] = {{"lever_arm_m", vec(C.mounting.a_b)}, {"boresight_deg", vec(C.mounting.boresightDeg())}};
-      cf["boresight_correction_deg"] = degOrNull(C.boresight_correction_rad);
-      cf["boresight_sigma_deg"] = degOrNull(C.boresight_sigma_rad);
-      cf["boresight_spread_deg"] = degOrNull(C.boresight_spread_rad);
-      cf["pairs_used"] = {C.pairs_used[0], C.pairs_used[1], C.pairs_used[2]};
-      cf["lever_arm_estimated"] = C.lever_arm_estimated;
-      cf["lever_arm_correction_m"] = mOrNull(C.lever_arm_correction_m);
-      cf["lever_arm_sigma_m"] = mOrNull(C.lever_arm_sigma_m);
-      cf["pitch_lever_arm_coupled"] = C.pitch_lever_arm_coupled;
-    }
-    j["features"] = {{"targets_used", F.targets_used}, {"views_used", F.views_used}, {"targets", targets}, {"pairs", pairs},
-                     {"closed_form", cf}, {"rejected", rej}, {"residuals", res}, {"rms_before_m", vec(F.rms_before_m)},
-                     {"rms_after_m", vec(F.rms_after_m)}, {"sigma_normal_m", F.sigma_normal_m}, {"sigma_in_plane_m", F.sigma_in_plane_m},
-                     {"sigma_estimated", F.sigma_estimated}, {"extraction_time_s", F.extraction_time_s}, {"matching_time_s", F.matching_time_s}};
-  }
-  if (S.uses(CalibrationMethod::kCorrespondences)) {
-    const CorrespondenceSection& c = S.correspondences;
-    json pairs = json::array();
-    for (const CorrespondencePairStats& p : c.pairs) {
-      pairs.push_back({{"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"samples", p.samples}, {"kept", p.kept},
-                       {"rejected", {{"sparse", p.rejected_sparse}, {"rough", p.rejected_rough}, {"far", p.rejected_far},
-                                     {"normal", p.rejected_normal}, {"mad", p.rejected_mad}, {"budget", p.rejected_budget}}},
-                       {"median_before_m", p.median_before_m}, {"rms_before_m", p.rms_before_m},
-                       {"median_after_m", p.median_after_m}, {"rms_after_m", p.rms_after_m}});
-    }
-    j["correspondences"] = {{"used", c.used}, {"matchings", c.rounds}, {"radius_m", c.radius_m}, {"spacing_m", c.spacing_m},
-                            {"sigma_m", c.sigma_m}, {"median_before_m", c.median_before_m}, {"rms_before_m", c.rms_before_m},
-                            {"median_after_m", c.median_after_m}, {"rms_after_m", c.rms_after_m},
-                            {"search_time_s", c.search_time_s}, {"points_searched", c.points_searched}, {"pairs", pairs}};
-    if (!c.laser_elevation_deg.empty()) {
-      json off = json::array(), sig = json::array(), cor = json::array(), pts = json::array();
-      for (std::size_t i = 0; i < c.laser_elevation_deg.size(); ++i) {
-        off.push_back(c.laser_elevation_deg[i]);
-        sig.push_back(numOrNull(c.laser_elevation_sigma_deg[i]));
-        cor.push_back(numOrNull(c.laser_boresight_correlation[i]));
-        pts.push_back(c.laser_points[i]);
-      }
-      // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
-      j["intrinsics"] = {{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig},
-                         {"laser_boresight_correlation", cor}, {"laser_points", pts}};
-    }
-  }
-  if (S.control.observations_used > 0 || !S.control.rejected.empty()) {
-    json rej = json::array();
-    for (const RejectedTie& r : S.control.rejected) rej.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-    json res = json::array();
-    for (const TieResidual& r : S.control.residuals) {
-      res.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", vec(r.before_m)}, {"after_m", vec(r.after_m)}, {"outlier", r.outlier}});
-    }
-    j["control"] = {{"points", S.control.ties_used}, {"observations", S.control.observations_used},
-                    {"rms_before_m", vec(S.control.rms_before_m)}, {"rms_after_m", vec(S.control.rms_after_m)},
-                    {"residuals", res}, {"rejected", rej}};
+  // SPEC §4's tie keys are in every result file: null unless a method fills them (method "vtpm").
+  for (const char* key : {"ties", "rms_before_m", "rms_after_m", "residuals"}) j[key] = nullptr;
+  // Each method's keys (SPEC §4: "ties", "residuals", "planes", "features", "correspondences", …).
+  for (const auto& section : S.sections) {
+    const json part = json::parse(section->resultJson(S));
+    for (auto it = part.begin(); it != part.end(); ++it) j[it.key()] = it.value();
   }
   if (ev) {
     json e;

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "json_fields.hpp"
+#include "mountcal/methods/method.hpp"
 #include "mountcal/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/crs.hpp"
@@ -68,12 +69,83 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
   }
 }
 
-CalibrationMethod parseMethod(const Fields& top, const std::string& name) {
-  if (name == "vtpm") return CalibrationMethod::kVtpm;
-  if (name == "planes") return CalibrationMethod::kPlanes;
-  if (name == "correspondences") return CalibrationMethod::kCorrespondences;
-  if (name == "features") return CalibrationMethod::kFeatures;
-  top.fail("method", "unknown method '" + name + "' (expected \"vtpm\", \"planes\", \"correspondences\", \"features\" or an array of them)");
+/// The top-level keys of a job: the fixed ones and every registered method's.
+std::set<std::string> topLevelKeys() {
+  std::set<std::string> keys = {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate",
+                                "stochastic", "solver", "pulse_noise", "output", "gcps", "check_points", "check_planes",
+                                "planes", "targets", "poses"};
+  for (const auto& m : registeredMethods()) {
+    keys.insert(m->name());
+    for (const std::string& k : m->legacyOptionKeys()) keys.insert(k);
+    if (!m->input().job_key.empty()) keys.insert(m->input().job_key);
+  }
+  return keys;
+}
+
+/// The key inside a method's options object that holds its input, when the method's input and
+/// options share one job key ("planes": {"regions": "auto", …}).
+constexpr const char* kInputInObject = "regions";
+
+/// Reads one method's options object (declared by the method) into `options`.
+void readMethodOptions(const Fields& f, const Method& m, std::any* options) {
+  for (const OptionSpec& spec : m.options()) {
+    if (!f.has(spec.key)) continue;
+    switch (spec.type) {
+      case OptionSpec::Type::kBoolean: spec.set(*options, f.boolean(spec.key, false) ? 1.0 : 0.0); break;
+      case OptionSpec::Type::kInteger:
+        spec.set(*options, f.integer(spec.key, 0, static_cast<int>(spec.min), static_cast<int>(spec.max)));
+        break;
+      case OptionSpec::Type::kNumber: spec.set(*options, f.num(spec.key, 0.0, spec.min, spec.max)); break;
+    }
+  }
+}
+
+/// Every registered method's options object of the job (under the method's name, or a legacy
+/// key with a notice), and the input value of the methods whose input shares that key.
+void readMethodSections(const std::string& path, const Fields& top, const json& j, Job* job) {
+  MountingCalibrator::Options& o = job->options;
+  for (const auto& m : registeredMethods()) {
+    std::string key;
+    if (top.has(m->name()) && j.at(m->name()).is_object()) key = m->name();
+    for (const std::string& legacy : m->legacyOptionKeys()) {
+      if (!top.has(legacy)) continue;
+      if (!key.empty()) top.fail(legacy, "the options of method \"" + m->name() + "\" are given twice (\"" + key + "\" and \"" + legacy + "\")");
+      key = legacy;
+      job->notices.push_back("field '" + legacy + "' is deprecated: write the options of method \"" + m->name() + "\" under \"" +
+                             m->name() + "\"");
+    }
+    if (key.empty()) continue;
+    json section = j.at(key);
+    if (!section.is_object()) top.fail(key, "expected an object of the options of method \"" + m->name() + "\"");
+    if (m->name() == "vtpm" && section.contains("strip_offset_sigma_m")) section.erase("strip_offset_sigma_m");  // read by readStochastic
+    std::set<std::string> known;
+    for (const OptionSpec& spec : m->options()) known.insert(spec.key);
+    const bool input_inside = m->input().job_key == key;
+    if (input_inside) known.insert(kInputInObject);
+    const Fields f(path, section, key, known);
+    std::any& options = o.method_options.at(m->name(), m->defaultOptions());
+    readMethodOptions(f, *m, &options);
+    if (input_inside && f.has(kInputInObject)) job->method_inputs[m->name()] = f.str(kInputInObject);
+  }
+}
+
+/// The stochastic settings every method shares: "stochastic" (and the earlier
+/// "vtpm.strip_offset_sigma_m", with a notice).
+void readStochastic(const Fields& top, const json& j, Job* job) {
+  MountingCalibrator::Options& o = job->options;
+  if (top.has("stochastic")) {
+    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m"});
+    o.strip_offset_sigma_m = st.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
+  }
+  if (top.has("vtpm") && j.at("vtpm").is_object() && j.at("vtpm").contains("strip_offset_sigma_m")) {
+    if (top.has("stochastic") && j.at("stochastic").contains("strip_offset_sigma_m"))
+      top.fail("vtpm", "strip_offset_sigma_m is given twice (\"stochastic\" and \"vtpm\")");
+    const json only = {{"strip_offset_sigma_m", j.at("vtpm").at("strip_offset_sigma_m")}};
+    const Fields v(job->path, only, "vtpm", {"strip_offset_sigma_m"});
+    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
+    job->notices.push_back("field 'vtpm.strip_offset_sigma_m' is deprecated: every method uses the strip offsets; write it as "
+                           "\"stochastic\": {\"strip_offset_sigma_m\": …}");
+  }
 }
 
 }  // namespace
@@ -82,10 +154,7 @@ Job readJob(const std::string& path) {
   const json j = detail::parseJsonFile(path, "job");
   Job job;
   job.path = path;
-  const Fields top(path, j, "",
-                   {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate", "vtpm",
-                    "solver", "pulse_noise", "output", "gcps", "check_points", "check_planes", "planes", "plane", "correspondence",
-                    "targets", "features", "poses"});
+  const Fields top(path, j, "", topLevelKeys());
   const Fields frame = top.sub("frame", {"type", "crs"});
   const std::string frame_type = frame.str("type");
   if (frame_type == "local") job.frame_type = JobFrameType::kLocal;
@@ -180,58 +249,50 @@ Job readJob(const std::string& path) {
   job.check_points_path = detail::resolvePath(path, top.str("check_points", ""));
   job.check_planes_path = detail::resolvePath(path, top.str("check_planes", ""));
   job.targets_path = detail::resolvePath(path, top.str("targets", ""));
-  if (top.has("planes")) {
-    const std::string planes = top.str("planes");
+  readMethodSections(path, top, j, &job);
+  readStochastic(top, j, &job);
+  for (const auto& m : registeredMethods()) {  // a method's input given as a string at its job key
+    const std::string& key = m->input().job_key;
+    if (key.empty() || !top.has(key) || j.at(key).is_object()) continue;
+    if (job.method_inputs.count(m->name())) top.fail(key, "given twice (also as \"" + key + "." + kInputInObject + "\")");
+    job.method_inputs[m->name()] = top.str(key);
+  }
+  if (job.method_inputs.count("planes")) {
+    const std::string& planes = job.method_inputs["planes"];
     if (planes == "auto") job.planes_auto = true;
     else job.planes_path = detail::resolvePath(path, planes);
   }
 
   // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
   MountingCalibrator::Options& o = job.options;
-  std::vector<CalibrationMethod> methods;
+  std::vector<std::string> methods;
+  auto addMethod = [&](const std::string& name) {
+    const Method* m = findMethod(name);
+    if (!m || m->implicit())
+      top.fail("method", "unknown method '" + name + "' (expected one of " + methodNames() + ", or an array of them)");
+    if (std::find(methods.begin(), methods.end(), name) != methods.end()) top.fail("method", "method '" + name + "' named twice");
+    methods.push_back(name);
+  };
   if (!top.has("method")) {
-    methods.push_back(job.ties_path.empty() ? CalibrationMethod::kCorrespondences : CalibrationMethod::kVtpm);
+    methods.push_back(job.ties_path.empty() ? "correspondences" : "vtpm");
   } else if (top.at("method").is_array()) {
     const json& list = top.at("method");
     if (list.empty()) top.fail("method", "expected a method name or a non-empty array of them");
     for (const json& m : list) {
       if (!m.is_string()) top.fail("method", "expected an array of method names");
-      const CalibrationMethod cm = parseMethod(top, m.get<std::string>());
-      if (std::find(methods.begin(), methods.end(), cm) != methods.end()) top.fail("method", "method '" + m.get<std::string>() + "' named twice");
-      methods.push_back(cm);
+      addMethod(m.get<std::string>());
     }
   } else {
-    methods.push_back(parseMethod(top, top.str("method")));
+    addMethod(top.str("method"));
   }
   o.methods = methods;
-  auto uses = [&](CalibrationMethod m) { return std::find(methods.begin(), methods.end(), m) != methods.end(); };
-  if (uses(CalibrationMethod::kVtpm) && job.ties_path.empty()) top.fail("ties", "missing: method \"vtpm\" needs the ties file (SPEC §4)");
-  if (uses(CalibrationMethod::kPlanes) && job.planes_path.empty() && !job.planes_auto) {
-    top.fail("planes", "missing: method \"planes\" needs a regions CSV or \"auto\"");
-  }
-  o.planes.automatic = job.planes_auto;
-  if (uses(CalibrationMethod::kFeatures) && job.targets_path.empty()) {
-    top.fail("targets", "missing: method \"features\" needs the target regions CSV (SPEC §4)");
-  }
-  if (top.has("features")) {
-    const Fields f = top.sub("features", {"intensity_threshold", "min_contrast", "growing_distance_m", "second_group_fraction",
-                                          "ransac_threshold_m", "ransac_iterations", "min_points", "min_inlier_fraction",
-                                          "sigma_in_plane_m", "icp_max_iterations", "icp_tolerance_m", "direction_tolerance_deg",
-                                          "min_height_spread"});
-    FeatureOptions& fo = o.features;
-    fo.intensity_threshold = f.num("intensity_threshold", fo.intensity_threshold, 0.0, 1e6);
-    fo.min_contrast = f.num("min_contrast", fo.min_contrast, 1.0, 1000.0);
-    fo.growing_distance_m = f.num("growing_distance_m", fo.growing_distance_m, 0.0, 100.0);
-    fo.second_group_fraction = f.num("second_group_fraction", fo.second_group_fraction, 1e-6, 1.0);
-    fo.ransac_threshold_m = f.num("ransac_threshold_m", fo.ransac_threshold_m, 1e-4, 10.0);
-    fo.ransac_iterations = f.integer("ransac_iterations", fo.ransac_iterations, 1, 100000);
-    fo.min_points = f.integer("min_points", fo.min_points, 3, 1000000);
-    fo.min_inlier_fraction = f.num("min_inlier_fraction", fo.min_inlier_fraction, 1e-6, 1.0);
-    fo.sigma_in_plane_m = f.num("sigma_in_plane_m", fo.sigma_in_plane_m, 0.0, 10.0);
-    fo.icp_max_iterations = f.integer("icp_max_iterations", fo.icp_max_iterations, 1, 10000);
-    fo.icp_tolerance_m = f.num("icp_tolerance_m", fo.icp_tolerance_m, 1e-12, 1.0);
-    fo.direction_tolerance_deg = f.num("direction_tolerance_deg", fo.direction_tolerance_deg, 1e-3, 89.999);
-    fo.min_height_spread = f.num("min_height_spread", fo.min_height_spread, 1e-6, 10.0);
+  for (const std::string& name : methods) {
+    const Method& m = *findMethod(name);
+    const MethodInput in = m.input();
+    const auto given = job.method_inputs.find(name);
+    if (in.required && !in.job_key.empty() && given == job.method_inputs.end())
+      top.fail(in.job_key, "missing: method \"" + name + "\" needs " + in.doc + " (SPEC §4)");
+    if (given != job.method_inputs.end()) m.adoptInput(given->second, &o.method_options.at(name, m.defaultOptions()));
   }
 
   if (top.has("estimate")) {
@@ -245,19 +306,6 @@ Job readJob(const std::string& path) {
       for (int i = 0; i < 3; ++i) o.estimate[3 + i] = b[i];
     }
   }
-  if (top.has("vtpm")) {
-    const Fields v = top.sub("vtpm", {"radius_m", "max_radius_m", "ransac_threshold_m", "tie_sigma_xy_m", "tie_sigma_z_m",
-                                      "strip_offset_sigma_m", "estimate_tie_sigma"});
-    // Physical ranges: a virtual tie point is a local plane of metres, picks are good to
-    // centimetres or metres, not kilometres.
-    o.vtp.radius_m = v.num("radius_m", o.vtp.radius_m, 0.01, 100.0);
-    o.vtp.max_radius_m = v.num("max_radius_m", std::max(o.vtp.max_radius_m, o.vtp.radius_m), 0.01, 100.0);
-    o.vtp.ransac_threshold_m = v.num("ransac_threshold_m", o.vtp.ransac_threshold_m, 1e-4, 10.0);
-    o.tie_sigma_xy_m = v.num("tie_sigma_xy_m", o.tie_sigma_xy_m, 1e-4, 100.0);
-    o.tie_sigma_z_m = v.num("tie_sigma_z_m", o.tie_sigma_z_m, 1e-4, 100.0);
-    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
-    o.estimate_tie_sigma = v.boolean("estimate_tie_sigma", o.estimate_tie_sigma);
-  }
   if (top.has("pulse_noise")) {
     // The per-point noise of the stochastic model (PulseNoise): navigation and scanner
     // precision as the manufacturers state them.
@@ -270,53 +318,6 @@ Job readJob(const std::string& path) {
     pn.range_m = n.num("range_m", pn.range_m, 0.0, 10.0);
     pn.beam_deg = n.num("beam_deg", pn.beam_deg, 0.0, 10.0);
     pn.attitude_correlation_s = n.num("attitude_correlation_s", pn.attitude_correlation_s, 0.0, 3600.0);
-  }
-  if (top.has("plane")) {
-    const Fields p = top.sub("plane", {"sigma_m", "ransac_threshold_m", "ransac_iterations", "min_points_per_strip",
-                                       "max_points_per_strip", "max_normal_angle_deg", "max_plane_offset_m", "cell_size_m",
-                                       "max_roughness_m", "growing_angle_deg", "edge_margin_m", "max_patch_size_m",
-                                       "max_patches", "search_margin_m"});
-    PlaneOptions& po = o.planes;
-    po.sigma_m = p.num("sigma_m", po.sigma_m);
-    po.ransac_threshold_m = p.num("ransac_threshold_m", po.ransac_threshold_m);
-    po.ransac_iterations = p.integer("ransac_iterations", po.ransac_iterations, 1, 100000);
-    po.min_points_per_strip = p.integer("min_points_per_strip", po.min_points_per_strip, 3, 1000000);
-    po.max_points_per_strip = p.integer("max_points_per_strip", po.max_points_per_strip, 3, 1000000);
-    po.max_normal_angle_deg = p.num("max_normal_angle_deg", po.max_normal_angle_deg);
-    po.max_plane_offset_m = p.num("max_plane_offset_m", po.max_plane_offset_m);
-    po.cell_size_m = p.num("cell_size_m", po.cell_size_m);
-    po.max_roughness_m = p.num("max_roughness_m", po.max_roughness_m);
-    po.growing_angle_deg = p.num("growing_angle_deg", po.growing_angle_deg);
-    po.edge_margin_m = p.num("edge_margin_m", po.edge_margin_m);
-    po.max_patch_size_m = p.num("max_patch_size_m", po.max_patch_size_m);
-    po.max_patches = p.integer("max_patches", po.max_patches, 1, 100000);
-    po.search_margin_m = p.num("search_margin_m", po.search_margin_m);
-  }
-  if (top.has("correspondence")) {
-    const Fields c = top.sub("correspondence", {"apriori_misalignment_m", "radius_m", "sample_spacing_m", "min_neighbours",
-                                                "max_neighbours", "max_roughness_factor", "max_roughness_relative",
-                                                "max_distance_factor", "max_normal_angle_deg", "mad_factor", "budget",
-                                                "voxel_size_m", "sigma_m", "min_spread_ratio", "dense", "coarse_radius_m",
-                                                "laser_elevation_sigma_deg", "thin_cell_m"});
-    CorrespondenceOptions& co = o.correspondence;
-    co.apriori_misalignment_m = c.num("apriori_misalignment_m", co.apriori_misalignment_m);
-    co.radius_m = c.num("radius_m", co.radius_m);
-    co.sample_spacing_m = c.num("sample_spacing_m", co.sample_spacing_m);
-    co.min_neighbours = c.integer("min_neighbours", co.min_neighbours, 3, 1000);
-    co.max_neighbours = c.integer("max_neighbours", co.max_neighbours, 3, 1000);
-    co.max_roughness_factor = c.num("max_roughness_factor", co.max_roughness_factor);
-    co.max_roughness_relative = c.num("max_roughness_relative", co.max_roughness_relative);
-    co.max_distance_factor = c.num("max_distance_factor", co.max_distance_factor);
-    co.max_normal_angle_deg = c.num("max_normal_angle_deg", co.max_normal_angle_deg);
-    co.mad_factor = c.num("mad_factor", co.mad_factor);
-    co.budget = c.integer("budget", co.budget, 1, 10000000);
-    co.voxel_size_m = c.num("voxel_size_m", co.voxel_size_m);
-    co.sigma_m = c.num("sigma_m", co.sigma_m);
-    co.min_spread_ratio = c.num("min_spread_ratio", co.min_spread_ratio);
-    co.dense = c.boolean("dense", co.dense);
-    co.coarse_radius_m = c.num("coarse_radius_m", co.coarse_radius_m);
-    co.thin_cell_m = c.num("thin_cell_m", co.thin_cell_m);
-    co.laser_elevation_sigma_deg = c.num("laser_elevation_sigma_deg", co.laser_elevation_sigma_deg);
   }
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
@@ -420,19 +421,30 @@ std::string jobJson(const Job& job) {
   if (job.planes_auto) j["planes"] = "auto";
   else if (!job.planes_path.empty()) j["planes"] = rel(job.planes_path);
   if (o.methods.size() == 1) {
-    j["method"] = toString(o.methods[0]);
+    j["method"] = o.methods[0];
   } else {
-    json m = json::array();
-    for (CalibrationMethod c : o.methods) m.push_back(toString(c));
-    j["method"] = m;
+    j["method"] = o.methods;
   }
   j["estimate"] = {{"lever_arm", {o.estimate[0], o.estimate[1], o.estimate[2]}}, {"boresight", {o.estimate[3], o.estimate[4], o.estimate[5]}}};
-  j["vtpm"] = {{"radius_m", o.vtp.radius_m}, {"ransac_threshold_m", o.vtp.ransac_threshold_m}};
-  if (o.vtp.max_radius_m != def.vtp.max_radius_m) j["vtpm"]["max_radius_m"] = o.vtp.max_radius_m;
-  if (o.tie_sigma_xy_m != def.tie_sigma_xy_m) j["vtpm"]["tie_sigma_xy_m"] = o.tie_sigma_xy_m;
-  if (o.tie_sigma_z_m != def.tie_sigma_z_m) j["vtpm"]["tie_sigma_z_m"] = o.tie_sigma_z_m;
-  if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["vtpm"]["strip_offset_sigma_m"] = o.strip_offset_sigma_m;
-  if (o.estimate_tie_sigma) j["vtpm"]["estimate_tie_sigma"] = true;
+  // Each method's options that differ from its defaults, under the method's name.
+  for (const auto& m : registeredMethods()) {
+    const std::any defaults = m->defaultOptions();
+    const std::any& options = o.method_options.at(m->name(), defaults);
+    json section = json::object();
+    for (const OptionSpec& spec : m->options()) {
+      const double v = spec.get(options);
+      if (v == spec.get(defaults)) continue;
+      if (spec.type == OptionSpec::Type::kBoolean) section[spec.key] = v != 0;
+      else if (spec.type == OptionSpec::Type::kInteger) section[spec.key] = static_cast<int>(v);
+      else section[spec.key] = v;
+    }
+    if (section.empty()) continue;
+    if (j.contains(m->name())) {  // the input shares the key: "planes": {"regions": …, options}
+      section[kInputInObject] = j[m->name()];
+    }
+    j[m->name()] = section;
+  }
+  if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"] = {{"strip_offset_sigma_m", o.strip_offset_sigma_m}};
   if (o.pulse_noise.any() || o.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = o.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m}, {"roll_pitch_deg", pn.roll_pitch_deg}, {"heading_deg", pn.heading_deg},

@@ -105,7 +105,7 @@ std::string planReportHtml(const Plan& plan, const PlanAnalysis& a) {
   h << "<h1>Calibration flight plan — " << detail::htmlEscape(plan.name) << "</h1>";
   h << "<p>" << plan.lines.size() << " lines, " << plan.roofs.size() << " roofs, " << plan.targets.size() << " targets, " << plan.gcps.size()
     << " ground control points; methods:";
-  for (CalibrationMethod m : plan.options.methods) h << " " << toString(m);
+  for (const std::string& m : plan.options.methods) h << " " << m;
   h << ". Predicted from a simulation of the plan without noise and the adjustment at the truth with the plan's "
        "stochastic model (" << p.strips << " strips, " << p.observations << " observation blocks, " << detail::formatNumber(p.seconds, "%.1f") << " s).</p>";
   h << "<h2>Plan view</h2>" << planView(plan, a.suggestions.empty() ? nullptr : &a.suggestions.front().plan);

@@ -39,11 +39,10 @@ std::array<double, 2> xy(const Fields& f, const std::string& k) {
   return v;
 }
 
-CalibrationMethod methodOf(const Fields& f, const std::string& key, const std::string& name) {
-  for (CalibrationMethod m : {CalibrationMethod::kVtpm, CalibrationMethod::kPlanes, CalibrationMethod::kCorrespondences,
-                              CalibrationMethod::kFeatures})
-    if (name == toString(m)) return m;
-  f.fail(key, "unknown method '" + name + "' (methods: vtpm, planes, correspondences, features)");
+std::string methodOf(const Fields& f, const std::string& key, const std::string& name) {
+  const Method* m = findMethod(name);
+  if (!m || m->implicit()) f.fail(key, "unknown method '" + name + "' (methods: " + methodNames() + ")");
+  return name;
 }
 
 }  // namespace
@@ -261,7 +260,7 @@ Plan readPlan(const std::string& path) {
       top.fail("method", "expected a method name or an array of them");
     }
   } else {
-    o.methods = {CalibrationMethod::kVtpm};
+    o.methods = {"vtpm"};
   }
   o.estimate.fill(true);
   if (top.has("estimate")) {
@@ -278,12 +277,12 @@ Plan readPlan(const std::string& path) {
   static const json kNone = json::object();
   const Fields sig = top.has("sigma") ? top.sub("sigma", {"tie_xy_m", "tie_z_m", "plane_m", "strip_offset_m"})
                                       : Fields(path, kNone, "sigma", {});
-  o.tie_sigma_xy_m = sig.num("tie_xy_m", std::max(n.pick_sigma_m, 1e-3), 1e-4, 10.0);
-  o.tie_sigma_z_m = sig.num("tie_z_m", 0.002, 1e-4, 10.0);  // beyond the pulse noise of the plan's noise model
-  o.estimate_tie_sigma = false;
-  o.planes.sigma_m = sig.num("plane_m", std::max(n.range_sigma_m, 0.005), 1e-4, 1.0);
-  o.correspondence.sigma_m = std::sqrt(2.0) * o.planes.sigma_m;
-  o.features.sigma_in_plane_m = std::max(o.tie_sigma_xy_m, 0.01);
+  // Every method's observation σ from the plan's noise.
+  NoiseHint noise;
+  noise.pick_sigma_xy_m = sig.num("tie_xy_m", std::max(n.pick_sigma_m, 1e-3), 1e-4, 10.0);
+  noise.pick_sigma_z_m = sig.num("tie_z_m", 0.002, 1e-4, 10.0);  // beyond the pulse noise of the plan's noise model
+  noise.point_sigma_m = sig.num("plane_m", std::max(n.range_sigma_m, 0.005), 1e-4, 1.0);
+  for (const auto& m : registeredMethods()) m->adoptNoise(noise, &o.method_options.at(m->name(), m->defaultOptions()));
   o.strip_offset_sigma_m = sig.num("strip_offset_m", n.gnss_sigma_m, 0.0, 10.0);
   o.pulse_noise.range_m = n.range_sigma_m;
   o.pulse_noise.beam_deg = rad2deg(n.scan_angle_sigma_rad);

@@ -173,10 +173,10 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   job.planes_path = at("planes.csv");
   if (options.ties) {
     job.ties_path = at("ties.csv");
-    job.options.methods = {CalibrationMethod::kVtpm};
+    job.options.methods = {"vtpm"};
   } else {
     // No ties: the job calibrates automatically, by point-to-plane correspondences.
-    job.options.methods = {CalibrationMethod::kCorrespondences};
+    job.options.methods = {"correspondences"};
   }
   job.options.estimate = {true, true, false, true, true, true};
   job.result_path = at("result.json");
@@ -188,7 +188,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     fj.path = at("job_features.json");
     fj.targets_path = at("targets.csv");
     fj.ties_path.clear();
-    fj.options.methods = {CalibrationMethod::kFeatures};
+    fj.options.methods = {"features"};
     fj.result_path = at("result_features.json");
     fj.report_path = at("report_features.html");
     io::writeFileAtomically(fj.path, jobJson(fj));

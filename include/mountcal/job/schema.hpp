@@ -4,6 +4,7 @@
 /// every field checked, and written back (the simulator writes its job.json through this).
 /// Paths in a job file are relative to the job file; in a Job they are resolved.
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,10 @@ struct Job {
   /// Options::methods holds the same list.
   MountingCalibrator::Options options;
   std::string result_path, report_path;  ///< empty when not requested
+  /// The input value each method was given (e.g. "planes" → "auto" or the CSV as written).
+  std::map<std::string, std::string> method_inputs;
+  /// Notices for the user (deprecated keys that were still read), one sentence each.
+  std::vector<std::string> notices;
 };
 
 /// Parses and validates a job file. Throws FileError naming the file and the field for an

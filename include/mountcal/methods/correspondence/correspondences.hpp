@@ -26,6 +26,7 @@
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
+#include "mountcal/methods/method.hpp"
 
 namespace mountcal {
 
@@ -37,6 +38,7 @@ class DenseMatcher;
 /// Settings of the correspondence search. Every length has a default derived from the point
 /// spacing and the a-priori misalignment when left at 0 [m, deg].
 struct CorrespondenceOptions {
+  static constexpr const char* kMethod = "correspondences";
   /// The largest strip-to-strip discrepancy expected before calibration [m] (first-round
   /// distance gate: max(3 r, 2 × this)).
   double apriori_misalignment_m = 1.0;
@@ -191,7 +193,14 @@ PairCandidates parsePairCandidates(const std::string& name, const std::uint8_t* 
                                    CorrespondenceOptions* options = nullptr, std::array<double, 6>* mounting_used = nullptr);
 
 /// The residual section of the correspondences.
-struct CorrespondenceSection {
+struct CorrespondenceSection : MethodSection {
+  std::string method() const override { return "correspondences"; }
+  std::string brief() const override;
+  std::string text(const AdjustmentSummary& summary) const override;
+  std::string resultJson(const AdjustmentSummary& summary) const override;
+  std::string html(const AdjustmentSummary& summary) const override;
+  std::vector<std::string> warnings() const override;
+  std::vector<double> laserElevationOffsetsRad() const override;
   int used = 0;
   int rounds = 0;  ///< matchings
   double radius_m = 0.0, sigma_m = 0.0, spacing_m = 0.0;

@@ -29,11 +29,13 @@
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
+#include "mountcal/methods/method.hpp"
 
 namespace mountcal {
 
 /// Settings of the feature method (job: the `"features"` object). Lengths [m], angles [deg].
 struct FeatureOptions {
+  static constexpr const char* kMethod = "features";
   /// Points at or above this intensity are target points; 0: Otsu's threshold of each region's
   /// intensity histogram (all strips' points in the region) [intensity units].
   double intensity_threshold = 0.0;
@@ -127,7 +129,13 @@ struct FeatureClosedForm {
 };
 
 /// The section of the result file (SPEC §4 `"features"`).
-struct FeatureSection {
+struct FeatureSection : MethodSection {
+  std::string method() const override { return "features"; }
+  std::string brief() const override;
+  std::string text(const AdjustmentSummary& summary) const override;
+  std::string resultJson(const AdjustmentSummary& summary) const override;
+  std::string html(const AdjustmentSummary& summary) const override;
+  std::vector<std::string> warnings() const override;
   int targets_used = 0;
   int views_used = 0;                    ///< (target, strip) observations in the adjustment
   std::vector<std::string> target_ids;

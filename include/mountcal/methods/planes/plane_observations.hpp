@@ -18,11 +18,13 @@
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
+#include "mountcal/methods/method.hpp"
 
 namespace mountcal {
 
 /// Settings of the plane method. Lengths [m], angles [deg].
 struct PlaneOptions {
+  static constexpr const char* kMethod = "planes";
   /// Find the patches in the overlaps automatically (job: `"planes": "auto"`) instead of
   /// taking CalibrationData::plane_regions.
   bool automatic = false;
@@ -74,7 +76,15 @@ struct RejectedPatch {
 };
 
 /// The residual section of the planes.
-struct PlaneSection {
+struct PlaneSection : MethodSection {
+  std::string method() const override { return "planes"; }
+  std::string brief() const override;
+  std::string text(const AdjustmentSummary& summary) const override;
+  std::string resultJson(const AdjustmentSummary& summary) const override;
+  std::string html(const AdjustmentSummary& summary) const override;
+  std::vector<std::string> warnings() const override;
+  int outliers() const override;
+  std::vector<PlanMark> planMarks() const override;
   bool automatic = false;
   int patches_used = 0;
   int points_used = 0;

@@ -1,5 +1,5 @@
 #pragma once
-/// \file methods/vtpm/tie_observations.hpp
+/// \file methods/common/tie_observations.hpp
 /// Virtual tie points (seed 000, SPEC §3) as observations of the one adjustment, and ground
 /// control observed through virtual tie points on every strip that covers it.
 ///

@@ -1,4 +1,4 @@
-#include "mountcal/methods/vtpm/tie_observations.hpp"
+#include "mountcal/methods/common/tie_observations.hpp"
 
 #include <ceres/ceres.h>
 
@@ -159,7 +159,7 @@ void TieObservations::build(const MountingParameters& reference) {
   // Control points need only the strip points around them: a subset of each strip, within the
   // largest VTP radius and a margin for the mounting's motion of each control point.
   auto nearPicks = [&](const StripData& strip) {
-    const double reach = vtp.max_radius_m + 10.0, cell = 2 * reach;
+    const double reach = std::max(vtp.max_radius_m, vtp.radius_m) + 10.0, cell = 2 * reach;
     std::set<std::pair<long, long>> cells;
     for (const TieObservation& t : picks) cells.insert({std::lround(std::floor(t.x_m / cell)), std::lround(std::floor(t.y_m / cell))});
     const std::vector<Vec3>& x = strip.x_m;

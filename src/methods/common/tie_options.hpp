@@ -1,0 +1,39 @@
+#pragma once
+// Internal to the tie-based modules (vtpm, control): the job options they share, declared once.
+
+#include "mountcal/methods/method.hpp"
+#include "mountcal/virtual_tie_point.hpp"
+
+namespace mountcal::detail {
+
+/// The options of a module whose options struct T is a TieObservationOptions with a VtpOptions
+/// `vtp` (VtpmOptions, ControlOptions). Ranges are physical: a virtual tie point is a local plane
+/// of metres; picks are good to centimetres or metres, not kilometres.
+template <class T>
+OptionTable<T> tieOptionTable() {
+  OptionTable<T> t;
+  t.number("radius_m", [](T& o) -> double& { return o.vtp.radius_m; }, "m", 0.01, 100.0,
+           "search radius around a pick (grown to 2.5 x the point spacing, up to max_radius_m)");
+  t.number("max_radius_m", [](T& o) -> double& { return o.vtp.max_radius_m; }, "m", 0.01, 100.0,
+           "the grown radius never exceeds this (nor shrinks below radius_m)");
+  t.number("ransac_threshold_m", [](T& o) -> double& { return o.vtp.ransac_threshold_m; }, "m", 1e-4, 10.0,
+           "largest point-to-plane distance of a RANSAC inlier");
+  t.number("tie_sigma_xy_m", [](T& o) -> double& { return o.tie_sigma_xy_m; }, "m", 1e-4, 100.0,
+           "a-priori sigma of a pick, horizontal");
+  t.number("tie_sigma_z_m", [](T& o) -> double& { return o.tie_sigma_z_m; }, "m", 1e-4, 100.0,
+           "a-priori sigma of a pick's height (Rule 1 interpolation)");
+  t.boolean("estimate_tie_sigma", [](T& o) -> bool& { return o.estimate_tie_sigma; },
+            "estimate the two sigma above from the residuals (variance components)");
+  return t;
+}
+
+/// The virtual tie point's construction settings, beyond their declared ranges.
+inline bool vtpOptionsValid(const VtpOptions& v, std::string* error) {
+  if (!(v.radius_m > 0) || !(v.ransac_threshold_m > 0) || v.ransac_iterations < 1) {
+    if (error) *error = "vtp radius, RANSAC threshold and iterations must be positive";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace mountcal::detail

@@ -1,0 +1,150 @@
+// Method "correspondences" as a module (methods/method.hpp): options, observations, section.
+#include "correspondences_method.hpp"
+
+#include <sstream>
+
+#include "../common/section_format.hpp"
+
+namespace mountcal {
+
+namespace {
+
+class CorrespondencesRun final : public MethodRun {
+ public:
+  explicit CorrespondencesRun(const MethodContext& c)
+      : corr_(std::make_unique<CorrespondenceObservations>(c.data, std::any_cast<const CorrespondenceOptions&>(c.options), c.threads)) {}
+  /// Always a source: it matches at each solve's mounting, so it may find observations later.
+  std::vector<ObservationSource*> sources() override { return {corr_.get()}; }
+  std::shared_ptr<const MethodSection> section() const override { return std::make_shared<CorrespondenceSection>(corr_->section()); }
+
+ private:
+  std::unique_ptr<CorrespondenceObservations> corr_;
+};
+
+const std::vector<OptionSpec>& correspondenceOptionSpecs() {
+  using T = CorrespondenceOptions;
+  static const std::vector<OptionSpec> specs =
+      OptionTable<T>()
+          .number("apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000, "largest strip-to-strip discrepancy expected before calibration")
+          .number("radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
+          .number("sample_spacing_m", [](T& o) -> double& { return o.sample_spacing_m; }, "m", 0, 10000, "spacing of the samples; 0: 2 r")
+          .integer("min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
+          .integer("max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
+          .number("max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6, "plane sigma above this x r: rough")
+          .number("max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6, "plane sigma above this x the median: rough")
+          .number("max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6, "|distance| above this x r: far")
+          .number("max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999, "largest angle between the two strips' normals")
+          .number("mad_factor", [](T& o) -> double& { return o.mad_factor; }, "-", 1e-9, 1e6, "beyond this x sigma_MAD of the distances: rejected")
+          .integer("budget", [](T& o) -> int& { return o.budget; }, 1, 10000000, "correspondences kept over all pairs")
+          .number("voxel_size_m", [](T& o) -> double& { return o.voxel_size_m; }, "m", 0, 10000, "coarse hull voxel; 0: 4 r, at least 2 m")
+          .number("sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a distance; 0: from the plane fits")
+          .number("min_spread_ratio", [](T& o) -> double& { return o.min_spread_ratio; }, "-", 0, 0.999999, "neighbourhoods along a line (one scan line) have no plane")
+          .boolean("dense", [](T& o) -> bool& { return o.dense; }, "dense matching of passes of a multi-beam scanner over one object")
+          .number("coarse_radius_m", [](T& o) -> double& { return o.coarse_radius_m; }, "m", 1e-6, 100, "dense mode's coarse stage radius")
+          .number("thin_cell_m", [](T& o) -> double& { return o.thin_cell_m; }, "m", 0, 10, "dense mode: one point per cube of this size; 0: every point")
+          .number("laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10, "dense mode: prior sigma of per-laser elevation offsets; 0: not estimated")
+          .specs();
+  return specs;
+}
+
+}  // namespace
+
+std::string CorrespondencesMethod::description() const {
+  return "automatic point-to-plane correspondences between every pair of overlapping strips, re-matched between solves (no user input)";
+}
+const std::vector<OptionSpec>& CorrespondencesMethod::options() const { return correspondenceOptionSpecs(); }
+bool CorrespondencesMethod::validate(const std::any& options, std::string* error) const {
+  return std::any_cast<const CorrespondenceOptions&>(options).IsValid(error);
+}
+void CorrespondencesMethod::adoptNoise(const NoiseHint& noise, std::any* options) const {
+  std::any_cast<CorrespondenceOptions&>(*options).sigma_m = std::sqrt(2.0) * noise.point_sigma_m;  // two points' noise
+}
+std::unique_ptr<MethodRun> CorrespondencesMethod::run(const MethodContext& context) const {
+  return std::make_unique<CorrespondencesRun>(context);
+}
+
+// ---- the section ------------------------------------------------------------------------------
+
+std::string CorrespondenceSection::brief() const { return detail::printfString("%d correspondences (%d matchings); ", used, rounds); }
+
+std::string CorrespondenceSection::text(const AdjustmentSummary&) const {
+  std::ostringstream r;
+  r << detail::printfString(
+      "\nCorrespondences: %d used after %d matchings (r %.2f m, spacing %.2f m, sigma %.4f m); |distance| median %.4f -> %.4f m, "
+      "RMS %.4f -> %.4f m\n",
+      used, rounds, radius_m, spacing_m, sigma_m, median_before_m, median_after_m, rms_before_m, rms_after_m);
+  r << "  pair        samples  kept  sparse rough  far normal  MAD budget   median before/after [m]   RMS before/after [m]\n";
+  for (const CorrespondencePairStats& p : pairs) {
+    r << detail::printfString("  %-5s %-5s %7d %5d %7d %5d %4d %6d %4d %6d   %10.4f %10.4f   %10.4f %10.4f\n", p.strip_a.c_str(),
+                              p.strip_b.c_str(), p.samples, p.kept, p.rejected_sparse, p.rejected_rough, p.rejected_far, p.rejected_normal,
+                              p.rejected_mad, p.rejected_budget, p.median_before_m, p.median_after_m, p.rms_before_m, p.rms_after_m);
+  }
+  if (!laser_elevation_deg.empty()) {
+    r << "Per-laser elevation offsets (by laser id; mean held at 0; sigma a priori, the mounting's sigma above eliminates them):\n"
+         "  laser  offset [deg]  sigma [deg]  max|corr| with boresight  points\n";
+    for (std::size_t i = 0; i < laser_elevation_deg.size(); ++i) {
+      r << detail::printfString("  %5zu  %+12.4f  %11.4f  %24.2f  %6d\n", i, laser_elevation_deg[i], laser_elevation_sigma_deg[i],
+                                laser_boresight_correlation[i], laser_points[i]);
+    }
+  }
+  return r.str();
+}
+
+std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
+  using nlohmann::json;
+  json list = json::array();
+  for (const CorrespondencePairStats& p : pairs) {
+    list.push_back({{"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"samples", p.samples}, {"kept", p.kept},
+                    {"rejected", {{"sparse", p.rejected_sparse}, {"rough", p.rejected_rough}, {"far", p.rejected_far},
+                                  {"normal", p.rejected_normal}, {"mad", p.rejected_mad}, {"budget", p.rejected_budget}}},
+                    {"median_before_m", p.median_before_m}, {"rms_before_m", p.rms_before_m},
+                    {"median_after_m", p.median_after_m}, {"rms_after_m", p.rms_after_m}});
+  }
+  json j;
+  j["correspondences"] = {{"used", used}, {"matchings", rounds}, {"radius_m", radius_m}, {"spacing_m", spacing_m},
+                          {"sigma_m", sigma_m}, {"median_before_m", median_before_m}, {"rms_before_m", rms_before_m},
+                          {"median_after_m", median_after_m}, {"rms_after_m", rms_after_m},
+                          {"search_time_s", search_time_s}, {"points_searched", points_searched}, {"pairs", list}};
+  if (!laser_elevation_deg.empty()) {
+    json off = json::array(), sig = json::array(), cor = json::array(), pts = json::array();
+    for (std::size_t i = 0; i < laser_elevation_deg.size(); ++i) {
+      off.push_back(laser_elevation_deg[i]);
+      sig.push_back(detail::numOrNull(laser_elevation_sigma_deg[i]));
+      cor.push_back(detail::numOrNull(laser_boresight_correlation[i]));
+      pts.push_back(laser_points[i]);
+    }
+    // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
+    j["intrinsics"] = {{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig},
+                       {"laser_boresight_correlation", cor}, {"laser_points", pts}};
+  }
+  return j.dump();
+}
+
+std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
+  using detail::cell;
+  using detail::htmlEscape;
+  std::ostringstream h;
+  h << "<h2>Automatic correspondences</h2><p>" << used << " point-to-plane correspondences after " << rounds << " matchings (r "
+    << cell(radius_m, "%.2f") << " m, point spacing " << cell(spacing_m, "%.2f") << " m, σ " << cell(sigma_m) << " m); |distance| median "
+    << cell(median_before_m) << " → " << cell(median_after_m) << " m, RMS " << cell(rms_before_m) << " → " << cell(rms_after_m) << " m</p>";
+  h << "<table><tr><th>strips</th><th>samples</th><th>kept</th><th>sparse</th><th>rough</th><th>far</th><th>normals</th><th>MAD</th>"
+       "<th>budget</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS after [m]</th></tr>";
+  for (const CorrespondencePairStats& p : pairs) {
+    h << "<tr><td class=l>" << htmlEscape(p.strip_a) << " / " << htmlEscape(p.strip_b) << "</td><td>" << p.samples << "</td><td>" << p.kept
+      << "</td><td>" << p.rejected_sparse << "</td><td>" << p.rejected_rough << "</td><td>" << p.rejected_far << "</td><td>"
+      << p.rejected_normal << "</td><td>" << p.rejected_mad << "</td><td>" << p.rejected_budget << "</td><td>" << cell(p.median_before_m)
+      << "</td><td>" << cell(p.median_after_m) << "</td><td>" << cell(p.rms_before_m) << "</td><td>" << cell(p.rms_after_m) << "</td></tr>";
+  }
+  h << "</table>";
+  return h.str();
+}
+
+std::vector<std::string> CorrespondenceSection::warnings() const { return {}; }
+
+std::vector<double> CorrespondenceSection::laserElevationOffsetsRad() const {
+  std::vector<double> out;
+  for (double d : laser_elevation_deg) out.push_back(deg2rad(d));
+  return out;
+}
+
+}  // namespace mountcal

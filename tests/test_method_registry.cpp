@@ -1,0 +1,223 @@
+// The method registry (methods/method.hpp): methods are modules registered by name, their job
+// options declared once; a toy method from the test tree (tests/methods/toy/) runs end to end.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "mountcal/mountcal.hpp"
+
+namespace fs = std::filesystem;
+using namespace mountcal;
+using nlohmann::json;
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+CliRun run(const std::string& cli, const std::string& args) {
+  const std::string base = (fs::temp_directory_path() / ("mountcal_registry_" + std::to_string(::getpid()))).string();
+  const int status = std::system((cli + " " + args + " > " + base + ".out 2> " + base + ".err").c_str());
+  auto slurp = [](const std::string& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(base + ".out");
+  r.err = slurp(base + ".err");
+  return r;
+}
+
+json readJson(const std::string& path) {
+  std::ifstream f(path);
+  return json::parse(f);
+}
+
+void writeJson(const std::string& path, const json& j) { std::ofstream(path) << j.dump(2); }
+
+fs::path freshDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("mountcal_registry_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+}  // namespace
+
+TEST(Registry, BuiltInMethodsComeFirstInTheOrderTheyJoinTheAdjustment) {
+  std::vector<std::string> names;
+  for (const auto& m : registeredMethods()) names.push_back(m->name());
+  ASSERT_GE(names.size(), 6u);
+  const std::vector<std::string> builtin = {"vtpm", "control", "planes", "correspondences", "features"};
+  EXPECT_EQ(std::vector<std::string>(names.begin(), names.begin() + 5), builtin);
+  EXPECT_NE(findMethod("toy"), nullptr);  // registered by the test tree's toy module
+  EXPECT_TRUE(findMethod("control")->implicit());
+  EXPECT_EQ(methodNames().find("control"), std::string::npos);  // not a name a job gives in "method"
+  EXPECT_THROW(registerMethod(findMethod("vtpm") ? registeredMethods()[0] : nullptr), InvalidInput);  // names are unique
+}
+
+TEST(Registry, DeclaredRangesAreCheckedAndTheMessageNamesMethodAndOption) {
+  MountingCalibrator::Options o;
+  std::string why;
+  ASSERT_TRUE(o.IsValid(&why)) << why;
+  o.method<PlaneOptions>().sigma_m = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("planes.sigma_m"), std::string::npos) << why;
+  o.method<PlaneOptions>().sigma_m = 0;
+  o.method<PlaneOptions>().max_points_per_strip = 4;  // a relation the method checks itself
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("planes: max_points_per_strip"), std::string::npos) << why;
+  o = MountingCalibrator::Options{};
+  o.methods = {"nope"};
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("unknown method 'nope'"), std::string::npos) << why;
+  o.methods = {"control"};
+  EXPECT_FALSE(o.IsValid(&why)) << "ground control is not a method a job names";
+}
+
+TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
+  const fs::path dir = freshDir("options");
+  // A job naming every method's every option with a value other than its default.
+  json j = {{"frame", {{"type", "local"}}},
+            {"trajectory", {{"path", "t.csv"}}},
+            {"sensor", {{"type", "line"}}},
+            {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
+            {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
+            {"ties", "ties.csv"},
+            {"targets", "targets.csv"},
+            {"method", {"vtpm", "planes", "correspondences", "features"}}};
+  j["planes"] = {{"regions", "auto"}};
+  std::map<std::string, std::map<std::string, double>> given;
+  for (const auto& m : registeredMethods()) {
+    const std::any defaults = m->defaultOptions();
+    for (const OptionSpec& s : m->options()) {
+      double v = s.get(defaults);
+      if (s.type == OptionSpec::Type::kBoolean) {
+        v = v != 0 ? 0 : 1;
+        j[m->name()][s.key] = v != 0;
+      } else {
+        v = v < s.max ? std::min(s.max, std::floor(v) + 1) : s.min;  // another value in range
+        if (s.key == "min_points_per_strip" || s.key == "min_neighbours") v = s.min;  // keep min <= max
+        j[m->name()][s.key] = v;
+      }
+      given[m->name()][s.key] = v;
+    }
+  }
+  const std::string path = (dir / "job.json").string();
+  writeJson(path, j);
+  const Job job = readJob(path);
+  EXPECT_TRUE(job.planes_auto);
+  auto check = [&](const Job& jb, const std::string& what) {
+    for (const auto& m : registeredMethods()) {
+      const std::any defaults = m->defaultOptions();
+      const std::any& options = jb.options.method_options.at(m->name(), defaults);
+      for (const OptionSpec& s : m->options())
+        EXPECT_EQ(s.get(options), given[m->name()][s.key]) << what << ": " << m->name() << "." << s.key;
+    }
+  };
+  check(job, "read");
+  const std::string again = (dir / "again.json").string();
+  std::ofstream(again) << jobJson(job);
+  Job back = readJob(again);
+  check(back, "written and read again");
+  EXPECT_TRUE(back.planes_auto);
+}
+
+TEST(Registry, EarlierJobKeysAreStillReadWithANotice) {
+  const fs::path dir = freshDir("legacy");
+  json j = {{"frame", {{"type", "local"}}},
+            {"trajectory", {{"path", "t.csv"}}},
+            {"sensor", {{"type", "line"}}},
+            {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
+            {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
+            {"planes", "regions.csv"},
+            {"method", {"planes", "correspondences"}},
+            {"vtpm", {{"strip_offset_sigma_m", 0.0}, {"radius_m", 2.0}}},
+            {"plane", {{"sigma_m", 0.02}}},
+            {"correspondence", {{"budget", 77}}}};
+  const std::string path = (dir / "job.json").string();
+  writeJson(path, j);
+  const Job job = readJob(path);
+  EXPECT_EQ(job.options.strip_offset_sigma_m, 0.0);
+  EXPECT_EQ(job.options.method<VtpmOptions>().vtp.radius_m, 2.0);
+  EXPECT_EQ(job.options.method<PlaneOptions>().sigma_m, 0.02);
+  EXPECT_EQ(job.options.method<CorrespondenceOptions>().budget, 77);
+  EXPECT_FALSE(job.options.method<PlaneOptions>().automatic);
+  ASSERT_EQ(job.notices.size(), 3u);
+  for (const std::string& n : job.notices) EXPECT_NE(n.find("deprecated"), std::string::npos) << n;
+  // The new keys say the same without a notice, and a key given both ways is refused.
+  j.erase("plane");
+  j.erase("correspondence");
+  j["vtpm"].erase("strip_offset_sigma_m");
+  j["stochastic"] = {{"strip_offset_sigma_m", 0.0}};
+  j["planes"] = {{"regions", "regions.csv"}, {"sigma_m", 0.02}};
+  j["correspondences"] = {{"budget", 77}};
+  writeJson(path, j);
+  const Job now = readJob(path);
+  EXPECT_TRUE(now.notices.empty());
+  EXPECT_EQ(now.options.method<PlaneOptions>().sigma_m, 0.02);
+  EXPECT_EQ(now.options.method<CorrespondenceOptions>().budget, 77);
+  EXPECT_EQ(now.planes_path, (dir / "regions.csv").string());
+  j["correspondence"] = {{"budget", 78}};
+  writeJson(path, j);
+  EXPECT_THROW(readJob(path), FileError);
+}
+
+TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {
+  const std::string cli = MOUNTCAL_CLI_WITH_TEST_METHODS;
+  const CliRun listing = run(cli, "methods");
+  ASSERT_EQ(listing.code, 0) << listing.err;
+  EXPECT_NE(listing.out.find("\ntoy\n"), std::string::npos) << listing.out;
+  EXPECT_NE(listing.out.find("lever_arm_z_m"), std::string::npos) << listing.out;
+
+  const fs::path dir = freshDir("toy");
+  const CliRun sim = run(cli, "simulate --preset paper-calibration-field --seed 4 --out " + dir.string());
+  ASSERT_EQ(sim.code, 0) << sim.err;
+  json j = readJson((dir / "job.json").string());
+  j["method"] = {"vtpm", "toy"};
+  j["toy"] = {{"lever_arm_z_m", 0.1234}, {"sigma_m", 0.002}};
+  j["estimate"]["lever_arm"] = {true, true, true};
+  const std::string job = (dir / "job_toy.json").string();
+  writeJson(job, j);
+  const std::string result = (dir / "result_toy.json").string(), report = (dir / "report_toy.html").string();
+  const CliRun cal = run(cli, "calibrate " + job + " --result " + result + " --report " + report);
+  ASSERT_EQ(cal.code, 0) << cal.err << cal.out;
+  EXPECT_NE(cal.out.find("Toy: measured lever arm z 0.1234 m"), std::string::npos) << cal.out;
+  const json r = readJson(result);
+  ASSERT_TRUE(r.contains("toy")) << r.dump(1);
+  EXPECT_EQ(r["methods"], json({"vtpm", "toy"}));
+  // The ties do not see the vertical lever arm: the measurement alone gives it, with its σ.
+  EXPECT_NEAR(r["mounting"]["lever_arm_m"][2].get<double>(), 0.1234, 1e-3);
+  EXPECT_NEAR(r["sigma"]["lever_arm_m"][2].get<double>(), 0.002, 2e-4);
+  EXPECT_NEAR(r["toy"]["estimated_z_m"].get<double>(), r["mounting"]["lever_arm_m"][2].get<double>(), 1e-12);
+  EXPECT_TRUE(r.contains("rms_before_m"));  // VTPM's keys, written by VTPM's section
+  std::ifstream rep(report);
+  std::stringstream html;
+  html << rep.rdbuf();
+  EXPECT_NE(html.str().find("<h2>Toy: measured lever arm</h2>"), std::string::npos);
+
+  // The toy alone: no tie keys in the result (no zeros that read as a perfect tie fit).
+  j["method"] = "toy";
+  j["estimate"] = {{"lever_arm", {false, false, true}}, {"boresight", {false, false, false}}};
+  writeJson(job, j);
+  const CliRun alone = run(cli, "calibrate " + job + " --quiet --result " + result);
+  ASSERT_EQ(alone.code, 0) << alone.err;
+  const json a = readJson(result);
+  for (const char* key : {"ties", "rms_before_m", "rms_after_m", "residuals"}) EXPECT_TRUE(a[key].is_null()) << key << a.dump(1);
+  EXPECT_NEAR(a["mounting"]["lever_arm_m"][2].get<double>(), 0.1234, 1e-9);
+
+  // The shipped command does not know the toy: a job naming it is bad input.
+  const CliRun plain = run(MOUNTCAL_CLI, "calibrate " + job + " --quiet");
+  EXPECT_EQ(plain.code, 2);
+  EXPECT_NE(plain.err.find("field 'toy': unknown field"), std::string::npos) << plain.err;
+}
