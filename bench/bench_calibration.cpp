@@ -11,7 +11,7 @@
 #include <memory>
 #include <random>
 
-#include "mountcal/detail/vtp_strip.hpp"
+#include "methods/common/vtp_strip.hpp"
 #include "mountcal/mountcal.hpp"
 
 using namespace mountcal;

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/georeference_model.hpp"
 
 using namespace mountcal;
 

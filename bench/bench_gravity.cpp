@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "mountcal/mountcal.hpp"
-#include "mountcal/evaluation.hpp"
+#include "mountcal/report/evaluation.hpp"
 #include "mountcal/job/load.hpp"
 #include "mountcal/job/result.hpp"
 #include "mountcal/mounting_calibrator.hpp"

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal {
 

@@ -217,7 +217,7 @@ TEST(Block, PairFileErrorsNameTheFileAndTheByte) {
   expectRefused(huge, "do not fit");
   // A folder of pair files: a missing pair, and files matched with other settings, are named.
   const fs::path jobdir = tempDir("job");
-  writeSurvey(block(), jobdir.string(), SurveyWriteOptions{});
+  mountcal::writeSurvey(block(), jobdir.string(), mountcal::SurveyWriteOptions{});
   Job job = readJob((jobdir / "job.json").string());
   job.options.methods = {"correspondences"};
   const fs::path pairdir = jobdir / "pairs";

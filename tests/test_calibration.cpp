@@ -8,10 +8,10 @@
 #include <set>
 
 #include "mountcal/mountcal.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
-#include "mountcal/detail/vtp_cost.hpp"
-#include "mountcal/evaluation.hpp"
+#include "methods/common/vtp_cost.hpp"
+#include "mountcal/report/evaluation.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 

@@ -4,8 +4,8 @@
 
 #include <map>
 
-#include "mountcal/error_curves.hpp"
-#include "mountcal/mounting.hpp"
+#include "mountcal/report/error_curves.hpp"
+#include "mountcal/core/mounting.hpp"
 
 using namespace mountcal;
 

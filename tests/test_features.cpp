@@ -20,7 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mountcal/mountcal.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 

@@ -5,10 +5,10 @@
 #include <limits>
 #include <random>
 
-#include "mountcal/error.hpp"
-#include "mountcal/geodesy.hpp"
-#include "mountcal/georeference_model.hpp"
-#include "sincos_batch.hpp"  // internal (src/)
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/geodesy.hpp"
+#include "mountcal/core/georeference_model.hpp"
+#include "core/sincos_batch.hpp"  // internal (src/)
 
 using namespace mountcal;
 

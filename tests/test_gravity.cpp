@@ -11,15 +11,15 @@
 #include <filesystem>
 
 #include "mountcal/mountcal.hpp"
-#include "mountcal/evaluation.hpp"
+#include "mountcal/report/evaluation.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/job/apply.hpp"
 #include "mountcal/job/load.hpp"
 #include "mountcal/job/result.hpp"
 #include "mountcal/mounting_calibrator.hpp"
-#include "mountcal/rotation.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/rotation.hpp"
+#include "mountcal/core/sensor_model.hpp"
 
 using namespace mountcal;
 namespace fs = std::filesystem;

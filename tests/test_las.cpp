@@ -10,7 +10,7 @@
 #include <random>
 #include <sstream>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
 
 using namespace mountcal;

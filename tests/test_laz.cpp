@@ -17,7 +17,7 @@
 #include <random>
 #include <sstream>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/laz.hpp"
 

@@ -10,8 +10,8 @@
 #include <set>
 
 #include "mountcal/mountcal.hpp"
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 

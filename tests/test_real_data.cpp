@@ -16,11 +16,11 @@
 #include <vector>
 #include <sstream>
 
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/las.hpp"
-#include "mountcal/geodesy.hpp"
+#include "mountcal/core/geodesy.hpp"
 #include "mountcal/io/sbet.hpp"
 
 using namespace mountcal;

@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "mountcal/mounting_calibrator.hpp"
-#include "mountcal/report.hpp"
+#include "mountcal/report/report.hpp"
 #include "mountcal/simulation/survey.hpp"
 
 using namespace mountcal;

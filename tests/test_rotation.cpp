@@ -2,8 +2,8 @@
 
 #include <random>
 
-#include "mountcal/mounting.hpp"
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/mounting.hpp"
+#include "mountcal/core/rotation.hpp"
 
 using namespace mountcal;
 

@@ -2,8 +2,8 @@
 
 #include <random>
 
-#include "mountcal/error.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/sensor_model.hpp"
 
 using namespace mountcal;
 

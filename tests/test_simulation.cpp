@@ -3,10 +3,10 @@
 
 #include <map>
 
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/simulation/survey.hpp"
-#include "normal_batch.hpp"  // internal (src/)
+#include "core/normal_batch.hpp"  // internal (src/)
 
 #include <cmath>
 #include <random>

@@ -2,8 +2,8 @@
 
 #include <random>
 
-#include "mountcal/error.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 using namespace mountcal;
 

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/error.hpp"
-#include "mountcal/mounting.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/mounting.hpp"
 #include "mountcal/observations.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace mountcal {
 

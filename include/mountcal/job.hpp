@@ -8,3 +8,4 @@
 #include "mountcal/job/load.hpp"
 #include "mountcal/job/result.hpp"
 #include "mountcal/job/schema.hpp"
+#include "mountcal/job/survey_job.hpp"

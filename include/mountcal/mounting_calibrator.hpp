@@ -16,7 +16,7 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
 #include "mountcal/methods/method.hpp"
-#include "mountcal/mounting.hpp"
+#include "mountcal/core/mounting.hpp"
 
 namespace mountcal {
 

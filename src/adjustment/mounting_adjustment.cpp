@@ -1,5 +1,5 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/rotation.hpp"
 
 #include <ceres/ceres.h>
 
@@ -406,190 +406,243 @@ std::string fmtParam(int j, double v) {
 
 }  // namespace
 
-AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used,
-                                            const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start) const {
-  const auto t_start = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
-  const Options& o = options_;
-  Summary S;
-  S.mounting_used = mounting_used;
-  S.mounting = mounting_used;
-  S.sigma.fill(std::nan(""));
-  std::string why;
-  if (!o.IsValid(&why)) {
-    S.message = "invalid options: " + why;
-    return S;
-  }
-  const std::array<double, 6> m0 = mounting_used.toArray();
-  bool any_rematch = false;
-  for (ObservationSource* s : sources) any_rematch |= s->rematches();
+namespace {
 
-  // One estimation: build the problem at the current mounting, solve, and — for matching
-  // sources — re-match and solve again until the mounting stops changing.
-  std::unique_ptr<AdjustmentProblem> P;
-  ceres::Solver::Summary cs;
-  int iterations = 0;
-  bool first = true;
-  auto estimate = [&](const std::array<bool, 6>& est, std::array<double, 6> m) {
-    S.rematch_rounds = 0;
+/// One solve of MountingAdjustment, in steps: build the problem at a mounting, solve and
+/// re-match until the mounting settles (estimate), find what the data cannot determine
+/// (holdUndeterminable), then σ₀², covariance and the per-kind counts (analyse).
+class Estimation {
+ public:
+  Estimation(const MountingAdjustment::Options& options, const MountingParameters& mounting_used,
+             const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start, AdjustmentSummary* summary)
+      : o_(options), sources_(sources), start_(start), m0_(mounting_used.toArray()), S_(*summary),
+        t_start_(std::chrono::steady_clock::now()) {
+    for (ObservationSource* s : sources_) any_rematch_ |= s->rematches();
+  }
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count(); }
+  AdjustmentProblem& problem() { return *P_; }
+
+  /// Starting values: the used mounting, or the caller's start for the estimated parameters.
+  std::array<double, 6> initial(const std::array<bool, 6>& est) const {
+    std::array<double, 6> m = m0_;
+    if (start_)
+      for (int j = 0; j < 6; ++j)
+        if (est[j] && std::isfinite((*start_)[j])) m[j] = (*start_)[j];
+    return m;
+  }
+
+  /// One estimation: build the problem at the current mounting, solve, and — for matching
+  /// sources — re-match and solve again until the mounting stops changing. False when no
+  /// source has an observation.
+  bool estimate(const std::array<bool, 6>& est, std::array<double, 6> m) {
+    S_.rematch_rounds = 0;
     std::vector<std::array<double, 6>> history;  // the mountings each round started from
-    for (int round = 0; round < o.max_rematch_rounds; ++round) {
+    for (int round = 0; round < o_.max_rematch_rounds; ++round) {
+      if (!buildProblem(est, m)) return false;
       double t_mark = elapsed();
-      P = std::make_unique<AdjustmentProblem>(m, o.strip_offset_sigma_m, o.loss, o.loss_scale_m, o.numeric_diff_relative_step);
-      P->setPulseNoise(o.pulse_noise);
-      for (std::size_t k = 0; k < sources.size(); ++k) {
-        P->setSource(static_cast<int>(k));
-        sources[k]->addBlocks(m, P.get());
-      }
-      P->setSource(-1);
-      P->addRandomEffectPriors();
-      S.construction_time_s += elapsed() - t_mark;
-      t_mark = elapsed();
-      int observations = 0;
-      for (const auto& r : P->records()) observations += r.source >= 0;
-      if (observations == 0) return false;
-      ceres::Problem& problem = P->ceresProblem();
-      if (!problem.HasParameterBlock(P->mounting())) problem.AddParameterBlock(P->mounting(), 6);
-      for (int j = 0; j < 6; ++j)
-        if (est[j] && priorOn(o, j)) P->addResidualBlock(new MountingPrior(j, o.prior_value[j], o.prior_sigma[j]), 0.0, {P->mounting()});
-      std::vector<int> fixed;
-      for (int j = 0; j < 6; ++j)
-        if (!est[j]) fixed.push_back(j);
-      if (fixed.size() == 6) problem.SetParameterBlockConstant(P->mounting());
-      else if (!fixed.empty()) problem.SetManifold(P->mounting(), new ceres::SubsetManifold(6, fixed));
-      ceres::Solver::Options so;
-      so.minimizer_type = ceres::TRUST_REGION;
-      so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-      bool any_e = false;
-      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-      for (const auto& b : P->nuisanceBlocks()) {
-        if (b.eliminable) {
-          ordering->AddElementToGroup(b.values, 0);  // eliminated first
-          any_e = true;
-        } else {
-          ordering->AddElementToGroup(b.values, 1);
-        }
-      }
-      for (auto& entry : P->stripOffsets()) ordering->AddElementToGroup(const_cast<double*>(entry.second.data()), 1);
-      ordering->AddElementToGroup(P->mounting(), 1);
-      if (any_e) {
-        so.linear_solver_type = ceres::DENSE_SCHUR;
-        so.linear_solver_ordering = ordering;
-      } else {
-        so.linear_solver_type = ceres::DENSE_QR;
-      }
-      const bool capped = any_rematch && o.max_iterations_per_matching > 0 && o.max_iterations_per_matching < o.max_iterations;
-      so.max_num_iterations = capped ? o.max_iterations_per_matching : o.max_iterations;
-      so.function_tolerance = o.function_tolerance;
-      so.parameter_tolerance = o.parameter_tolerance;
-      so.gradient_tolerance = o.gradient_tolerance;
-      so.max_solver_time_in_seconds = o.max_solver_time_s;
-      so.num_threads = o.num_threads;
-      so.logging_type = ceres::SILENT;
-      so.minimizer_progress_to_stdout = false;
-      ceres::Solve(so, &problem, &cs);
-      for (ObservationSource* s : sources) s->solved(*P);
-      S.solve_time_s += elapsed() - t_mark;
-      if (first) {
-        S.initial_cost = cs.initial_cost;
-        first = false;
-      }
-      iterations += static_cast<int>(cs.iterations.size()) - 1;
-      ++S.rematch_rounds;
-      const std::array<double, 6>& m_new = P->mountingValues();
-      // Converged when no parameter moved by more than its tolerance, or by more than a
-      // fraction of its standard deviation (a re-matching moves the estimate by a small part
-      // of its uncertainty as the matched points change; chasing that is pointless).
-      std::array<double, 6> sigma_now;
-      sigma_now.fill(0.0);
-      if (any_rematch) {
-        Mat6 N;
-        Vec6 dg;
-        reducedNormalMatrix(*P, &N, &dg);
-        const Mat6 C = inverseOnEstimated(N, est);
-        for (int j = 0; j < 6; ++j) sigma_now[j] = est[j] ? std::sqrt(std::max(C(j, j), 0.0)) : 0.0;
-      }
-      auto changeFrom = [&](const std::array<double, 6>& prev) {
-        double change = 0;
-        for (int j = 0; j < 6; ++j) {
-          const double tol = std::max(j < 3 ? o.rematch_tolerance_m : o.rematch_tolerance_rad, o.rematch_sigma_fraction * sigma_now[j]);
-          change = std::max(change, std::abs(m_new[j] - prev[j]) / tol);
-        }
-        return change;
-      };
-      double change = changeFrom(m);
-      // A matching can flip between two sets of matches: back where an earlier round ended is
-      // a fixed point of the matching as well.
-      for (const auto& earlier : history)
-        if (changeFrom(earlier) < 1.0) change = 0.0;
+      ceres::Solver::Options so = solverOptions();
+      ceres::Solve(so, &P_->ceresProblem(), &cs_);
+      afterSolve(t_mark);
+      ++S_.rematch_rounds;
+      const std::array<double, 6> m_new = P_->mountingValues();
+      const double change = rematchChange(est, m, m_new, history);
       bool settled = true;
-      for (ObservationSource* s : sources) settled &= s->settled();
+      for (ObservationSource* s : sources_) settled &= s->settled();
       if (!settled) history.clear();  // a coarse stage's fixed points are not the fine stage's
       else history.push_back(m);
       m = m_new;
-      const bool done = !any_rematch || (change < 1.0 && settled);
-      if ((done || round + 1 >= o.max_rematch_rounds) && capped && cs.termination_type == ceres::NO_CONVERGENCE) {
+      const bool done = !any_rematch_ || (change < 1.0 && settled);
+      if ((done || round + 1 >= o_.max_rematch_rounds) && capped() && cs_.termination_type == ceres::NO_CONVERGENCE) {
         t_mark = elapsed();
-        so.max_num_iterations = o.max_iterations;  // the estimate's last solve: to convergence
-        ceres::Solve(so, &problem, &cs);
-        for (ObservationSource* s : sources) s->solved(*P);
-        iterations += static_cast<int>(cs.iterations.size()) - 1;
-        S.solve_time_s += elapsed() - t_mark;
+        so.max_num_iterations = o_.max_iterations;  // the estimate's last solve: to convergence
+        ceres::Solve(so, &P_->ceresProblem(), &cs_);
+        afterSolve(t_mark);
       }
       if (done) break;
     }
     return true;
-  };
-
-  // Starting values: the used mounting, or the caller's start for the estimated parameters.
-  auto initial = [&](const std::array<bool, 6>& e) {
-    std::array<double, 6> m = m0;
-    if (start)
-      for (int j = 0; j < 6; ++j)
-        if (e[j] && std::isfinite((*start)[j])) m[j] = (*start)[j];
-    return m;
-  };
-  std::array<bool, 6> est = o.estimate;
-  if (!estimate(est, initial(est))) {
-    S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
-    S.time_s = elapsed();
-    return S;
   }
-  double t_mark = elapsed();
 
-  // ---- observability: reduced normal matrix of the mounting block (SPEC §3 step 5) ----------
-  Mat6 N_red;
-  Vec6 diag;
-  reducedNormalMatrix(*P, &N_red, &diag);
-  std::ostringstream obs_report;
-  const auto& names = mountingParameterNames();
-  bool refixed = false;
-  for (int pass = 0; pass < 6; ++pass) {
-    std::vector<int> idx;
+  /// Observability (SPEC §3 step 5): while the reduced normal matrix of the estimated block
+  /// has a direction below the threshold that the data do not fix absolutely, hold one of its
+  /// parameters (named in the summary with the reason). True when something was held.
+  bool holdUndeterminable(std::array<bool, 6>* est, Mat6* N_red, Vec6* diag) {
+    reducedNormalMatrix(*P_, N_red, diag);
+    bool refixed = false;
+    for (int pass = 0; pass < 6; ++pass) {
+      std::vector<int> idx;
+      for (int j = 0; j < 6; ++j)
+        if ((*est)[j]) idx.push_back(j);
+      if (idx.empty()) break;
+      const int n = static_cast<int>(idx.size());
+      Eigen::MatrixXd Sn(n, n);
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          Sn(a, b) = (*N_red)(idx[a], idx[b]) / std::sqrt(std::max((*diag)[idx[a]], 1e-300) * std::max((*diag)[idx[b]], 1e-300));
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Sn);
+      const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(n - 1);
+      S_.condition_number = lmin > 0 ? lmax / lmin : std::numeric_limits<double>::infinity();
+      if (lmin >= o_.observability_threshold) break;
+      const int pick = weakestParameter(idx, eig.eigenvectors().col(0), lmin, *diag);
+      if (pick < 0) break;  // every member of the weak direction is fixed absolutely
+      (*est)[pick] = false;
+      refixed = true;
+      reportHeld(pick, idx, eig.eigenvectors().col(0), lmin);
+    }
+    return refixed;
+  }
+
+  /// σ₀², degrees of freedom, covariance and correlations, the per-kind counts and strip
+  /// offsets, and each source's residual section.
+  void analyse(const std::array<bool, 6>& est, const Mat6& N_red, const MountingParameters& mounting_used) {
+    S_.reduced_normal_matrix = N_red;
+    S_.observability_report = report_.str();
+    S_.estimated = est;
+    S_.iterations = iterations_;
+    S_.final_cost = cs_.final_cost;
+    const std::array<double, 6> m = P_->mountingValues();
+    S_.mounting = mounting_used.withArray(m.data());
+    switch (cs_.termination_type) {
+      case ceres::CONVERGENCE:
+      case ceres::USER_SUCCESS: S_.termination = TerminationType::kConvergence; break;
+      case ceres::NO_CONVERGENCE: S_.termination = TerminationType::kNoConvergence; break;
+      default: S_.termination = TerminationType::kFailure; break;
+    }
+    S_.message = cs_.message;
+    varianceFactor(est);
+    covariance(est, N_red);
+    for (std::size_t k = 0; k < sources_.size(); ++k) S_.kinds.push_back({sources_[k]->kind(), 0, 0});
+    for (const auto& r : P_->records()) {
+      if (r.source < 0) continue;
+      auto& kc = S_.kinds[static_cast<std::size_t>(r.source)];
+      ++kc.blocks;
+      kc.residuals += r.cost->num_residuals();
+    }
+    for (const auto& [id, o3] : P_->stripOffsets()) S_.strip_offsets_m.emplace_back(id, Vec3(o3[0], o3[1], o3[2]));
+    for (ObservationSource* s : sources_) s->finish(m0_, m, *P_, o_);
+  }
+
+ private:
+  /// A fresh problem at mounting `m` with every source's blocks, the priors and the held
+  /// parameters. False when no source added an observation.
+  bool buildProblem(const std::array<bool, 6>& est, const std::array<double, 6>& m) {
+    const double t_mark = elapsed();
+    P_ = std::make_unique<AdjustmentProblem>(m, o_.strip_offset_sigma_m, o_.loss, o_.loss_scale_m, o_.numeric_diff_relative_step);
+    P_->setPulseNoise(o_.pulse_noise);
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      P_->setSource(static_cast<int>(k));
+      sources_[k]->addBlocks(m, P_.get());
+    }
+    P_->setSource(-1);
+    P_->addRandomEffectPriors();
+    S_.construction_time_s += elapsed() - t_mark;
+    int observations = 0;
+    for (const auto& r : P_->records()) observations += r.source >= 0;
+    if (observations == 0) return false;
+    ceres::Problem& problem = P_->ceresProblem();
+    if (!problem.HasParameterBlock(P_->mounting())) problem.AddParameterBlock(P_->mounting(), 6);
     for (int j = 0; j < 6; ++j)
-      if (est[j]) idx.push_back(j);
-    if (idx.empty()) break;
+      if (est[j] && priorOn(o_, j)) P_->addResidualBlock(new MountingPrior(j, o_.prior_value[j], o_.prior_sigma[j]), 0.0, {P_->mounting()});
+    std::vector<int> fixed;
+    for (int j = 0; j < 6; ++j)
+      if (!est[j]) fixed.push_back(j);
+    if (fixed.size() == 6) problem.SetParameterBlockConstant(P_->mounting());
+    else if (!fixed.empty()) problem.SetManifold(P_->mounting(), new ceres::SubsetManifold(6, fixed));
+    return true;
+  }
+
+  /// With re-matching sources and max_iterations_per_matching: solves between matchings are capped.
+  bool capped() const {
+    return any_rematch_ && o_.max_iterations_per_matching > 0 && o_.max_iterations_per_matching < o_.max_iterations;
+  }
+
+  /// Levenberg–Marquardt; the eliminable nuisance blocks (tie positions, planes) first in a
+  /// Schur ordering, then strip offsets and the mounting.
+  ceres::Solver::Options solverOptions() const {
+    ceres::Solver::Options so;
+    so.minimizer_type = ceres::TRUST_REGION;
+    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    bool any_e = false;
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (const auto& b : P_->nuisanceBlocks()) {
+      if (b.eliminable) {
+        ordering->AddElementToGroup(b.values, 0);  // eliminated first
+        any_e = true;
+      } else {
+        ordering->AddElementToGroup(b.values, 1);
+      }
+    }
+    for (auto& entry : P_->stripOffsets()) ordering->AddElementToGroup(const_cast<double*>(entry.second.data()), 1);
+    ordering->AddElementToGroup(P_->mounting(), 1);
+    if (any_e) {
+      so.linear_solver_type = ceres::DENSE_SCHUR;
+      so.linear_solver_ordering = ordering;
+    } else {
+      so.linear_solver_type = ceres::DENSE_QR;
+    }
+    so.max_num_iterations = capped() ? o_.max_iterations_per_matching : o_.max_iterations;
+    so.function_tolerance = o_.function_tolerance;
+    so.parameter_tolerance = o_.parameter_tolerance;
+    so.gradient_tolerance = o_.gradient_tolerance;
+    so.max_solver_time_in_seconds = o_.max_solver_time_s;
+    so.num_threads = o_.num_threads;
+    so.logging_type = ceres::SILENT;
+    so.minimizer_progress_to_stdout = false;
+    return so;
+  }
+
+  void afterSolve(double t_mark) {
+    for (ObservationSource* s : sources_) s->solved(*P_);
+    S_.solve_time_s += elapsed() - t_mark;
+    if (first_) {
+      S_.initial_cost = cs_.initial_cost;
+      first_ = false;
+    }
+    iterations_ += static_cast<int>(cs_.iterations.size()) - 1;
+  }
+
+  /// How far the mounting moved in this round, in units of its tolerance: a parameter's
+  /// tolerance is the larger of the fixed one and a fraction of its σ (a re-matching moves the
+  /// estimate by a small part of its uncertainty as the matched points change; chasing that is
+  /// pointless). Back where an earlier round ended is a fixed point too (a matching can flip
+  /// between two sets of matches): 0.
+  double rematchChange(const std::array<bool, 6>& est, const std::array<double, 6>& m, const std::array<double, 6>& m_new,
+                       const std::vector<std::array<double, 6>>& history) const {
+    std::array<double, 6> sigma_now;
+    sigma_now.fill(0.0);
+    if (any_rematch_) {
+      Mat6 N;
+      Vec6 dg;
+      reducedNormalMatrix(*P_, &N, &dg);
+      const Mat6 C = inverseOnEstimated(N, est);
+      for (int j = 0; j < 6; ++j) sigma_now[j] = est[j] ? std::sqrt(std::max(C(j, j), 0.0)) : 0.0;
+    }
+    auto changeFrom = [&](const std::array<double, 6>& prev) {
+      double change = 0;
+      for (int j = 0; j < 6; ++j) {
+        const double tol = std::max(j < 3 ? o_.rematch_tolerance_m : o_.rematch_tolerance_rad, o_.rematch_sigma_fraction * sigma_now[j]);
+        change = std::max(change, std::abs(m_new[j] - prev[j]) / tol);
+      }
+      return change;
+    };
+    double change = changeFrom(m);
+    for (const auto& earlier : history)
+      if (changeFrom(earlier) < 1.0) change = 0.0;
+    return change;
+  }
+
+  /// The parameter of the weakest direction `v` (over the estimated `idx`) to hold: a lever-arm
+  /// component first (it can be taped; a boresight cannot), else the largest member; −1 when
+  /// every member's σ along the direction is below the absolute limits.
+  int weakestParameter(const std::vector<int>& idx, const Eigen::VectorXd& v, double lmin, const Vec6& diag) const {
     const int n = static_cast<int>(idx.size());
-    Eigen::MatrixXd Sn(n, n);
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b)
-        Sn(a, b) = N_red(idx[a], idx[b]) / std::sqrt(std::max(diag[idx[a]], 1e-300) * std::max(diag[idx[b]], 1e-300));
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Sn);
-    const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(n - 1);
-    S.condition_number = lmin > 0 ? lmax / lmin : std::numeric_limits<double>::infinity();
-    if (lmin >= o.observability_threshold) break;
-    // The weakest direction: which parameters take part in it?
-    const Eigen::VectorXd v = eig.eigenvectors().col(0);
-    std::vector<int> group;
-    bool absolutely_fixed = true;  // every member's σ along the direction below the limits
+    bool absolutely_fixed = true;
     for (int a = 0; a < n; ++a) {
       if (std::abs(v[a]) <= 0.3) continue;
-      group.push_back(idx[a]);
       const double sigma_dir = std::abs(v[a]) / std::sqrt(std::max(lmin, 1e-300) * std::max(diag[idx[a]], 1e-300));
-      absolutely_fixed &= idx[a] < 3 ? sigma_dir <= o.undeterminable_sigma_m : sigma_dir <= deg2rad(o.undeterminable_sigma_deg);
+      absolutely_fixed &= idx[a] < 3 ? sigma_dir <= o_.undeterminable_sigma_m : sigma_dir <= deg2rad(o_.undeterminable_sigma_deg);
     }
-    if (absolutely_fixed) break;
-    // Hold a lever-arm component first (it can be taped; a boresight cannot), else the largest.
+    if (absolutely_fixed) return -1;
     int pick = -1;
     double best = 0;
     for (int a = 0; a < n; ++a) {
@@ -604,95 +657,120 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       v.cwiseAbs().maxCoeff(&a_max);
       pick = idx[a_max];
     }
-    est[pick] = false;
-    refixed = true;
-    S.unobservable.push_back(names[pick]);
-    obs_report << names[pick] << " cannot be determined from these observations (it keeps " << std::max(lmin, 0.0) * 100
-               << " % of its information once the tie positions, planes and strip offsets are eliminated)";
-    if (group.size() > 1) {
-      obs_report << "; it cannot be separated from";
-      for (int g : group)
-        if (g != pick) obs_report << " " << names[g];
-    }
-    obs_report << "; held at its used value " << fmtParam(pick, m0[pick]) << ".\n";
+    return pick;
   }
-  if (refixed) {
+
+  void reportHeld(int pick, const std::vector<int>& idx, const Eigen::VectorXd& v, double lmin) {
+    const auto& names = mountingParameterNames();
+    S_.unobservable.push_back(names[pick]);
+    report_ << names[pick] << " cannot be determined from these observations (it keeps " << std::max(lmin, 0.0) * 100
+            << " % of its information once the tie positions, planes and strip offsets are eliminated)";
+    std::vector<int> group;
+    for (std::size_t a = 0; a < idx.size(); ++a)
+      if (std::abs(v[static_cast<int>(a)]) > 0.3) group.push_back(idx[a]);
+    if (group.size() > 1) {
+      report_ << "; it cannot be separated from";
+      for (int g : group)
+        if (g != pick) report_ << " " << names[g];
+    }
+    report_ << "; held at its used value " << fmtParam(pick, m0_[pick]) << ".\n";
+  }
+
+  void varianceFactor(const std::array<bool, 6>& est) {
+    int n_res = 0, n_unknowns = 0;
+    for (const auto& r : P_->records()) n_res += r.cost->num_residuals();
+    for (int j = 0; j < 6; ++j) n_unknowns += est[j];
+    for (const auto& b : P_->nuisanceBlocks()) n_unknowns += b.manifold ? b.manifold->TangentSize() : b.size;
+    if (P_->stripOffsetSigma() > 0) n_unknowns += 3 * static_cast<int>(P_->stripOffsets().size());
+    S_.degrees_of_freedom = n_res - n_unknowns;
+    S_.variance_factor = S_.degrees_of_freedom > 0 ? 2.0 * cs_.final_cost / S_.degrees_of_freedom : 1.0;
+  }
+
+  /// The mounting's covariance from ceres::Covariance, or from the reduced normal matrix when
+  /// Ceres cannot compute it (the same marginal covariance in exact arithmetic).
+  void covariance(const std::array<bool, 6>& est, const Mat6& N_red) {
+    const double scale = o_.scale_covariance_by_variance_factor && S_.degrees_of_freedom > 0 ? S_.variance_factor : 1.0;
+    Mat6 cov = Mat6::Constant(std::nan(""));
+    int n_est = 0;
+    for (bool e : est) n_est += e;
+    if (n_est > 0) {
+      ceres::Covariance::Options co;
+      co.algorithm_type = ceres::SPARSE_QR;
+      co.num_threads = o_.num_threads;
+      ceres::Covariance covariance(co);
+      double* mb = P_->mounting();
+      const std::vector<std::pair<const double*, const double*>> blocks{{mb, mb}};
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+      if (covariance.Compute(blocks, &P_->ceresProblem()) && covariance.GetCovarianceBlock(mb, mb, c.data())) {
+        cov = c * scale;
+        S_.covariance_source = "ceres::Covariance";
+      } else {
+        const Mat6 inv = inverseOnEstimated(N_red, est);
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b)
+            if (est[a] && est[b]) cov(a, b) = inv(a, b) * scale;
+        S_.covariance_source = "reduced normal matrix";
+      }
+    }
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
+    for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b)
+        S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
+  }
+
+  const MountingAdjustment::Options& o_;
+  const std::vector<ObservationSource*>& sources_;
+  const std::array<double, 6>* start_;
+  const std::array<double, 6> m0_;
+  AdjustmentSummary& S_;
+  const std::chrono::steady_clock::time_point t_start_;
+  bool any_rematch_ = false;
+  std::unique_ptr<AdjustmentProblem> P_;
+  ceres::Solver::Summary cs_;
+  int iterations_ = 0;
+  bool first_ = true;
+  std::ostringstream report_;
+};
+
+}  // namespace
+
+AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used,
+                                            const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start) const {
+  Summary S;
+  S.mounting_used = mounting_used;
+  S.mounting = mounting_used;
+  S.sigma.fill(std::nan(""));
+  std::string why;
+  if (!options_.IsValid(&why)) {
+    S.message = "invalid options: " + why;
+    return S;
+  }
+  Estimation e(options_, mounting_used, sources, start, &S);
+  std::array<bool, 6> est = options_.estimate;
+  if (!e.estimate(est, e.initial(est))) {
+    S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
+    S.time_s = e.elapsed();
+    return S;
+  }
+  double t_mark = e.elapsed();
+  Mat6 N_red;
+  Vec6 diag;
+  if (e.holdUndeterminable(&est, &N_red, &diag)) {
     // Re-solve with the undeterminable parameters held at their used values.
-    S.analysis_time_s += elapsed() - t_mark;
-    if (!estimate(est, initial(est))) {
+    S.analysis_time_s += e.elapsed() - t_mark;
+    if (!e.estimate(est, e.initial(est))) {
       S.message = "no usable observation";
-      S.time_s = elapsed();
+      S.time_s = e.elapsed();
       return S;
     }
-    t_mark = elapsed();
-    reducedNormalMatrix(*P, &N_red, &diag);
+    t_mark = e.elapsed();
+    reducedNormalMatrix(e.problem(), &N_red, &diag);
   }
-  S.reduced_normal_matrix = N_red;
-  S.observability_report = obs_report.str();
-  S.estimated = est;
-  S.iterations = iterations;
-  S.final_cost = cs.final_cost;
-  const std::array<double, 6> m = P->mountingValues();
-  S.mounting = mounting_used.withArray(m.data());
-  switch (cs.termination_type) {
-    case ceres::CONVERGENCE:
-    case ceres::USER_SUCCESS: S.termination = TerminationType::kConvergence; break;
-    case ceres::NO_CONVERGENCE: S.termination = TerminationType::kNoConvergence; break;
-    default: S.termination = TerminationType::kFailure; break;
-  }
-  S.message = cs.message;
-
-  // ---- degrees of freedom, σ₀², covariance (ceres::Covariance) -------------------------------
-  int n_res = 0, n_unknowns = 0;
-  for (const auto& r : P->records()) n_res += r.cost->num_residuals();
-  for (int j = 0; j < 6; ++j) n_unknowns += est[j];
-  for (const auto& b : P->nuisanceBlocks()) n_unknowns += b.manifold ? b.manifold->TangentSize() : b.size;
-  if (P->stripOffsetSigma() > 0) n_unknowns += 3 * static_cast<int>(P->stripOffsets().size());
-  S.degrees_of_freedom = n_res - n_unknowns;
-  S.variance_factor = S.degrees_of_freedom > 0 ? 2.0 * cs.final_cost / S.degrees_of_freedom : 1.0;
-  const double scale = o.scale_covariance_by_variance_factor && S.degrees_of_freedom > 0 ? S.variance_factor : 1.0;
-  Mat6 cov = Mat6::Constant(std::nan(""));
-  int n_est_final = 0;
-  for (bool e : est) n_est_final += e;
-  if (n_est_final > 0) {
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::SPARSE_QR;
-    co.num_threads = o.num_threads;
-    ceres::Covariance covariance(co);
-    double* mb = P->mounting();
-    const std::vector<std::pair<const double*, const double*>> blocks{{mb, mb}};
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
-    if (covariance.Compute(blocks, &P->ceresProblem()) && covariance.GetCovarianceBlock(mb, mb, c.data())) {
-      cov = c * scale;
-      S.covariance_source = "ceres::Covariance";
-    } else {
-      // Fall back on the reduced normal matrix (same marginal covariance in exact arithmetic).
-      const Mat6 inv = inverseOnEstimated(N_red, est);
-      for (int a = 0; a < 6; ++a)
-        for (int b = 0; b < 6; ++b)
-          if (est[a] && est[b]) cov(a, b) = inv(a, b) * scale;
-      S.covariance_source = "reduced normal matrix";
-    }
-  }
-  for (int a = 0; a < 6; ++a)
-    for (int b = 0; b < 6; ++b) S.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
-  for (int j = 0; j < 6; ++j) S.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
-  for (int a = 0; a < 6; ++a)
-    for (int b = 0; b < 6; ++b)
-      S.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S.sigma[a] * S.sigma[b]) : std::nan("");
-
-  // ---- per kind, strip offsets, the sources' residual sections -----------------------------
-  for (std::size_t k = 0; k < sources.size(); ++k) S.kinds.push_back({sources[k]->kind(), 0, 0});
-  for (const auto& r : P->records()) {
-    if (r.source < 0) continue;
-    auto& kc = S.kinds[static_cast<std::size_t>(r.source)];
-    ++kc.blocks;
-    kc.residuals += r.cost->num_residuals();
-  }
-  for (const auto& [id, o3] : P->stripOffsets()) S.strip_offsets_m.emplace_back(id, Vec3(o3[0], o3[1], o3[2]));
-  for (ObservationSource* s : sources) s->finish(m0, m, *P, o);
-  S.analysis_time_s += elapsed() - t_mark;
-  S.time_s = elapsed();
+  e.analyse(est, N_red, mounting_used);
+  S.analysis_time_s += e.elapsed() - t_mark;
+  S.time_s = e.elapsed();
   return S;
 }
 

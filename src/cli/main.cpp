@@ -11,16 +11,16 @@
 #include <filesystem>
 #include <string>
 
-#include "mountcal/error.hpp"
-#include "mountcal/error_curves.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/report/error_curves.hpp"
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/job.hpp"
-#include "mountcal/mounting_forms.hpp"
+#include "mountcal/core/mounting_forms.hpp"
 #include "mountcal/plan/planner.hpp"
-#include "mountcal/report.hpp"
+#include "mountcal/report/report.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "mountcal/version.hpp"
 
@@ -48,11 +48,11 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   }
   const auto t0 = std::chrono::steady_clock::now();
   const SimulatedSurvey survey = simulate(config, scene);
-  SurveyWriteOptions write_options;
+  mountcal::SurveyWriteOptions write_options;
   write_options.crs = crs;
   write_options.ties = !no_ties;
   write_options.laz = laz;
-  writeSurvey(survey, out, write_options);
+  mountcal::writeSurvey(survey, out, write_options);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;
   for (const auto& s : survey.strips) points += s.points_m.size();

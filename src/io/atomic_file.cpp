@@ -8,7 +8,7 @@
 #include <random>
 #include <string>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal::io {
 

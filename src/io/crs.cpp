@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal::io {
 

@@ -11,7 +11,7 @@
 #include <map>
 #include <sstream>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "plausible.hpp"
 

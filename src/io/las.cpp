@@ -9,7 +9,7 @@
 #include <random>
 #include <thread>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "mountcal's LAS I/O assumes a little-endian host"

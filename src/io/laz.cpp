@@ -6,7 +6,7 @@
 
 #include "laz_coder.hpp"
 #include "laz_items.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal::io {
 

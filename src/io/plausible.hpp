@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <string>
 
-#include "mountcal/error.hpp"
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/rotation.hpp"
 
 namespace mountcal::io::detail {
 

@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "mountcal/error.hpp"
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/rotation.hpp"
 
 namespace mountcal::io {
 

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <functional>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/csv.hpp"
 #include "plausible.hpp"

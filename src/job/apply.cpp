@@ -7,14 +7,14 @@
 #include <map>
 #include <memory>
 
-#include "mountcal/detail/parallel.hpp"
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "core/parallel.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/job/load.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/sensor_model.hpp"
 
 namespace mountcal {
 

@@ -6,7 +6,7 @@
 #include <map>
 #include <memory>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
 
 namespace mountcal {

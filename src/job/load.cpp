@@ -8,8 +8,8 @@
 #include <limits>
 #include <set>
 
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"

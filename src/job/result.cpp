@@ -4,8 +4,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "json_fields.hpp"
-#include "mountcal/error.hpp"
+#include "io/json_fields.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/methods/vtpm/vtpm.hpp"
 
 namespace mountcal {

@@ -4,9 +4,9 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "json_fields.hpp"
+#include "io/json_fields.hpp"
 #include "mountcal/methods/method.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/io/crs.hpp"
 
@@ -150,30 +150,32 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
 
 }  // namespace
 
-Job readJob(const std::string& path) {
-  const json j = detail::parseJsonFile(path, "job");
-  Job job;
-  job.path = path;
-  const Fields top(path, j, "", topLevelKeys());
+namespace {
+
+/// "frame": local, or a projected CRS.
+void readFrame(const Fields& top, Job* job) {
   const Fields frame = top.sub("frame", {"type", "crs"});
   const std::string frame_type = frame.str("type");
-  if (frame_type == "local") job.frame_type = JobFrameType::kLocal;
-  else if (frame_type == "crs") job.frame_type = JobFrameType::kCrs;
+  if (frame_type == "local") job->frame_type = JobFrameType::kLocal;
+  else if (frame_type == "crs") job->frame_type = JobFrameType::kCrs;
   else frame.fail("type", "expected \"local\" or \"crs\"");
-  if (job.frame_type == JobFrameType::kCrs) {
-    job.crs = frame.str("crs");
+  if (job->frame_type == JobFrameType::kCrs) {
+    job->crs = frame.str("crs");
     bool geographic = false;
     try {
-      geographic = io::CrsTransform::isGeographic(job.crs);
+      geographic = io::CrsTransform::isGeographic(job->crs);
     } catch (const InvalidInput& e) {
       frame.fail("crs", e.what());
     }
-    if (geographic) frame.fail("crs", "'" + job.crs + "' is geographic (degrees); the strips and the job need a projected CRS in metres (e.g. a UTM zone)");
+    if (geographic) frame.fail("crs", "'" + job->crs + "' is geographic (degrees); the strips and the job need a projected CRS in metres (e.g. a UTM zone)");
   }
+}
 
+/// Per-point "poses" from extra bytes, or the "trajectory" file.
+void readPoseSource(const std::string& path, const Fields& top, Job* job) {
   if (top.has("poses")) {
     if (top.has("trajectory")) top.fail("poses", "a job takes either a \"trajectory\" or per-point \"poses\", not both");
-    if (job.frame_type != JobFrameType::kLocal) {
+    if (job->frame_type != JobFrameType::kLocal) {
       top.fail("poses", "per-point poses need \"frame\": {\"type\": \"local\"}: positions and attitudes are taken in the strips' own (projected) coordinates");
     }
     const Fields p = top.sub("poses", {"from", "position", "attitude", "attitude_unit", "convention"});
@@ -187,31 +189,30 @@ Job readJob(const std::string& path) {
         (*out)[i] = a[i].get<std::string>();
       }
     };
-    job.per_point_poses = true;
-    names3("position", &job.pose_fields.position);
-    names3("attitude", &job.pose_fields.attitude);
+    job->per_point_poses = true;
+    names3("position", &job->pose_fields.position);
+    names3("attitude", &job->pose_fields.attitude);
     const std::string unit = p.str("attitude_unit", "rad");
     if (unit != "rad" && unit != "deg") p.fail("attitude_unit", "expected \"rad\" or \"deg\"");
-    job.pose_fields.degrees = unit == "deg";
+    job->pose_fields.degrees = unit == "deg";
     try {
-      job.pose_fields.convention = io::attitudeConventionFromString(p.str("convention"));
+      job->pose_fields.convention = io::attitudeConventionFromString(p.str("convention"));
     } catch (const InvalidInput& e) {
       p.fail("convention", e.what());
     }
   } else {
     const Fields traj = top.sub("trajectory", {"path", "format", "time_offset_s"});
-    job.trajectory_path = detail::resolvePath(path, traj.str("path"));
+    job->trajectory_path = detail::resolvePath(path, traj.str("path"));
     const std::string format = traj.str("format", "csv");
-    if (format == "csv") job.trajectory_format = TrajectoryFormat::kCsv;
-    else if (format == "sbet") job.trajectory_format = TrajectoryFormat::kSbet;
+    if (format == "csv") job->trajectory_format = TrajectoryFormat::kCsv;
+    else if (format == "sbet") job->trajectory_format = TrajectoryFormat::kSbet;
     else traj.fail("format", "expected \"csv\" or \"sbet\"");
-    job.time_offset_s = traj.num("time_offset_s", 0.0);
+    job->time_offset_s = traj.num("time_offset_s", 0.0);
   }
+}
 
-  readSensor(path, top, &job);
-  const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg"});
-  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
-
+/// "strips": ids, files, formats and splits.
+void readStrips(const std::string& path, const Fields& top, Job* job) {
   const json& strips = top.at("strips");
   if (!strips.is_array() || strips.empty()) top.fail("strips", "expected a non-empty array of {\"id\", \"path\"}");
   std::set<std::string> ids;
@@ -222,7 +223,7 @@ Job readJob(const std::string& path) {
     js.path = detail::resolvePath(path, s.str("path"));
     js.format = s.str("format", "las");
     if (js.format != "las" && js.format != "raw_csv") s.fail("format", "expected \"las\" or \"raw_csv\"");
-    if (job.per_point_poses && js.format != "las") s.fail("format", "per-point poses come from LAS extra bytes; a raw CSV strip needs a trajectory");
+    if (job->per_point_poses && js.format != "las") s.fail("format", "per-point poses come from LAS extra bytes; a raw CSV strip needs a trajectory");
     if (s.has("split")) {
       if (js.format != "las") s.fail("split", "only a LAS strip can be split by a field");
       const Fields sp = s.sub("split", {"field", "range", "part", "gap"});
@@ -242,29 +243,36 @@ Job readJob(const std::string& path) {
       }
     }
     if (!ids.insert(js.id).second) s.fail("id", "strip id '" + js.id + "' appears twice");
-    job.strips.push_back(js);
+    job->strips.push_back(js);
   }
-  job.ties_path = detail::resolvePath(path, top.str("ties", ""));
-  job.gcps_path = detail::resolvePath(path, top.str("gcps", ""));
-  job.check_points_path = detail::resolvePath(path, top.str("check_points", ""));
-  job.check_planes_path = detail::resolvePath(path, top.str("check_planes", ""));
-  job.targets_path = detail::resolvePath(path, top.str("targets", ""));
-  readMethodSections(path, top, j, &job);
-  readStochastic(top, j, &job);
+}
+
+/// The input files and every method's options object.
+void readInputs(const std::string& path, const Fields& top, const json& j, Job* job) {
+  job->ties_path = detail::resolvePath(path, top.str("ties", ""));
+  job->gcps_path = detail::resolvePath(path, top.str("gcps", ""));
+  job->check_points_path = detail::resolvePath(path, top.str("check_points", ""));
+  job->check_planes_path = detail::resolvePath(path, top.str("check_planes", ""));
+  job->targets_path = detail::resolvePath(path, top.str("targets", ""));
+  readMethodSections(path, top, j, job);
+  readStochastic(top, j, job);
   for (const auto& m : registeredMethods()) {  // a method's input given as a string at its job key
     const std::string& key = m->input().job_key;
     if (key.empty() || !top.has(key) || j.at(key).is_object()) continue;
-    if (job.method_inputs.count(m->name())) top.fail(key, "given twice (also as \"" + key + "." + kInputInObject + "\")");
-    job.method_inputs[m->name()] = top.str(key);
+    if (job->method_inputs.count(m->name())) top.fail(key, "given twice (also as \"" + key + "." + kInputInObject + "\")");
+    job->method_inputs[m->name()] = top.str(key);
   }
-  if (job.method_inputs.count("planes")) {
-    const std::string& planes = job.method_inputs["planes"];
-    if (planes == "auto") job.planes_auto = true;
-    else job.planes_path = detail::resolvePath(path, planes);
+  if (job->method_inputs.count("planes")) {
+    const std::string& planes = job->method_inputs["planes"];
+    if (planes == "auto") job->planes_auto = true;
+    else job->planes_path = detail::resolvePath(path, planes);
   }
+}
 
+/// "method": a name or an array of names (SPEC §4); each named method's input is required.
+void readMethods(const Fields& top, Job* job) {
   // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
-  MountingCalibrator::Options& o = job.options;
+  MountingCalibrator::Options& o = job->options;
   std::vector<std::string> methods;
   auto addMethod = [&](const std::string& name) {
     const Method* m = findMethod(name);
@@ -274,7 +282,7 @@ Job readJob(const std::string& path) {
     methods.push_back(name);
   };
   if (!top.has("method")) {
-    methods.push_back(job.ties_path.empty() ? "correspondences" : "vtpm");
+    methods.push_back(job->ties_path.empty() ? "correspondences" : "vtpm");
   } else if (top.at("method").is_array()) {
     const json& list = top.at("method");
     if (list.empty()) top.fail("method", "expected a method name or a non-empty array of them");
@@ -289,12 +297,16 @@ Job readJob(const std::string& path) {
   for (const std::string& name : methods) {
     const Method& m = *findMethod(name);
     const MethodInput in = m.input();
-    const auto given = job.method_inputs.find(name);
-    if (in.required && !in.job_key.empty() && given == job.method_inputs.end())
+    const auto given = job->method_inputs.find(name);
+    if (in.required && !in.job_key.empty() && given == job->method_inputs.end())
       top.fail(in.job_key, "missing: method \"" + name + "\" needs " + in.doc + " (SPEC §4)");
-    if (given != job.method_inputs.end()) m.adoptInput(given->second, &o.method_options.at(name, m.defaultOptions()));
+    if (given != job->method_inputs.end()) m.adoptInput(given->second, &o.method_options.at(name, m.defaultOptions()));
   }
+}
 
+/// The settings every method shares: "estimate", "pulse_noise", "solver".
+void readSettings(const Fields& top, Job* job) {
+  MountingCalibrator::Options& o = job->options;
   if (top.has("estimate")) {
     const Fields e = top.sub("estimate", {"lever_arm", "boresight"});
     if (e.has("lever_arm")) {
@@ -338,8 +350,26 @@ Job readJob(const std::string& path) {
     o.max_iterations_per_matching = s.integer("max_iterations_per_matching", o.max_iterations_per_matching, 0, 100000);
     o.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(o.rematch_tolerance_rad)));
   }
+}
+
+}  // namespace
+
+Job readJob(const std::string& path) {
+  const json j = detail::parseJsonFile(path, "job");
+  Job job;
+  job.path = path;
+  const Fields top(path, j, "", topLevelKeys());
+  readFrame(top, &job);
+  readPoseSource(path, top, &job);
+  readSensor(path, top, &job);
+  const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg"});
+  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
+  readStrips(path, top, &job);
+  readInputs(path, top, j, &job);
+  readMethods(top, &job);
+  readSettings(top, &job);
   std::string why;
-  if (!o.IsValid(&why)) throw FileError(path, "", "invalid calibration settings: " + why);
+  if (!job.options.IsValid(&why)) throw FileError(path, "", "invalid calibration settings: " + why);
   if (top.has("output")) {
     const Fields out = top.sub("output", {"result", "report"});
     job.result_path = detail::resolvePath(path, out.str("result", ""));

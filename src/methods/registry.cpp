@@ -8,7 +8,7 @@
 #include "control/control_method.hpp"
 #include "correspondence/correspondences_method.hpp"
 #include "features/features_method.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "planes/planes_method.hpp"
 #include "vtpm/vtpm_method.hpp"
 

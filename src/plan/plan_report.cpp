@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "mountcal/plan/planner.hpp"
-#include "mountcal/svg_plot.hpp"
-#include "../html_text.hpp"
+#include "mountcal/report/svg_plot.hpp"
+#include "report/html_text.hpp"
 
 namespace mountcal::plan {
 

@@ -8,8 +8,8 @@
 #include <sstream>
 #include <thread>
 
-#include "../job/json_fields.hpp"
-#include "mountcal/error.hpp"
+#include "io/json_fields.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal::plan {
 
@@ -93,20 +93,11 @@ double Plan::meanHeight() const {
   return lines.empty() ? 0.0 : h / static_cast<double>(lines.size());
 }
 
-Plan readPlan(const std::string& path) {
-  const json j = detail::parseJsonFile(path, "plan");
-  const Fields top(path, j, "",
-                   {"name", "sensor", "noise", "mounting", "lines", "ground", "gcps", "method", "estimate", "sigma", "roi_radius_m",
-                    "trajectory_rate_hz"});
-  Plan p;
-  p.name = top.str("name", "plan");
-  SurveyConfig& c = p.survey;
-  c = SurveyConfig{};
-  c.seed = 1;
-  c.roi_radius_m = top.num("roi_radius_m", 10.0, 0.5, 200.0);
-  c.trajectory_rate_hz = top.num("trajectory_rate_hz", 200.0, 1.0, 2000.0);
+namespace {
 
-  // Sensor.
+/// The sensor of the plan.
+void readPlanSensor(const std::string& /*path*/, const Fields& top, Plan& p) {
+  SurveyConfig& c = p.survey;
   const Fields sensor = top.sub("sensor", {"type", "prf_hz", "scan_rate_hz", "half_fov_deg", "rotation_hz", "max_range_m"});
   const std::string type = sensor.str("type");
   if (type == "line") {
@@ -122,8 +113,11 @@ Plan readPlan(const std::string& path) {
   } else {
     sensor.fail("type", "unknown sensor '" + type + "' (sensors: line, vlp16, hdl32e)");
   }
+}
 
-  // Noise: what the survey's errors will be; the stochastic model follows it.
+/// Noise: what the survey's errors will be; the stochastic model follows it.
+void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
+  SurveyConfig& c = p.survey;
   NoiseModel& n = c.noise;
   n = NoiseModel::realistic();
   n.attitude_correlation_s = 0.005;  // white at the trajectory rate unless stated
@@ -143,8 +137,11 @@ Plan readPlan(const std::string& path) {
       n.pick_sigma_m = nf.num("pick_sigma_m", n.pick_sigma_m, 1e-3, 10.0);
     }
   }
+}
 
-  // Mounting: nominal = truth.
+/// Mounting: nominal = truth.
+void readPlanMounting(const std::string& /*path*/, const Fields& top, Plan& p) {
+  SurveyConfig& c = p.survey;
   if (top.has("mounting")) {
     const Fields m = top.sub("mounting", {"lever_arm_m", "boresight_deg"});
     if (m.has("lever_arm_m")) c.nominal_mounting.a_b = m.vec3("lever_arm_m");
@@ -153,8 +150,11 @@ Plan readPlan(const std::string& path) {
     if (c.nominal_mounting.boresight.cwiseAbs().maxCoeff() > kPi) m.fail("boresight_deg", "expected angles within ±180°");
   }
   c.true_mounting = c.nominal_mounting;
+}
 
-  // Lines.
+/// The planned lines.
+void readPlanLines(const std::string& path, const Fields& top, Plan& p) {
+  SurveyConfig& c = p.survey;
   const json& lines = top.at("lines");
   if (!lines.is_array() || lines.empty()) top.fail("lines", "expected a non-empty array of lines");
   if (lines.size() > 200) top.fail("lines", "more than 200 lines: a calibration flight has a few");
@@ -173,8 +173,10 @@ Plan readPlan(const std::string& path) {
       if (q.id == pl.id) l.fail("id", "'" + pl.id + "' is the id of another line");
     p.lines.push_back(pl);
   }
+}
 
-  // Ground.
+/// Ground: height, slope, roofs and targets.
+void readPlanGround(const std::string& path, const Fields& top, Plan& p) {
   if (top.has("ground")) {
     const Fields g = top.sub("ground", {"z_m", "slope", "roofs", "targets"});
     p.ground_z_m = g.num("z_m", 0.0, -1000.0, 9000.0);
@@ -217,8 +219,10 @@ Plan readPlan(const std::string& path) {
       }
     }
   }
+}
 
-  // Ground control: ids of features (targets' centres and corners, roof points).
+/// Ground control: ids of features (targets' centres and corners, roof points).
+void readPlanGcps(const std::string& path, const Fields& top, Plan& p) {
   const Scene scene = p.buildScene();
   if (top.has("gcps")) {
     const json& a = top.at("gcps");
@@ -243,8 +247,12 @@ Plan readPlan(const std::string& path) {
       p.gcps.push_back(gcp);
     }
   }
+}
 
-  // Methods and the stochastic model.
+/// Methods and the stochastic model.
+void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
+  SurveyConfig& c = p.survey;
+  NoiseModel& n = c.noise;
   MountingCalibrator::Options& o = p.options;
   o.methods.clear();
   if (top.has("method")) {
@@ -291,6 +299,30 @@ Plan readPlan(const std::string& path) {
   o.pulse_noise.attitude_correlation_s = n.attitude_correlation_s > 0.05 ? n.attitude_correlation_s : 0.0;
   std::string why;
   if (!o.IsValid(&why)) throw FileError(path, "", "the stochastic model the plan gives is invalid: " + why);
+}
+
+}  // namespace
+
+Plan readPlan(const std::string& path) {
+  const json j = detail::parseJsonFile(path, "plan");
+  const Fields top(path, j, "",
+                   {"name", "sensor", "noise", "mounting", "lines", "ground", "gcps", "method", "estimate", "sigma", "roi_radius_m",
+                    "trajectory_rate_hz"});
+  Plan p;
+  p.name = top.str("name", "plan");
+  SurveyConfig& c = p.survey;
+  c = SurveyConfig{};
+  c.seed = 1;
+  c.roi_radius_m = top.num("roi_radius_m", 10.0, 0.5, 200.0);
+  c.trajectory_rate_hz = top.num("trajectory_rate_hz", 200.0, 1.0, 2000.0);
+
+  readPlanSensor(path, top, p);
+  readPlanNoise(path, top, p);
+  readPlanMounting(path, top, p);
+  readPlanLines(path, top, p);
+  readPlanGround(path, top, p);
+  readPlanGcps(path, top, p);
+  readPlanMethods(path, top, p);
   return p;
 }
 

@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/simulation/survey.hpp"
 
 namespace mountcal::simulation {

@@ -8,7 +8,7 @@
 #include <limits>
 #include <numeric>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal::simulation {
 

@@ -1,5 +1,5 @@
 #include "mountcal/simulation/survey.hpp"
-#include "mountcal/detail/parallel.hpp"
+#include "core/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,13 +7,13 @@
 #include <random>
 #include <set>
 
-#include "mountcal/detail/random.hpp"
-#include "mountcal/error.hpp"
-#include "mountcal/georeference_model.hpp"
-#include "../huge_pages.hpp"
-#include "../interval_expansion.hpp"
-#include "../normal_batch.hpp"
-#include "../sincos_batch.hpp"
+#include "core/random.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
+#include "core/huge_pages.hpp"
+#include "core/interval_expansion.hpp"
+#include "core/normal_batch.hpp"
+#include "core/sincos_batch.hpp"
 
 namespace mountcal::simulation {
 
@@ -100,19 +100,16 @@ double gaussMarkov(double e, double dt, double tau, double sigma, detail::Rng& r
 
 }  // namespace
 
-SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
-  validate(config);
-  const Scene& scene = scene_in;
-  SimulatedSurvey out;
-  out.config = config;
+namespace {
 
-  // ---- trajectories ----------------------------------------------------------------------
+/// The true and the measured trajectory of every line (the measured one with Gauss–Markov
+/// position and attitude errors), and each line's frame.
+void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std::vector<LineFrame>* frames) {
   detail::Rng rng(config.seed * 0x9E3779B97F4A7C15ull + 1);
   auto phase = [](detail::Rng& r) { return 2 * kPi * r.uniform(); };
   const AttitudeDynamics& dyn = config.dynamics;
   const NoiseModel& noise = config.noise;
   std::vector<TrajectorySample> truth, measured;
-  std::vector<LineFrame> frames;
   const double dt = 1.0 / config.trajectory_rate_hz;
   const double lead_s = 2.0;  // trajectory before and after each line
   double t_line = config.time_origin_s;
@@ -120,7 +117,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
   double t_prev = t_line - lead_s;
   for (const FlightLine& line : config.lines) {
     const LineFrame f = lineFrame(line, t_line);
-    frames.push_back(f);
+    frames->push_back(f);
     const double pr = phase(rng), pp = phase(rng), ph = phase(rng), pz = phase(rng);
     const long n0 = -static_cast<long>(std::ceil(lead_s / dt));
     const long n1 = static_cast<long>(std::ceil((f.t1 - f.t0 + lead_s) / dt));
@@ -137,8 +134,7 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       t_prev = t;
       for (int a = 0; a < 3; ++a) {
         gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, rng);
-        att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s,
-                                 (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
+        att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s, (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
       }
       TrajectorySample m = s;
       m.p_m += gnss_err;
@@ -149,231 +145,68 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     }
     t_line = f.t1 + config.line_gap_s;
   }
-  out.true_trajectory = std::make_shared<const Trajectory>(std::move(truth));
-  out.measured_trajectory = std::make_shared<const Trajectory>(std::move(measured));
-  const Trajectory& T_true = *out.true_trajectory;
-  const Trajectory& T_meas = *out.measured_trajectory;
+  out->true_trajectory = std::make_shared<const Trajectory>(std::move(truth));
+  out->measured_trajectory = std::make_shared<const Trajectory>(std::move(measured));
+}
 
-  const MountingParameters& M_true = config.true_mounting;
-  const MountingParameters& M_nom = config.nominal_mounting;
-  const Mat3 R_bs_true = M_true.R_bs(), R_bs_nom = M_nom.R_bs();
-
-  // ---- features: which are ties, check points, ignored -------------------------------------
-  const std::set<std::string> check_ids(config.check_point_ids.begin(), config.check_point_ids.end());
-  const std::set<std::string> ignored(config.ignored_feature_ids.begin(), config.ignored_feature_ids.end());
+/// What every line's simulation shares: the scene, both trajectories and mountings, the
+/// features and the ROI centres (features and check planes) around which pulses are cast.
+struct SurveyContext {
+  const SurveyConfig& config;
+  const Scene& scene;
+  const Trajectory& T_true;
+  const Trajectory& T_meas;
+  const MountingParameters& M_true;
+  const MountingParameters& M_nom;
+  Mat3 R_bs_true, R_bs_nom;
+  std::set<std::string> check_ids;
   std::vector<const FeaturePoint*> features;
-  for (const FeaturePoint& fp : scene.features())
-    if (!ignored.count(fp.id)) features.push_back(&fp);
-
-  // ROI centres: features and check planes.
   std::vector<Vec3> roi;
-  if (config.roi_radius_m > 0) {
-    for (const FeaturePoint* fp : features) roi.push_back(fp->x_m);
-    for (const PlanePatch& p : scene.checkPlanes())
-      roi.push_back(Vec3(0.5 * (p.xmin + p.xmax), 0.5 * (p.ymin + p.ymax), 0));
-  }
   double roi_extra = 0;  // check planes may be larger than the ROI radius
-  for (const PlanePatch& p : scene.checkPlanes())
-    roi_extra = std::max(roi_extra, 0.5 * std::hypot(p.xmax - p.xmin, p.ymax - p.ymin));
 
-  // ---- strips ------------------------------------------------------------------------------
-  const double scan_axis_index = config.sensor == SensorType::kLine ? 0 : 2;  // scan-plane normal
-  // Each line on its own thread (its own noise streams, seeded by the line's index), merged in
-  // line order: the survey does not depend on the number of threads.
-  const std::size_t n_lines = config.lines.size();
-  std::vector<SimulatedStrip> strips_out(n_lines);
-  std::vector<std::vector<TiePick>> ties_out(n_lines), checks_out(n_lines);
-  detail::parallelFor(n_lines, config.threads, [&](std::size_t li) {
-    const FlightLine& line = config.lines[li];
-    const LineFrame& f = frames[li];
-    SimulatedStrip strip;
+  SurveyContext(const SurveyConfig& c, const Scene& s, const SimulatedSurvey& out)
+      : config(c), scene(s), T_true(*out.true_trajectory), T_meas(*out.measured_trajectory), M_true(c.true_mounting),
+        M_nom(c.nominal_mounting), R_bs_true(M_true.R_bs()), R_bs_nom(M_nom.R_bs()),
+        check_ids(c.check_point_ids.begin(), c.check_point_ids.end()) {
+    const std::set<std::string> ignored(c.ignored_feature_ids.begin(), c.ignored_feature_ids.end());
+    for (const FeaturePoint& fp : scene.features())
+      if (!ignored.count(fp.id)) features.push_back(&fp);
+    if (c.roi_radius_m > 0) {
+      for (const FeaturePoint* fp : features) roi.push_back(fp->x_m);
+      for (const PlanePatch& p : scene.checkPlanes()) roi.push_back(Vec3(0.5 * (p.xmin + p.xmax), 0.5 * (p.ymin + p.ymax), 0));
+    }
+    for (const PlanePatch& p : scene.checkPlanes()) roi_extra = std::max(roi_extra, 0.5 * std::hypot(p.xmax - p.xmin, p.ymax - p.ymin));
+  }
+};
+
+/// One line of the survey: its pulses (within the ROI windows), its strip and its tie picks.
+/// Each line has its own noise streams, seeded by the line's index.
+class LineSimulator {
+ public:
+  LineSimulator(const SurveyContext& context, std::size_t line_index, const LineFrame& frame)
+      : c_(context), config(context.config), noise(context.config.noise), scene(context.scene), T_true(context.T_true),
+        T_meas(context.T_meas), M_true(context.M_true), M_nom(context.M_nom), R_bs_true(context.R_bs_true), R_bs_nom(context.R_bs_nom),
+        roi(context.roi), li(line_index), line(context.config.lines[line_index]), f(frame),
+        prng(config.seed * 1000003ull + li * 7919ull + 11), noise_normals(&prng) {
     strip.id = line.id;
-    detail::Rng prng(config.seed * 1000003ull + li * 7919ull + 11);
-    detail::BufferedNormals noise_normals(&prng);  // prng's normal deviates, drawn in batches
+    makeWindows();
+  }
 
-    // Time windows of the ROI centres along this line.
-    struct Window { double t0, t1; Vec3 c; double r; };
-    std::vector<Window> windows;
-    const double margin = line.height_m * std::tan(deg2rad(3.0)) + 1.0;
-    for (std::size_t k = 0; k < roi.size(); ++k) {
-      const double r = config.roi_radius_m + (k >= features.size() ? roi_extra : 0.0);
-      const double s = f.along(Vec3(roi[k].x(), roi[k].y(), line.height_m));
-      windows.push_back({f.t0 + (s - r - margin) / f.speed, f.t0 + (s + r + margin) / f.speed, roi[k], r});
-    }
-    auto inRoi = [&](double t, const Vec3& approx) {
-      if (roi.empty()) return true;
-      for (const Window& w : windows) {
-        if (t < w.t0 || t > w.t1) continue;
-        const double dx = approx.x() - w.c.x(), dy = approx.y() - w.c.y();
-        if (dx * dx + dy * dy < (w.r + 3.0) * (w.r + 3.0)) return true;
-      }
-      return false;
-    };
-    // Time intervals to fire in: the whole line, or the union of the windows.
-    std::vector<std::pair<double, double>> spans;
-    if (roi.empty()) {
-      spans.push_back({f.t0, f.t1});
-    } else {
-      for (const Window& w : windows) {
-        const double a = std::max(w.t0, f.t0), b = std::min(w.t1, f.t1);
-        if (a < b) spans.push_back({a, b});
-      }
-      std::sort(spans.begin(), spans.end());
-      std::vector<std::pair<double, double>> merged;
-      for (const auto& s : spans) {
-        if (!merged.empty() && s.first <= merged.back().second) merged.back().second = std::max(merged.back().second, s.second);
-        else merged.push_back(s);
-      }
-      spans.swap(merged);
-    }
-
-    double fire_time = 0;
-    for (const auto& sp : spans) fire_time += sp.second - sp.first;
-    const double rate = config.sensor == SensorType::kLine
-                            ? (line.prf_hz > 0 ? line.prf_hz : config.line.prf_hz)
-                            : config.multibeam.model.laserCount() / config.multibeam.model.sequencePeriod();
-    // At most one return per pulse: a span of d seconds fires at most d·rate pulses plus one (one
-    // sequence of every laser for a multi-beam). Without an ROI that is the number reserved, so
-    // the last pulse never doubles the arrays (a copy of the whole strip and as much memory again);
-    // with one, about half the pulses are cast.
-    const double per_span = config.sensor == SensorType::kLine ? 1.0 : config.multibeam.model.laserCount();
-    const std::size_t expected = static_cast<std::size_t>(
-        std::min(fire_time * rate * (roi.empty() ? 1.0 : 0.5) + static_cast<double>(spans.size()) * per_span + 1.0, 5e7));
-    strip.pulses.reserve(expected);
-    strip.points_m.reserve(expected);
-    strip.true_points_m.reserve(expected);
-    strip.kinds.reserve(expected);
-    detail::adviseHugePages(strip.pulses);
-    detail::adviseHugePages(strip.points_m);
-    detail::adviseHugePages(strip.true_points_m);
-    std::size_t cur_true = 0, cur_meas = 0;
-    detail::IntervalExpansion e_true, e_meas;
-    // One pulse from the true origin and direction (mapping frame); `measured(r_s)` georeferences
-    // the observed laser vector with the measured trajectory and the nominal mounting.
-    // A line scanner's pulse also brings sin θ and cos θ of its scan angle (`sc`, null otherwise).
-    auto emit = [&](double t, const Vec3& origin, const Vec3& dir, std::uint64_t pulse_id, auto&& measured, RawPulse raw,
-                    double max_range, double range_offset, const double* sc) {
-      if (!roi.empty()) {
-        const double ground = scene.groundHeight(origin.x(), origin.y());
-        if (dir.z() > -1e-6) return;
-        const Vec3 approx = origin + dir * ((origin.z() - ground) / -dir.z());
-        if (!inRoi(t, approx)) return;
-      }
-      Hit hit;
-      if (!scene.cast(origin, dir, pulse_id, &hit, max_range)) return;
-      raw.time_s = t;
-      // The sensor model adds its range offset to the measured range: measured = path − offset.
-      raw.range_m = hit.range_m - range_offset + (noise.range_sigma_m > 0 ? noise.range_sigma_m * noise_normals.next() : 0.0);
-      raw.intensity = hit.intensity;
-      Vec3 r_s_obs;
-      if (config.sensor == SensorType::kLine) {
-        const double theta = raw.angle_rad;
-        if (noise.scan_angle_sigma_rad > 0) raw.angle_rad += noise.scan_angle_sigma_rad * noise_normals.next();
-        // LineScannerModel{}.vector(θ', ρ) = ρ (0, sin θ', cos θ') with θ' = θ + δ by the angle
-        // sum from the block's sin θ, cos θ, and δ's series (δ⁷/7! < 1e-25 for |δ| ≤ 1e-3 rad).
-        const double d = raw.angle_rad - theta;
-        if (std::abs(d) <= 1e-3) {
-          const double d2 = d * d;
-          const double sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0)), cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0);
-          r_s_obs = Vec3(0.0, raw.range_m * (sc[0] * cd + sc[1] * sd), raw.range_m * (sc[1] * cd - sc[0] * sd));
-        } else {
-          r_s_obs = LineScannerModel{}.vector(raw.angle_rad, raw.range_m);
-        }
-      } else {
-        r_s_obs = config.multibeam.model.vector(raw.laser_id, raw.angle_rad, raw.range_m);
-      }
-      raw.r_s = r_s_obs;
-      strip.points_m.push_back(measured(r_s_obs));  // seed eq. (1)
-      strip.true_points_m.push_back(hit.point_m);
-      strip.kinds.push_back(hit.kind);
-      strip.pulses.push_back(raw);
-    };
-
+  SimulatedStrip& run() {
+    reserve();
     for (const auto& span : spans) {
-      if (config.sensor == SensorType::kLine) {
-        LineScannerConfig scanner = config.line;
-        if (line.prf_hz > 0) scanner.prf_hz = line.prf_hz;
-        if (line.scan_rate_hz > 0) scanner.scan_rate_hz = line.scan_rate_hz;
-        const double prf = scanner.prf_hz;
-        const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
-        const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
-        // Both trajectories' attitudes expanded once per interval (detail::IntervalExpansion,
-        // exact within 1e-11 m), not a slerp per pulse. Pulses go in blocks: the mirror angles
-        // and their sines and cosines for a whole block in one vectorised pass
-        // (detail::sinCosBatch, within 4e-16 of libm), then the pulses one by one.
-        constexpr long kBlock = 256;
-        double t_blk[kBlock], arg_blk[kBlock], theta_blk[kBlock], sin_blk[kBlock], cos_blk[kBlock];
-        for (long kb = k0; kb <= k1; kb += kBlock) {
-          const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
-          for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
-          if (scanner.pattern == MirrorPattern::kSinusoidal) {
-            // mirrorAngle(): half_fov · sin(2π frac), the sines of the block at once
-            for (std::size_t j = 0; j < nb; ++j) arg_blk[j] = 2.0 * kPi * mirrorFraction(scanner, t_blk[j] - f.t0);
-            detail::sinCosBatch(arg_blk, sin_blk, cos_blk, nb);
-            for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = scanner.half_fov_rad * sin_blk[j];
-          } else {
-            for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = mirrorAngle(scanner, t_blk[j] - f.t0);
-          }
-          detail::sinCosBatch(theta_blk, sin_blk, cos_blk, nb);
-          for (std::size_t j = 0; j < nb; ++j) {
-            const long k = kb + static_cast<long>(j);
-            const double t = t_blk[j];
-            RawPulse raw;
-            raw.angle_rad = theta_blk[j];
-            const double sc[2] = {sin_blk[j], cos_blk[j]};
-            const Vec3 dir_s(0.0, sc[0], sc[1]);
-            const std::size_t i = T_true.locate(t, &cur_true);
-            if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
-            Vec3 origin, dir;
-            if (e_true.exact) {
-              const Pose truth = T_true.interpolateInInterval(i, t);
-              origin = truth.p_m + truth.R_mb * M_true.a_b;
-              dir = truth.R_mb * (R_bs_true * dir_s);
-            } else {
-              origin = detail::originExpanded(e_true, t);
-              dir = detail::rotateExpandedYZ(e_true, t, sc[0], sc[1]);
-            }
-            auto measured = [&](const Vec3& r_s) {
-              // Both trajectories were sampled at the same times (above): one interval lookup.
-              const std::size_t jm = i;
-              if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
-              return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
-                                  : detail::forwardExpandedYZ(e_meas, t, r_s.y(), r_s.z());  // r_s.x() = 0
-            };
-            emit(t, origin, dir, (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0, sc);
-          }
-        }
-      } else {
-        const MultiBeamModel& mb = config.multibeam.model;
-        const double period = mb.sequencePeriod();
-        const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
-        const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
-        for (long s = s0; s <= s1; ++s) {
-          for (int laser = 0; laser < mb.laserCount(); ++laser) {
-            const double t = f.t0 + mb.firingTime(laser, s);
-            if (t > f.t1) break;
-            const Pose truth = T_true.pose(t, &cur_true);
-            RawPulse raw;
-            raw.laser_id = laser;
-            double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
-            raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
-            const LaserSpec& spec = mb.laser(laser);
-            const double ce = std::cos(spec.elevation_rad);
-            const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
-            const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
-            const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
-            const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
-            const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
-            auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
-            emit(t, origin, dir,
-                 (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser),
-                 measured, raw, config.multibeam.max_range_m, spec.range_offset_m, nullptr);
-          }
-        }
-      }
+      if (config.sensor == SensorType::kLine) fireLineScanner(span);
+      else fireMultiBeam(span);
     }
+    return strip;
+  }
 
-    // ---- tie picks for this strip ----------------------------------------------------------
+  /// The tie picks of this strip's features: the moment the scan plane sweeps each feature,
+  /// its apparent position with the measured trajectory and the nominal mounting, plus the
+  /// picking noise.
+  void pickTies(std::vector<TiePick>* ties_out, std::vector<TiePick>* checks_out) const {
+    const std::vector<const FeaturePoint*>& features = c_.features;
+    const double scan_axis_index = config.sensor == SensorType::kLine ? 0 : 2;  // scan-plane normal
     detail::Rng krng(config.seed * 2654435761ull + li * 40503ull + 3);
     for (const FeaturePoint* fp : features) {
       const Vec3& F = fp->x_m;
@@ -423,8 +256,249 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
       pick.apparent_m = georeference(T_meas.pose(t), R_bs_nom, M_nom.a_b, r_s_seen);
       pick.x_m = pick.apparent_m.x() + noise.pick_sigma_m * krng.normal();
       pick.y_m = pick.apparent_m.y() + noise.pick_sigma_m * krng.normal();
-      (check_ids.count(fp->id) ? checks_out[li] : ties_out[li]).push_back(pick);
+      (c_.check_ids.count(fp->id) ? *checks_out : *ties_out).push_back(pick);
     }
+  }
+
+ private:
+  /// Time windows of the ROI centres along this line, and the time spans to fire in: the whole
+  /// line, or the union of the windows.
+  void makeWindows() {
+    const double margin = line.height_m * std::tan(deg2rad(3.0)) + 1.0;
+    for (std::size_t k = 0; k < roi.size(); ++k) {
+      const double r = config.roi_radius_m + (k >= c_.features.size() ? c_.roi_extra : 0.0);
+      const double s = f.along(Vec3(roi[k].x(), roi[k].y(), line.height_m));
+      windows.push_back({f.t0 + (s - r - margin) / f.speed, f.t0 + (s + r + margin) / f.speed, roi[k], r});
+    }
+    if (roi.empty()) {
+      spans.push_back({f.t0, f.t1});
+      return;
+    }
+    for (const Window& w : windows) {
+      const double a = std::max(w.t0, f.t0), b = std::min(w.t1, f.t1);
+      if (a < b) spans.push_back({a, b});
+    }
+    std::sort(spans.begin(), spans.end());
+    std::vector<std::pair<double, double>> merged;
+    for (const auto& s : spans) {
+      if (!merged.empty() && s.first <= merged.back().second) merged.back().second = std::max(merged.back().second, s.second);
+      else merged.push_back(s);
+    }
+    spans.swap(merged);
+  }
+
+  bool inRoi(double t, const Vec3& approx) const {
+    if (roi.empty()) return true;
+    for (const Window& w : windows) {
+      if (t < w.t0 || t > w.t1) continue;
+      const double dx = approx.x() - w.c.x(), dy = approx.y() - w.c.y();
+      if (dx * dx + dy * dy < (w.r + 3.0) * (w.r + 3.0)) return true;
+    }
+    return false;
+  }
+
+  /// At most one return per pulse: a span of d seconds fires at most d·rate pulses plus one (one
+  /// sequence of every laser for a multi-beam). Without an ROI that is the number reserved, so
+  /// the last pulse never doubles the arrays (a copy of the whole strip and as much memory again);
+  /// with one, about half the pulses are cast.
+  void reserve() {
+    double fire_time = 0;
+    for (const auto& sp : spans) fire_time += sp.second - sp.first;
+    const double rate = config.sensor == SensorType::kLine ? (line.prf_hz > 0 ? line.prf_hz : config.line.prf_hz)
+                                                           : config.multibeam.model.laserCount() / config.multibeam.model.sequencePeriod();
+    const double per_span = config.sensor == SensorType::kLine ? 1.0 : config.multibeam.model.laserCount();
+    const std::size_t expected = static_cast<std::size_t>(
+        std::min(fire_time * rate * (roi.empty() ? 1.0 : 0.5) + static_cast<double>(spans.size()) * per_span + 1.0, 5e7));
+    strip.pulses.reserve(expected);
+    strip.points_m.reserve(expected);
+    strip.true_points_m.reserve(expected);
+    strip.kinds.reserve(expected);
+    detail::adviseHugePages(strip.pulses);
+    detail::adviseHugePages(strip.points_m);
+    detail::adviseHugePages(strip.true_points_m);
+  }
+
+  /// One pulse from the true origin and direction (mapping frame); `measured(r_s)` georeferences
+  /// the observed laser vector with the measured trajectory and the nominal mounting.
+  /// A line scanner's pulse also brings sin θ and cos θ of its scan angle (`sc`, null otherwise).
+  template <class Measured>
+  void emit(double t, const Vec3& origin, const Vec3& dir, std::uint64_t pulse_id, Measured&& measured, RawPulse raw,
+            double max_range, double range_offset, const double* sc) {
+      if (!roi.empty()) {
+      const double ground = scene.groundHeight(origin.x(), origin.y());
+      if (dir.z() > -1e-6) return;
+      const Vec3 approx = origin + dir * ((origin.z() - ground) / -dir.z());
+      if (!inRoi(t, approx)) return;
+    }
+    Hit hit;
+    if (!scene.cast(origin, dir, pulse_id, &hit, max_range)) return;
+    raw.time_s = t;
+    // The sensor model adds its range offset to the measured range: measured = path − offset.
+    raw.range_m = hit.range_m - range_offset + (noise.range_sigma_m > 0 ? noise.range_sigma_m * noise_normals.next() : 0.0);
+    raw.intensity = hit.intensity;
+    Vec3 r_s_obs;
+    if (config.sensor == SensorType::kLine) {
+      const double theta = raw.angle_rad;
+      if (noise.scan_angle_sigma_rad > 0) raw.angle_rad += noise.scan_angle_sigma_rad * noise_normals.next();
+      // LineScannerModel{}.vector(θ', ρ) = ρ (0, sin θ', cos θ') with θ' = θ + δ by the angle
+      // sum from the block's sin θ, cos θ, and δ's series (δ⁷/7! < 1e-25 for |δ| ≤ 1e-3 rad).
+      const double d = raw.angle_rad - theta;
+      if (std::abs(d) <= 1e-3) {
+        const double d2 = d * d;
+        const double sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0)), cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0);
+        r_s_obs = Vec3(0.0, raw.range_m * (sc[0] * cd + sc[1] * sd), raw.range_m * (sc[1] * cd - sc[0] * sd));
+      } else {
+        r_s_obs = LineScannerModel{}.vector(raw.angle_rad, raw.range_m);
+      }
+    } else {
+      r_s_obs = config.multibeam.model.vector(raw.laser_id, raw.angle_rad, raw.range_m);
+    }
+    raw.r_s = r_s_obs;
+    strip.points_m.push_back(measured(r_s_obs));  // seed eq. (1)
+    strip.true_points_m.push_back(hit.point_m);
+    strip.kinds.push_back(hit.kind);
+    strip.pulses.push_back(raw);
+  }
+
+  void fireLineScanner(const std::pair<double, double>& span) {
+    const std::size_t li_ = li;
+        LineScannerConfig scanner = config.line;
+      if (line.prf_hz > 0) scanner.prf_hz = line.prf_hz;
+      if (line.scan_rate_hz > 0) scanner.scan_rate_hz = line.scan_rate_hz;
+      const double prf = scanner.prf_hz;
+      const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
+      const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
+      // Both trajectories' attitudes expanded once per interval (detail::IntervalExpansion,
+      // exact within 1e-11 m), not a slerp per pulse. Pulses go in blocks: the mirror angles
+      // and their sines and cosines for a whole block in one vectorised pass
+      // (detail::sinCosBatch, within 4e-16 of libm), then the pulses one by one.
+      constexpr long kBlock = 256;
+      double t_blk[kBlock], arg_blk[kBlock], theta_blk[kBlock], sin_blk[kBlock], cos_blk[kBlock];
+      for (long kb = k0; kb <= k1; kb += kBlock) {
+        const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
+        for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
+        if (scanner.pattern == MirrorPattern::kSinusoidal) {
+          // mirrorAngle(): half_fov · sin(2π frac), the sines of the block at once
+          for (std::size_t j = 0; j < nb; ++j) arg_blk[j] = 2.0 * kPi * mirrorFraction(scanner, t_blk[j] - f.t0);
+          detail::sinCosBatch(arg_blk, sin_blk, cos_blk, nb);
+          for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = scanner.half_fov_rad * sin_blk[j];
+        } else {
+          for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = mirrorAngle(scanner, t_blk[j] - f.t0);
+        }
+        detail::sinCosBatch(theta_blk, sin_blk, cos_blk, nb);
+        for (std::size_t j = 0; j < nb; ++j) {
+          const long k = kb + static_cast<long>(j);
+          const double t = t_blk[j];
+          RawPulse raw;
+          raw.angle_rad = theta_blk[j];
+          const double sc[2] = {sin_blk[j], cos_blk[j]};
+          const Vec3 dir_s(0.0, sc[0], sc[1]);
+          const std::size_t i = T_true.locate(t, &cur_true);
+          if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
+          Vec3 origin, dir;
+          if (e_true.exact) {
+            const Pose truth = T_true.interpolateInInterval(i, t);
+            origin = truth.p_m + truth.R_mb * M_true.a_b;
+            dir = truth.R_mb * (R_bs_true * dir_s);
+          } else {
+            origin = detail::originExpanded(e_true, t);
+            dir = detail::rotateExpandedYZ(e_true, t, sc[0], sc[1]);
+          }
+          auto measured = [&](const Vec3& r_s) {
+            // Both trajectories were sampled at the same times (above): one interval lookup.
+            const std::size_t jm = i;
+            if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
+            return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
+                                : detail::forwardExpandedYZ(e_meas, t, r_s.y(), r_s.z());  // r_s.x() = 0
+          };
+          emit(t, origin, dir, (static_cast<std::uint64_t>(li_) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0, sc);
+        }
+      }
+  }
+
+  void fireMultiBeam(const std::pair<double, double>& span) {
+        const MultiBeamModel& mb = config.multibeam.model;
+      const double period = mb.sequencePeriod();
+      const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
+      const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
+      for (long s = s0; s <= s1; ++s) {
+        for (int laser = 0; laser < mb.laserCount(); ++laser) {
+          const double t = f.t0 + mb.firingTime(laser, s);
+          if (t > f.t1) break;
+          const Pose truth = T_true.pose(t, &cur_true);
+          RawPulse raw;
+          raw.laser_id = laser;
+          double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
+          raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
+          const LaserSpec& spec = mb.laser(laser);
+          const double ce = std::cos(spec.elevation_rad);
+          const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
+          const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
+          const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
+          const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
+          const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
+          auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
+          emit(t, origin, dir,
+               (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser),
+               measured, raw, config.multibeam.max_range_m, spec.range_offset_m, nullptr);
+        }
+      }
+  }
+
+  struct Window {
+    double t0, t1;
+    Vec3 c;
+    double r;
+  };
+  const SurveyContext& c_;
+  const SurveyConfig& config;
+  const NoiseModel& noise;
+  const Scene& scene;
+  const Trajectory& T_true;
+  const Trajectory& T_meas;
+  const MountingParameters& M_true;
+  const MountingParameters& M_nom;
+  const Mat3& R_bs_true;
+  const Mat3& R_bs_nom;
+  const std::vector<Vec3>& roi;
+  const std::size_t li;
+  const FlightLine& line;
+  const LineFrame& f;
+  detail::Rng prng;
+  detail::BufferedNormals noise_normals;  // prng's normal deviates, drawn in batches
+  std::vector<Window> windows;
+  std::vector<std::pair<double, double>> spans;
+  SimulatedStrip strip;
+  std::size_t cur_true = 0, cur_meas = 0;
+  detail::IntervalExpansion e_true, e_meas;
+};
+
+/// Keeps only features seen on at least two strips, sorted by id.
+void pruneSingleViews(std::vector<TiePick>* picks) {
+  std::map<std::string, int> count;
+  for (const TiePick& p : *picks) ++count[p.tie_id];
+  picks->erase(std::remove_if(picks->begin(), picks->end(), [&](const TiePick& p) { return count[p.tie_id] < 2; }), picks->end());
+  std::stable_sort(picks->begin(), picks->end(), [](const TiePick& a, const TiePick& b) { return a.tie_id < b.tie_id; });
+}
+
+}  // namespace
+
+SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene) {
+  validate(config);
+  SimulatedSurvey out;
+  out.config = config;
+  std::vector<LineFrame> frames;
+  simulateTrajectories(config, &out, &frames);
+  const SurveyContext context(config, scene, out);
+  // Each line on its own thread (its own noise streams, seeded by the line's index), merged in
+  // line order: the survey does not depend on the number of threads.
+  const std::size_t n_lines = config.lines.size();
+  std::vector<SimulatedStrip> strips_out(n_lines);
+  std::vector<std::vector<TiePick>> ties_out(n_lines), checks_out(n_lines);
+  detail::parallelFor(n_lines, config.threads, [&](std::size_t li) {
+    LineSimulator line(context, li, frames[li]);
+    SimulatedStrip& strip = line.run();
+    line.pickTies(&ties_out[li], &checks_out[li]);
     strips_out[li] = std::move(strip);
   });
   for (std::size_t li = 0; li < n_lines; ++li) {
@@ -432,20 +506,11 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene_in) {
     out.ties.insert(out.ties.end(), ties_out[li].begin(), ties_out[li].end());
     out.check_points.insert(out.check_points.end(), checks_out[li].begin(), checks_out[li].end());
   }
-
-  // Keep only features seen on at least two strips.
-  auto prune = [](std::vector<TiePick>* picks) {
-    std::map<std::string, int> count;
-    for (const TiePick& p : *picks) ++count[p.tie_id];
-    picks->erase(std::remove_if(picks->begin(), picks->end(), [&](const TiePick& p) { return count[p.tie_id] < 2; }),
-                 picks->end());
-    std::stable_sort(picks->begin(), picks->end(), [](const TiePick& a, const TiePick& b) { return a.tie_id < b.tie_id; });
-  };
-  prune(&out.ties);
-  prune(&out.check_points);
+  pruneSingleViews(&out.ties);
+  pruneSingleViews(&out.check_points);
   std::set<std::string> tie_ids;
   for (const TiePick& p : out.ties) tie_ids.insert(p.tie_id);
-  for (const FeaturePoint* fp : features)
+  for (const FeaturePoint* fp : context.features)
     if (tie_ids.count(fp->id)) out.gcps.push_back(*fp);
   out.check_planes = scene.checkPlanes();
   out.plane_regions = scene.planeRegions();

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/sbet.hpp"
 

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/job/schema.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

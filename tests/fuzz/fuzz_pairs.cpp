@@ -3,7 +3,7 @@
 // what the bytes can hold.
 #include <cstdint>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -25,7 +25,7 @@
 
 #include <Eigen/Core>
 
-#include "mountcal/mounting.hpp"
+#include "mountcal/core/mounting.hpp"
 
 namespace ceres {
 class Problem;

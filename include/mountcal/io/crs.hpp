@@ -5,7 +5,7 @@
 #include <memory>
 #include <string>
 
-#include "mountcal/geodesy.hpp"
+#include "mountcal/core/geodesy.hpp"
 
 namespace mountcal::io {
 

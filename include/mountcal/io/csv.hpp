@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "mountcal/observations.hpp"
-#include "mountcal/sensor_model.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/sensor_model.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace mountcal::io {
 

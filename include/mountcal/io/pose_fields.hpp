@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "mountcal/io/las.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace mountcal::io {
 

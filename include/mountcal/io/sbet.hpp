@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/geodesy.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/geodesy.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace mountcal::io {
 

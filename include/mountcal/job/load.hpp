@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "mountcal/data.hpp"
-#include "mountcal/geodesy.hpp"
+#include "mountcal/core/geodesy.hpp"
 #include "mountcal/io/crs.hpp"
 #include "mountcal/job/schema.hpp"
 

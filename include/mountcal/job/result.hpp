@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "mountcal/evaluation.hpp"
+#include "mountcal/report/evaluation.hpp"
 #include "mountcal/job/load.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 

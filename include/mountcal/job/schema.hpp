@@ -10,7 +10,7 @@
 
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/mounting_calibrator.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/sensor_model.hpp"
 
 namespace mountcal {
 

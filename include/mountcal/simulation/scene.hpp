@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/rotation.hpp"
 
 namespace mountcal::simulation {
 

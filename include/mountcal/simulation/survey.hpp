@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "mountcal/mounting.hpp"
+#include "mountcal/core/mounting.hpp"
 #include "mountcal/data.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/sensor_model.hpp"
 #include "mountcal/simulation/scene.hpp"
-#include "mountcal/trajectory.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace mountcal::simulation {
 
@@ -183,26 +183,5 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 /// or malformed.
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
 
-/// How a survey is written.
-struct SurveyWriteOptions {
-  /// Empty: a local-frame job (trajectory.csv, coordinates as simulated). Otherwise a CRS code
-  /// ("EPSG:32611"): the simulated ENU frame is placed tangent to WGS84 under the CRS point
-  /// (500000, 4000000), strips, ties, check data and GCPs are written in the CRS, the
-  /// trajectory as trajectory.sbet (true heading, zero wander), and job.json says
-  /// `"frame": {"type": "crs", ...}` — so the same survey can be calibrated both ways.
-  std::string crs;
-  /// Write ties.csv and a VTPM job. False: no ties file, and a job.json that calibrates
-  /// automatically (method "correspondences").
-  bool ties = true;
-  /// Write the strips as LAZ (strip_ID.laz) instead of LAS.
-  bool laz = false;
-};
-
-/// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
-/// trajectory.sbet (a local job's ENU frame placed under UTM 11 N's (500000, 4000000)),
-/// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,
-/// check_points.csv, check_planes.csv, planes.csv (the roof faces, for the plane method), gcps.csv. Creates `dir` if needed. Throws FileError,
-/// or InvalidInput for an unknown CRS.
-void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options = {});
 
 }  // namespace mountcal::simulation

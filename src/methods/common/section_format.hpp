@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "../../html_text.hpp"
-#include "mountcal/rotation.hpp"
+#include "report/html_text.hpp"
+#include "mountcal/core/rotation.hpp"
 
 namespace mountcal::detail {
 

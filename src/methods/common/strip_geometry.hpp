@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "mountcal/data.hpp"
-#include "mountcal/georeference_model.hpp"
+#include "mountcal/core/georeference_model.hpp"
 
 namespace mountcal::detail {
 

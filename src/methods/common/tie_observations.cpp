@@ -10,9 +10,9 @@
 #include <cstdio>
 #include <set>
 
-#include "mountcal/detail/parallel.hpp"
-#include "mountcal/detail/vtp_cost.hpp"
-#include "mountcal/error.hpp"
+#include "core/parallel.hpp"
+#include "methods/common/vtp_cost.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal {
 

@@ -2,7 +2,7 @@
 // Internal to the tie-based modules (vtpm, control): the job options they share, declared once.
 
 #include "mountcal/methods/method.hpp"
-#include "mountcal/virtual_tie_point.hpp"
+#include "mountcal/methods/common/virtual_tie_point.hpp"
 
 namespace mountcal::detail {
 

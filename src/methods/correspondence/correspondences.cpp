@@ -14,8 +14,8 @@
 
 #include "../common/strip_geometry.hpp"
 #include "dense_matching.hpp"
-#include "mountcal/detail/parallel.hpp"
-#include "mountcal/error.hpp"
+#include "core/parallel.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal {
 

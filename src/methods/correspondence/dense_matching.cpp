@@ -8,8 +8,8 @@
 #include <unordered_set>
 
 #include "../common/strip_geometry.hpp"
-#include "mountcal/error.hpp"
-#include "mountcal/rotation.hpp"
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/rotation.hpp"
 
 namespace mountcal::detail {
 

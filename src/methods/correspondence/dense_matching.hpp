@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "mountcal/data.hpp"
-#include "mountcal/sensor_model.hpp"
+#include "mountcal/core/sensor_model.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 namespace mountcal::detail {

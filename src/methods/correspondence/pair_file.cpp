@@ -23,7 +23,7 @@
 #include <fstream>
 #include <limits>
 
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 

@@ -13,7 +13,7 @@
 #include <unordered_map>
 
 #include "../common/strip_geometry.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal {
 

@@ -11,7 +11,7 @@
 #include <set>
 
 #include "../common/strip_geometry.hpp"
-#include "mountcal/error.hpp"
+#include "mountcal/core/error.hpp"
 
 namespace mountcal {
 

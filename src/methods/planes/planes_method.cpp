@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "../common/section_format.hpp"
-#include "mountcal/svg_plot.hpp"
+#include "mountcal/report/svg_plot.hpp"
 
 namespace mountcal {
 

@@ -6,7 +6,7 @@
 
 #include "../common/section_format.hpp"
 #include "../common/tie_options.hpp"
-#include "mountcal/svg_plot.hpp"
+#include "mountcal/report/svg_plot.hpp"
 
 namespace mountcal {
 

@@ -16,7 +16,7 @@
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
-#include "mountcal/virtual_tie_point.hpp"
+#include "mountcal/methods/common/virtual_tie_point.hpp"
 
 namespace mountcal {
 

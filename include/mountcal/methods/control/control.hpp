@@ -8,7 +8,7 @@
 
 #include "mountcal/methods/common/tie_observations.hpp"
 #include "mountcal/methods/method.hpp"
-#include "mountcal/virtual_tie_point.hpp"
+#include "mountcal/methods/common/virtual_tie_point.hpp"
 
 namespace mountcal {
 

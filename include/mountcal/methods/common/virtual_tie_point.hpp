@@ -1,0 +1,95 @@
+#pragma once
+/// \file virtual_tie_point.hpp
+/// The virtual tie point model (VTPM) of the first paper (seed 000 §2.3–2.4, SPEC §3).
+///
+/// Laser footprints are discrete, so no two strips share a real point. A virtual tie point
+/// ties a picked plan position (X, Y) on one strip to the three real, coplanar laser points
+/// whose triangle encloses it:
+///  1. FLANN radius search around (X, Y); RANSAC keeps the coplanar points; a 2-D Delaunay
+///     triangulation of them in the fitted plane (an OpenMesh TriMesh); the enclosing triangle.
+///  2. Rule 1 (seed eq. 5): the tie's height is interpolated on the triangle's plane → P⁰.
+///  3. Rule 2 (seed eq. 6): for any mounting M the three vertices are georeferenced again, the
+///     rigid transform from the reference triangle to the new one is fitted (Kabsch), and
+///     applied to P⁰ → P(M). A pure function of M.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mountcal/data.hpp"
+#include "mountcal/core/mounting.hpp"
+#include "mountcal/observations.hpp"
+#include "mountcal/core/trajectory.hpp"
+
+namespace mountcal {
+
+/// A real laser point with what Rule 2 needs to georeference it again.
+struct LaserFootprint {
+  Pose pose;                     ///< trajectory pose at the emission time
+  Vec3 r_s = Vec3::Zero();       ///< raw laser vector [m]
+  Vec3 x0_m = Vec3::Zero();      ///< position at the reference mounting [m]
+  std::size_t index = 0;         ///< index in its strip
+};
+
+/// Settings of the VTPM construction.
+struct VtpOptions {
+  double radius_m = 1.0;            ///< search radius around the pick [m] (seed: 1 m)
+  /// The radius grows to this multiple of the local point spacing when that is larger, so that
+  /// sparse strips still give enough points [-].
+  double radius_spacing_factor = 2.5;
+  double max_radius_m = 5.0;        ///< the grown radius never exceeds this [m]
+  double ransac_threshold_m = 0.05; ///< max point-to-plane distance of an inlier [m]
+  int ransac_iterations = 200;      ///< [-]
+  int min_points = 5;               ///< fewer coplanar points than this → rejected
+  /// The plane must hold at least this fraction of the pick's 6 nearest points, else "no plane".
+  double min_inlier_fraction = 0.5;
+  double min_triangle_angle_deg = 5.0;  ///< a sliver triangle is degenerate [deg]
+  double max_plane_tilt_deg = 75.0; ///< a plane steeper than this cannot hold a plan pick [deg]
+};
+
+/// One virtual tie point: a pick on one strip and its three laser footprints.
+class VirtualTiePoint {
+ public:
+  VirtualTiePoint() = default;
+  /// `reference` is the mounting the vertices' x0_m were georeferenced with.
+  VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m,
+                  const std::array<LaserFootprint, 3>& vertices, const MountingParameters& reference);
+
+  const std::string& tieId() const { return tie_id_; }
+  const std::string& stripId() const { return strip_id_; }
+  const std::array<LaserFootprint, 3>& vertices() const { return vertices_; }
+  /// P⁰: the pick with its Rule 1 height, at the reference mounting [m].
+  const Vec3& referencePosition() const { return P0_m_; }
+
+  /// Rule 2: the tie position at mounting (lever arm, boresight) given as the 6-vector
+  /// `mounting6` in MountingIndex order [m, rad]; the nominal rotation is the reference one.
+  Vec3 position(const double* mounting6) const;
+  Vec3 position(const MountingParameters& m) const;
+  /// P(M) − centroid(): the same, free of the round-off of large map coordinates. Each vertex
+  /// moves by R_mb·[(R_bs(M) − R_bs(M₀))·r_s + (a − a₀)] from its reference position, so the
+  /// central differences of the calibrator see no cancellation of ~1 km terms.
+  Vec3 relativePosition(const double* mounting6) const;
+  /// Centroid of the reference triangle [m].
+  const Vec3& centroid() const { return centroid0_m_; }
+
+ private:
+  std::string tie_id_, strip_id_;
+  std::array<LaserFootprint, 3> vertices_{};
+  Vec3 P0_m_ = Vec3::Zero();
+  Vec3 centroid0_m_ = Vec3::Zero();
+  std::array<Vec3, 3> d0_m_{};     // reference vertices relative to centroid0
+  Vec3 P0_rel_m_ = Vec3::Zero();    // P⁰ − centroid0
+  Mat3 R_nom_ = Mat3::Identity();
+  Mat3 R_bs0_ = Mat3::Identity();   // reference R_bore·R_nom
+  Vec3 a0_b_ = Vec3::Zero();        // reference lever arm
+};
+
+/// seed eq. (5): height at (x, y) on the plane through three points.
+double interpolateHeight(const Vec3& p1, const Vec3& p2, const Vec3& p3, double x, double y);
+
+/// Least-squares rigid transform (Kabsch) with q ≈ R p + t for three or more point pairs.
+void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t);
+
+}  // namespace mountcal

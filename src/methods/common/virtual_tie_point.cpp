@@ -1,0 +1,348 @@
+#include "methods/common/vtp_strip.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <algorithm>
+#include <cmath>
+#include <flann/flann.hpp>
+#include <random>
+
+#include "mountcal/core/error.hpp"
+#include "mountcal/core/georeference_model.hpp"
+
+namespace mountcal {
+
+// ------------------------------------------------------------------------------------------
+double interpolateHeight(const Vec3& p1, const Vec3& p2, const Vec3& p3, double x, double y) {
+  // seed eq. (5)
+  const double dX21 = p2.x() - p1.x(), dY21 = p2.y() - p1.y(), dZ21 = p2.z() - p1.z();
+  const double dX31 = p3.x() - p1.x(), dY31 = p3.y() - p1.y(), dZ31 = p3.z() - p1.z();
+  const double num = (p1.x() - x) * (dY21 * dZ31 - dY31 * dZ21) - (p1.y() - y) * (dX21 * dZ31 - dX31 * dZ21);
+  return p1.z() + num / (dX21 * dY31 - dX31 * dY21);
+}
+
+void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t) {
+  Vec3 cp = Vec3::Zero(), cq = Vec3::Zero();
+  for (int i = 0; i < n; ++i) {
+    cp += p[i];
+    cq += q[i];
+  }
+  cp /= n;
+  cq /= n;
+  Mat3 H = Mat3::Zero();
+  for (int i = 0; i < n; ++i) H += (p[i] - cp) * (q[i] - cq).transpose();
+  const Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 D = Mat3::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  *R = svd.matrixV() * D * svd.matrixU().transpose();
+  *t = cq - *R * cp;
+}
+
+// ------------------------------------------------------------------------------------------
+VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m,
+                                 double pick_y_m, const std::array<LaserFootprint, 3>& vertices,
+                                 const MountingParameters& reference)
+    : tie_id_(std::move(tie_id)), strip_id_(std::move(strip_id)), vertices_(vertices),
+      R_nom_(reference.R_nom), R_bs0_(reference.R_bs()), a0_b_(reference.a_b) {
+  // Rule 1 (seed eq. 5): height of the pick on the triangle's plane.
+  const double z = interpolateHeight(vertices_[0].x0_m, vertices_[1].x0_m, vertices_[2].x0_m, pick_x_m, pick_y_m);
+  P0_m_ = Vec3(pick_x_m, pick_y_m, z);
+  centroid0_m_ = (vertices_[0].x0_m + vertices_[1].x0_m + vertices_[2].x0_m) / 3.0;
+  for (int i = 0; i < 3; ++i) d0_m_[i] = vertices_[i].x0_m - centroid0_m_;
+  P0_rel_m_ = P0_m_ - centroid0_m_;
+}
+
+Vec3 VirtualTiePoint::relativePosition(const double* m) const {
+  // Rule 2: georeference the vertices with M (seed eq. 1) — as displacements from their
+  // reference positions — fit the rigid motion of the triangle (seed eq. 6), carry P⁰ along.
+  const Mat3 dR_bs = R_zyx(Vec3(m[3], m[4], m[5])) * R_nom_ - R_bs0_;
+  const Vec3 da_b = Vec3(m[0], m[1], m[2]) - a0_b_;
+  Vec3 q[3];
+  for (int i = 0; i < 3; ++i) q[i] = d0_m_[i] + vertices_[i].pose.R_mb * (dR_bs * vertices_[i].r_s + da_b);
+  Mat3 R;
+  Vec3 t;
+  fitRigidTransform(d0_m_.data(), q, 3, &R, &t);
+  return R * P0_rel_m_ + t;
+}
+
+Vec3 VirtualTiePoint::position(const double* m) const { return centroid0_m_ + relativePosition(m); }
+
+Vec3 VirtualTiePoint::position(const MountingParameters& m) const {
+  const auto a = m.toArray();
+  return position(a.data());
+}
+
+// ------------------------------------------------------------------------------------------
+struct VtpStrip::Index {
+  std::vector<double> xy;  // row-major (x, y) per point
+  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree;
+};
+
+VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,
+                   const MountingParameters& reference)
+    : strip_(std::move(strip)), trajectory_(std::move(trajectory)), reference_(reference),
+      index_(std::make_unique<Index>()) {
+  const std::size_t n = strip_.time_s.size();
+  if (strip_.r_s.size() != n || (!strip_.x_m.empty() && strip_.x_m.size() != n)) {
+    throw InvalidInput("strip '" + strip_.id + "': time, r_s and x_m must have the same length");
+  }
+  if (n < 3) throw InvalidInput("strip '" + strip_.id + "': fewer than 3 points");
+  if (!strip_.poses.empty() && strip_.poses.size() != n) {
+    throw InvalidInput("strip '" + strip_.id + "': per-point poses and points differ in number");
+  }
+  if (strip_.poses.empty() && !trajectory_) throw InvalidInput("strip '" + strip_.id + "': no per-point poses and no trajectory");
+  if (strip_.x_m.empty() && !strip_.poses.empty()) {
+    const Mat3 R_bs = reference_.R_bs();
+    strip_.x_m.resize(n);
+    for (std::size_t i = 0; i < n; ++i) strip_.x_m[i] = georeference(strip_.poses[i], R_bs, reference_.a_b, strip_.r_s[i]);
+  } else if (strip_.x_m.empty()) {
+    const GeoreferenceModel model(trajectory_, reference_);
+    strip_.x_m.resize(n);
+    std::vector<double> r(3 * n), x(3 * n);
+    for (std::size_t i = 0; i < n; ++i) Eigen::Map<Vec3>{&r[3 * i]} = strip_.r_s[i];
+    model.forward(strip_.time_s.data(), r.data(), x.data(), n);
+    for (std::size_t i = 0; i < n; ++i) strip_.x_m[i] = Eigen::Map<const Vec3>(&x[3 * i]);
+  }
+  index_->xy.resize(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    index_->xy[2 * i] = strip_.x_m[i].x();
+    index_->xy[2 * i + 1] = strip_.x_m[i].y();
+  }
+  flann::Matrix<double> data(index_->xy.data(), n, 2);
+  index_->tree = std::make_unique<flann::Index<flann::L2_Simple<double>>>(data, flann::KDTreeSingleIndexParams(12));
+  index_->tree->buildIndex();
+}
+
+VtpStrip::~VtpStrip() = default;
+VtpStrip::VtpStrip(VtpStrip&&) noexcept = default;
+VtpStrip& VtpStrip::operator=(VtpStrip&&) noexcept = default;
+
+std::vector<std::size_t> VtpStrip::radiusSearch(double x, double y, double radius_m) const {
+  double q[2] = {x, y};
+  flann::Matrix<double> query(q, 1, 2);
+  std::vector<std::vector<std::size_t>> indices;
+  std::vector<std::vector<double>> dists;
+  flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
+  params.sorted = true;
+  index_->tree->radiusSearch(query, indices, dists, static_cast<float>(radius_m * radius_m), params);
+  // FLANN takes the radius as a float: re-check the boundary in double precision.
+  std::vector<std::size_t> out;
+  for (std::size_t i : indices[0]) {
+    const double dx = strip_.x_m[i].x() - x, dy = strip_.x_m[i].y() - y;
+    if (dx * dx + dy * dy <= radius_m * radius_m) out.push_back(i);
+  }
+  return out;
+}
+
+double VtpStrip::localSpacing(double x, double y) const {
+  const std::size_t k = std::min<std::size_t>(9, strip_.x_m.size());
+  double q[2] = {x, y};
+  flann::Matrix<double> query(q, 1, 2);
+  std::vector<std::vector<std::size_t>> indices;
+  std::vector<std::vector<double>> dists;
+  index_->tree->knnSearch(query, indices, dists, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+  if (dists[0].empty()) return 0.0;
+  // k points within radius r ⇒ density k / (π r²) ⇒ spacing √(π r² / k).
+  const double r2 = dists[0].back();
+  return std::sqrt(kPi * r2 / static_cast<double>(dists[0].size()));
+}
+
+namespace {
+
+/// Bowyer–Watson Delaunay triangulation of 2-D points; returns index triples.
+std::vector<std::array<int, 3>> delaunay(const std::vector<Eigen::Vector2d>& pts) {
+  const int n = static_cast<int>(pts.size());
+  Eigen::Vector2d lo = pts[0], hi = pts[0];
+  for (const auto& p : pts) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double span = std::max((hi - lo).maxCoeff(), 1e-9) * 20.0;
+  const Eigen::Vector2d mid = 0.5 * (lo + hi);
+  std::vector<Eigen::Vector2d> v = pts;
+  v.push_back(mid + Eigen::Vector2d(-span, -span));
+  v.push_back(mid + Eigen::Vector2d(span, -span));
+  v.push_back(mid + Eigen::Vector2d(0, span));
+  struct Tri {
+    std::array<int, 3> v;
+    Eigen::Vector2d c;
+    double r2;
+  };
+  auto make = [&](int a, int b, int c) {
+    const Eigen::Vector2d &A = v[a], &B = v[b], &C = v[c];
+    const double d = 2 * (A.x() * (B.y() - C.y()) + B.x() * (C.y() - A.y()) + C.x() * (A.y() - B.y()));
+    Tri t{{a, b, c}, Eigen::Vector2d::Zero(), 0};
+    if (std::abs(d) < 1e-300) {
+      t.r2 = std::numeric_limits<double>::infinity();
+      return t;
+    }
+    const double a2 = A.squaredNorm(), b2 = B.squaredNorm(), c2 = C.squaredNorm();
+    t.c = Eigen::Vector2d((a2 * (B.y() - C.y()) + b2 * (C.y() - A.y()) + c2 * (A.y() - B.y())) / d,
+                          (a2 * (C.x() - B.x()) + b2 * (A.x() - C.x()) + c2 * (B.x() - A.x())) / d);
+    t.r2 = (A - t.c).squaredNorm();
+    return t;
+  };
+  std::vector<Tri> tris{make(n, n + 1, n + 2)};
+  for (int i = 0; i < n; ++i) {
+    std::vector<std::array<int, 2>> edges;
+    std::vector<Tri> keep;
+    for (const Tri& t : tris) {
+      if ((v[i] - t.c).squaredNorm() < t.r2 * (1 + 1e-12)) {
+        edges.push_back({t.v[0], t.v[1]});
+        edges.push_back({t.v[1], t.v[2]});
+        edges.push_back({t.v[2], t.v[0]});
+      } else {
+        keep.push_back(t);
+      }
+    }
+    // Boundary of the cavity: edges that appear once.
+    for (std::size_t a = 0; a < edges.size(); ++a) {
+      bool shared = false;
+      for (std::size_t b = 0; b < edges.size() && !shared; ++b) {
+        shared = a != b && edges[a][0] == edges[b][1] && edges[a][1] == edges[b][0];
+      }
+      if (!shared) keep.push_back(make(edges[a][0], edges[a][1], i));
+    }
+    tris.swap(keep);
+  }
+  std::vector<std::array<int, 3>> out;
+  for (const Tri& t : tris) {
+    if (t.v[0] < n && t.v[1] < n && t.v[2] < n) out.push_back(t.v);
+  }
+  return out;
+}
+
+using TinMesh = OpenMesh::TriMesh_ArrayKernelT<>;
+
+}  // namespace
+
+bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTiePoint* vtp,
+                     std::string* reason) const {
+  const double spacing = localSpacing(pick.x_m, pick.y_m);
+  const double radius = std::max(o.radius_m, std::min(o.max_radius_m, o.radius_spacing_factor * spacing));
+  std::vector<std::size_t> idx = radiusSearch(pick.x_m, pick.y_m, radius);
+  if (static_cast<int>(idx.size()) < std::max(o.min_points, 3)) {
+    *reason = "too few points: " + std::to_string(idx.size()) + " within " + std::to_string(radius).substr(0, 4) +
+              " m of the pick (need " + std::to_string(std::max(o.min_points, 3)) + "); is the pick on this strip?";
+    return false;
+  }
+  // RANSAC plane (deterministic: seeded by the pick).
+  std::mt19937 rng(static_cast<unsigned>(std::hash<std::string>{}(pick.tie_id + "/" + pick.strip_id)));
+  std::uniform_int_distribution<std::size_t> pickone(0, idx.size() - 1);
+  const auto& X = strip_.x_m;
+  // Several surfaces may fall within the radius (a board over the ground, a roof edge): the
+  // plane wanted is the one the pick lies on, so a candidate scores first by how many of the
+  // pick's nearest neighbours it holds (idx is sorted by distance), then by its inliers.
+  const std::size_t n_near = std::min<std::size_t>(6, idx.size());
+  std::vector<std::size_t> best;
+  std::size_t best_near = 0;
+  for (int it = 0; it < o.ransac_iterations; ++it) {
+    const std::size_t a = idx[pickone(rng)], b = idx[pickone(rng)], c = idx[pickone(rng)];
+    const Vec3 nrm = (X[b] - X[a]).cross(X[c] - X[a]);
+    if (nrm.norm() < 1e-9) continue;
+    const Vec3 n = nrm.normalized();
+    std::vector<std::size_t> in;
+    std::size_t near = 0;
+    for (std::size_t r = 0; r < idx.size(); ++r) {
+      if (std::abs(n.dot(X[idx[r]] - X[a])) <= o.ransac_threshold_m) {
+        in.push_back(idx[r]);
+        near += r < n_near;
+      }
+    }
+    if (near > best_near || (near == best_near && in.size() > best.size())) {
+      best.swap(in);
+      best_near = near;
+    }
+  }
+  if (static_cast<int>(best.size()) < std::max(o.min_points, 3) ||
+      static_cast<double>(best_near) < o.min_inlier_fraction * static_cast<double>(n_near)) {
+    *reason = "no plane: " + std::to_string(best_near) + " of the " + std::to_string(n_near) +
+              " points nearest the pick (" + std::to_string(best.size()) + " of " + std::to_string(idx.size()) +
+              " in all) within " + std::to_string(o.ransac_threshold_m).substr(0, 5) + " m of one plane";
+    return false;
+  }
+  // Least-squares plane of the inliers, then re-select inliers against it.
+  Vec3 c = Vec3::Zero();
+  for (std::size_t i : best) c += X[i];
+  c /= static_cast<double>(best.size());
+  Mat3 C = Mat3::Zero();
+  for (std::size_t i : best) C += (X[i] - c) * (X[i] - c).transpose();
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+  Vec3 n = eig.eigenvectors().col(0);
+  if (n.z() < 0) n = -n;
+  if (n.z() < std::cos(deg2rad(o.max_plane_tilt_deg))) {
+    *reason = "no plane: the local surface is too steep (" + std::to_string(rad2deg(std::acos(n.z()))).substr(0, 4) + "°) to hold a plan pick";
+    return false;
+  }
+  std::vector<std::size_t> inliers;
+  for (std::size_t i : idx)
+    if (std::abs(n.dot(X[i] - c)) <= o.ransac_threshold_m) inliers.push_back(i);
+  if (static_cast<int>(inliers.size()) < std::max(o.min_points, 3)) {
+    *reason = "no plane: too few coplanar points after refinement";
+    return false;
+  }
+  // Plane coordinates (u, v) and the pick projected vertically onto the plane.
+  const Vec3 u = (std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(n).normalized();
+  const Vec3 v = n.cross(u);
+  std::vector<Eigen::Vector2d> uv;
+  for (std::size_t i : inliers) uv.emplace_back((X[i] - c).dot(u), (X[i] - c).dot(v));
+  const double zp = c.z() - (n.x() * (pick.x_m - c.x()) + n.y() * (pick.y_m - c.y())) / n.z();
+  const Vec3 P(pick.x_m, pick.y_m, zp);
+  const Eigen::Vector2d puv((P - c).dot(u), (P - c).dot(v));
+
+  // Delaunay triangulation held in an OpenMesh TriMesh; find the enclosing face.
+  TinMesh tin;
+  std::vector<TinMesh::VertexHandle> vh;
+  for (std::size_t i : inliers) vh.push_back(tin.add_vertex(TinMesh::Point(static_cast<float>(X[i].x() - c.x()), static_cast<float>(X[i].y() - c.y()), static_cast<float>(X[i].z() - c.z()))));
+  for (const auto& t : delaunay(uv)) {
+    // Orient counter-clockwise in (u, v) so that OpenMesh sees a consistent manifold.
+    const Eigen::Vector2d e1 = uv[t[1]] - uv[t[0]], e2 = uv[t[2]] - uv[t[0]];
+    if (e1.x() * e2.y() - e1.y() * e2.x() > 0) tin.add_face(vh[t[0]], vh[t[1]], vh[t[2]]);
+    else tin.add_face(vh[t[0]], vh[t[2]], vh[t[1]]);
+  }
+  int found[3] = {-1, -1, -1};
+  for (auto fh : tin.faces()) {
+    int k = 0, tri[3];
+    for (auto fv : tin.fv_range(fh)) tri[k++] = fv.idx();
+    const Eigen::Vector2d a = uv[tri[0]], b = uv[tri[1]], cc = uv[tri[2]];
+    const double d = (b - a).x() * (cc - a).y() - (b - a).y() * (cc - a).x();
+    if (std::abs(d) < 1e-14) continue;
+    const double l1 = ((b - puv).x() * (cc - puv).y() - (b - puv).y() * (cc - puv).x()) / d;
+    const double l2 = ((cc - puv).x() * (a - puv).y() - (cc - puv).y() * (a - puv).x()) / d;
+    const double l3 = 1.0 - l1 - l2;
+    if (l1 >= -1e-12 && l2 >= -1e-12 && l3 >= -1e-12) {
+      std::copy(tri, tri + 3, found);
+      break;
+    }
+  }
+  if (found[0] < 0) {
+    *reason = "outside the hull: the pick is not inside the triangulation of the " + std::to_string(inliers.size()) + " coplanar points around it";
+    return false;
+  }
+  // Degenerate (sliver) triangle check: smallest angle.
+  double min_angle = kPi;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 a = X[inliers[found[(k + 1) % 3]]] - X[inliers[found[k]]];
+    const Vec3 b = X[inliers[found[(k + 2) % 3]]] - X[inliers[found[k]]];
+    min_angle = std::min(min_angle, std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)));
+  }
+  if (min_angle < deg2rad(o.min_triangle_angle_deg)) {
+    *reason = "degenerate triangle: smallest angle " + std::to_string(rad2deg(min_angle)).substr(0, 4) + "°";
+    return false;
+  }
+  std::array<LaserFootprint, 3> verts;
+  for (int k = 0; k < 3; ++k) {
+    const std::size_t i = inliers[found[k]];
+    verts[k].index = i;
+    verts[k].r_s = strip_.r_s[i];
+    verts[k].x0_m = X[i];
+    verts[k].pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
+  }
+  *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
+  // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the
+  // same nominal rotation, so P(reference) = P⁰ exactly.
+  return true;
+}
+
+}  // namespace mountcal

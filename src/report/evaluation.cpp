@@ -1,0 +1,244 @@
+#include "mountcal/report/evaluation.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <flann/flann.hpp>
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "mountcal/core/error.hpp"
+#include "methods/common/vtp_strip.hpp"
+#include "mountcal/core/georeference_model.hpp"
+
+namespace mountcal {
+
+CheckPointReport evaluateCheckPoints(const CalibrationData& data, const MountingParameters& mounting,
+                                     const VtpOptions& options) {
+  CheckPointReport report;
+  std::map<std::string, const StripData*> strips;
+  for (const StripData& s : data.strips) strips[s.id] = &s;
+  std::map<std::string, VtpStrip> built;
+  std::map<std::string, std::vector<VirtualTiePoint>> by_tie;
+  for (const TieObservation& t : data.ties) {
+    auto it = strips.find(t.strip_id);
+    if (it == strips.end()) throw InvalidInput("check point '" + t.tie_id + "' names strip '" + t.strip_id + "', which is not in the job");
+    auto b = built.find(t.strip_id);
+    if (b == built.end()) b = built.emplace(t.strip_id, VtpStrip(*it->second, data.trajectory, data.mounting_used)).first;
+    VirtualTiePoint v;
+    std::string reason;
+    if (b->second.build(t, options, &v, &reason)) by_tie[t.tie_id].push_back(std::move(v));
+    else report.rejected.push_back({t.tie_id, t.strip_id, reason});
+  }
+  const auto m6 = mounting.toArray();
+  Vec3 ss = Vec3::Zero();
+  for (const auto& [id, vtps] : by_tie) {
+    if (vtps.size() < 2) {
+      for (const auto& v : vtps) report.rejected.push_back({id, v.stripId(), "the check point has a usable observation on only one strip"});
+      continue;
+    }
+    std::vector<Vec3> P;
+    Vec3 mean = Vec3::Zero();
+    for (const auto& v : vtps) {
+      P.push_back(v.position(m6.data()));  // Rule 2
+      mean += P.back();
+    }
+    mean /= static_cast<double>(P.size());  // seed eq. (7)
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      report.residuals.push_back({id, vtps[i].stripId(), P[i] - mean});  // seed eq. (8)
+      ss += (P[i] - mean).cwiseAbs2();
+    }
+  }
+  if (!report.residuals.empty()) report.rms_m = (ss / static_cast<double>(report.residuals.size())).cwiseSqrt();
+  return report;
+}
+
+std::vector<CheckPlaneResult> evaluateCheckPlanes(const CalibrationData& data, const std::vector<PlaneRegion>& regions,
+                                                  const MountingParameters& mounting) {
+  std::vector<CheckPlaneResult> out;
+  std::vector<std::vector<Vec3>> pts(regions.size());
+  const Mat3 R_bs = mounting.R_bs();
+  for (const StripData& s : data.strips) {
+    if (s.x_m.size() != s.time_s.size()) throw InvalidInput("strip '" + s.id + "': x_m is needed to select check-plane points");
+    std::size_t cursor = 0;
+    for (std::size_t i = 0; i < s.time_s.size(); ++i) {
+      const Vec3& x0 = s.x_m[i];
+      for (std::size_t r = 0; r < regions.size(); ++r) {
+        const PlaneRegion& g = regions[r];
+        if (x0.x() < g.xmin || x0.x() > g.xmax || x0.y() < g.ymin || x0.y() > g.ymax) continue;
+        const Pose pose = data.pose(s, i, &cursor);
+        pts[r].push_back(georeference(pose, R_bs, mounting.a_b, s.r_s[i]));
+      }
+    }
+  }
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    CheckPlaneResult res;
+    res.plane_id = regions[r].id;
+    res.points = static_cast<int>(pts[r].size());
+    if (pts[r].size() < 4) {
+      res.rms_m = std::nan("");
+      out.push_back(res);
+      continue;
+    }
+    Vec3 c = Vec3::Zero();
+    for (const Vec3& p : pts[r]) c += p;
+    c /= static_cast<double>(pts[r].size());
+    Mat3 C = Mat3::Zero();
+    for (const Vec3& p : pts[r]) C += (p - c) * (p - c).transpose();
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+    // Smallest eigenvalue = Σ d_i² about the least-squares plane; seed eq. (13).
+    res.rms_m = std::sqrt(std::max(eig.eigenvalues()(0), 0.0) / static_cast<double>(pts[r].size() - 3));
+    out.push_back(res);
+  }
+  return out;
+}
+
+}  // namespace mountcal
+
+// ---- pass-to-pass discrepancy ------------------------------------------------------------------
+
+namespace mountcal {
+
+bool DiscrepancyOptions::IsValid(std::string* why) const {
+  auto bad = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (neighbours < 3 || neighbours > 1000) return bad("neighbours must be in [3, 1000]");
+  if (!(max_neighbour_distance_m > 0) || !std::isfinite(max_neighbour_distance_m)) return bad("max_neighbour_distance_m must be > 0");
+  if (!(max_plane_sigma_m > 0) || !std::isfinite(max_plane_sigma_m)) return bad("max_plane_sigma_m must be > 0");
+  if (!(min_spread_ratio >= 0 && min_spread_ratio <= 1)) return bad("min_spread_ratio must be in [0, 1]");
+  if (!(max_extent_m > 0) || !std::isfinite(max_extent_m)) return bad("max_extent_m must be > 0");
+  if (max_queries < 1) return bad("max_queries must be >= 1");
+  return true;
+}
+
+namespace {
+
+DiscrepancyStats statsOf(std::vector<double> d, std::size_t queries) {
+  DiscrepancyStats s;
+  s.queries = queries;
+  s.used = d.size();
+  if (d.empty()) return s;
+  double ss = 0, sa = 0;
+  for (double v : d) {
+    ss += v * v;
+    sa += v;
+  }
+  s.rms_m = std::sqrt(ss / static_cast<double>(d.size()));
+  s.mean_m = sa / static_cast<double>(d.size());
+  auto quantile = [&](double q) {
+    const std::size_t k = std::min(d.size() - 1, static_cast<std::size_t>(std::floor(q * static_cast<double>(d.size() - 1) + 0.5)));
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(k), d.end());
+    return d[k];
+  };
+  s.median_m = quantile(0.5);
+  s.p90_m = quantile(0.9);
+  return s;
+}
+
+/// The used points' distances of `query` against `reference` (the gates of DiscrepancyOptions).
+std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& o,
+                              std::size_t* queries) {
+  std::vector<double> out;
+  *queries = 0;
+  if (query.empty() || reference.size() < static_cast<std::size_t>(o.neighbours)) return out;
+  // Coordinates relative to the reference's first point: kilometre-size values never enter the tree.
+  const Vec3 origin = reference.front();
+  std::vector<double> ref(3 * reference.size());
+  for (std::size_t i = 0; i < reference.size(); ++i) Eigen::Map<Vec3>{&ref[3 * i]} = reference[i] - origin;
+  flann::Matrix<double> data(ref.data(), reference.size(), 3);
+  flann::Index<flann::L2_Simple<double>> tree(data, flann::KDTreeSingleIndexParams(12));
+  tree.buildIndex();
+  const std::size_t stride = (query.size() + o.max_queries - 1) / o.max_queries;
+  const int k = o.neighbours;
+  std::vector<std::size_t> idx(static_cast<std::size_t>(k));
+  std::vector<double> dist(static_cast<std::size_t>(k));
+  const double max_d2 = o.max_neighbour_distance_m * o.max_neighbour_distance_m;
+  const double max_var = o.max_plane_sigma_m * o.max_plane_sigma_m, max_ext2 = o.max_extent_m * o.max_extent_m;
+  const double min_ratio2 = o.min_spread_ratio * o.min_spread_ratio;
+  for (std::size_t q = 0; q < query.size(); q += stride) {
+    ++*queries;
+    Vec3 x = query[q] - origin;
+    flann::Matrix<double> qm(x.data(), 1, 3);
+    flann::Matrix<std::size_t> im(idx.data(), 1, static_cast<std::size_t>(k));
+    flann::Matrix<double> dm(dist.data(), 1, static_cast<std::size_t>(k));
+    tree.knnSearch(qm, im, dm, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+    if (dist[0] > max_d2) continue;
+    Vec3 c = Vec3::Zero();
+    for (int j = 0; j < k; ++j) c += Eigen::Map<const Vec3>(&ref[3 * idx[static_cast<std::size_t>(j)]]);
+    c /= k;
+    Mat3 C = Mat3::Zero();
+    for (int j = 0; j < k; ++j) {
+      const Vec3 d = Eigen::Map<const Vec3>(&ref[3 * idx[static_cast<std::size_t>(j)]]) - c;
+      C += d * d.transpose();
+    }
+    C /= k;
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+    const Vec3 lam = eig.eigenvalues().cwiseMax(0.0);
+    if (lam(0) > max_var || lam(2) > max_ext2 || lam(1) < min_ratio2 * lam(2)) continue;
+    out.push_back(std::abs(eig.eigenvectors().col(0).dot(x - c)));
+  }
+  return out;
+}
+
+std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const MountingParameters& m) {
+  data.requirePoses();
+  std::vector<std::vector<Vec3>> x(data.strips.size());
+  const Mat3 R_bs = m.R_bs();
+  for (std::size_t s = 0; s < data.strips.size(); ++s) {
+    const StripData& st = data.strips[s];
+    x[s].resize(st.r_s.size());
+    std::size_t cursor = 0;
+    for (std::size_t i = 0; i < st.r_s.size(); ++i) x[s][i] = georeference(data.pose(st, i, &cursor), R_bs, m.a_b, st.r_s[i]);
+  }
+  return x;
+}
+
+}  // namespace
+
+DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
+                                         const DiscrepancyOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  std::size_t queries = 0;
+  std::vector<double> d = distances(query, reference, o, &queries);
+  return statsOf(std::move(d), queries);
+}
+
+std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
+  std::vector<PairDiscrepancy> out;
+  for (std::size_t a = 0; a < x.size(); ++a) {
+    for (std::size_t b = a + 1; b < x.size(); ++b) {
+      const bool a_smaller = x[a].size() <= x[b].size();
+      const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
+      std::size_t queries = 0;
+      std::vector<double> d = distances(x[q], x[r], o, &queries);
+      if (d.empty()) continue;
+      out.push_back({data.strips[q].id, data.strips[r].id, statsOf(std::move(d), queries)});
+    }
+  }
+  return out;
+}
+
+DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& o) {
+  std::string why;
+  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
+  std::vector<double> all;
+  std::size_t total = 0;
+  for (std::size_t a = 0; a < x.size(); ++a) {
+    for (std::size_t b = a + 1; b < x.size(); ++b) {
+      const bool a_smaller = x[a].size() <= x[b].size();
+      std::size_t queries = 0;
+      std::vector<double> d = distances(x[a_smaller ? a : b], x[a_smaller ? b : a], o, &queries);
+      all.insert(all.end(), d.begin(), d.end());
+      total += queries;
+    }
+  }
+  return statsOf(std::move(all), total);
+}
+
+}  // namespace mountcal

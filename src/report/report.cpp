@@ -1,0 +1,107 @@
+#include "mountcal/report/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "mountcal/report/svg_plot.hpp"
+
+namespace mountcal {
+
+namespace {
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) o += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
+  return o;
+}
+std::string f(double v, const char* fmt = "%.4f") {
+  if (!std::isfinite(v)) return "—";
+  char b[64];
+  std::snprintf(b, sizeof b, fmt, v);
+  return b;
+}
+}  // namespace
+
+std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluation* ev, const std::string& title) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << esc(title) << "</title><style>"
+    << "body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse;margin:1em 0}"
+    << "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f0f0f0}"
+    << ".ok{color:#070}.bad{color:#a00}td.l{text-align:left}</style></head><body>";
+  h << "<h1>" << esc(title) << "</h1>";
+  h << "<p>Termination: <b class=\"" << (S.IsSolutionUsable() ? "ok" : "bad") << "\">" << toString(S.termination)
+    << "</b> — " << esc(S.message) << "<br>" << S.iterations << " iterations, cost " << f(S.initial_cost, "%.5g") << " → "
+    << f(S.final_cost, "%.5g") << ", " << f(S.time_s, "%.3f") << " s; variance factor σ₀² = " << f(S.variance_factor, "%.3g")
+    << " (" << S.degrees_of_freedom << " degrees of freedom)</p>";
+  h << "<h2>Mounting</h2><table><tr><th>parameter</th><th>used</th><th>calibrated</th><th>σ</th><th>status</th></tr>";
+  const auto& names = mountingParameterNames();
+  const auto used = S.mounting_used.toArray(), est = S.mounting.toArray();
+  for (int j = 0; j < 6; ++j) {
+    const bool lin = j < 3;
+    const double k = lin ? 1.0 : 180.0 / kPi;
+    const char* unit = lin ? " m" : "°";
+    const bool unobs = std::find(S.unobservable.begin(), S.unobservable.end(), names[j]) != S.unobservable.end();
+    h << "<tr><td class=l>" << names[j] << "</td><td>" << f(used[j] * k, "%+.5f") << unit << "</td><td>" << f(est[j] * k, "%+.5f")
+      << unit << "</td><td>" << (S.estimated[j] ? f(S.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
+      << (S.estimated[j] ? "estimated" : unobs ? "<span class=bad>undeterminable</span>" : "held fixed") << "</td></tr>";
+  }
+  h << "</table>";
+  if (!S.observability_report.empty()) h << "<h2>Observability</h2><pre>" << esc(S.observability_report) << "</pre>";
+  h << "<p>Condition number of the estimated block (normalised): " << f(S.condition_number, "%.3g") << "</p>";
+  h << "<h2>Correlations</h2><table><tr><th></th>";
+  for (int j = 0; j < 6; ++j) h << "<th>" << j << "</th>";
+  h << "</tr>";
+  for (int a = 0; a < 6; ++a) {
+    h << "<tr><td class=l>" << a << " " << names[a] << "</td>";
+    for (int b = 0; b < 6; ++b) {
+      const double c = S.correlation(a, b);
+      h << "<td" << (a != b && std::abs(c) > 0.9 ? " class=bad" : "") << ">" << f(c, "%+.3f") << "</td>";
+    }
+    h << "</tr>";
+  }
+  h << "</table>";
+  // ---- one section per kind of observation ----------------------------------------------------
+  h << "<p>Methods: " << esc([&] {
+    std::string m;
+    for (const auto& x : S.methods) m += (m.empty() ? "" : " + ") + x;
+    return m;
+  }()) << ". Observations per kind:";
+  for (const auto& k : S.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
+  h << "</p>";
+  for (const auto& section : S.sections) h << section->html(S);
+  if (ev) {
+    h << "<h2>Check data (seed Tables 2 and 3)</h2>";
+    if (ev->has_check_points) {
+      const Vec3 b = ev->check_points_before.rms_m, a = ev->check_points_after.rms_m;
+      h << "<p>Check points (" << ev->check_points_after.residuals.size() << " observations): RMS before (" << f(b.x()) << ", " << f(b.y())
+        << ", " << f(b.z()) << ") m, after (" << f(a.x()) << ", " << f(a.y()) << ", " << f(a.z()) << ") m</p>";
+    }
+    if (!ev->check_planes_after.empty()) {
+      h << "<table><tr><th>plane</th><th>points</th><th>RMS before [m]</th><th>RMS after [m]</th></tr>";
+      for (std::size_t i = 0; i < ev->check_planes_after.size(); ++i) {
+        h << "<tr><td class=l>" << esc(ev->check_planes_after[i].plane_id) << "</td><td>" << ev->check_planes_after[i].points << "</td><td>"
+          << f(ev->check_planes_before[i].rms_m) << "</td><td>" << f(ev->check_planes_after[i].rms_m) << "</td></tr>";
+      }
+      h << "</table>";
+    }
+    if (!ev->discrepancy_after.empty()) {
+      h << "<p>Pass-to-pass discrepancy: each point of the smaller strip against the local plane of the larger one "
+           "(DiscrepancyOptions defaults), |distance| [m]:</p><table><tr><th>query / reference</th><th>points</th><th>used</th>"
+           "<th>median before</th><th>median after</th><th>RMS before</th><th>RMS after</th><th>P90 before</th><th>P90 after</th></tr>";
+      for (const PairDiscrepancy& a : ev->discrepancy_after) {
+        DiscrepancyStats b;
+        for (const PairDiscrepancy& x : ev->discrepancy_before)
+          if (x.query == a.query && x.reference == a.reference) b = x.stats;
+        h << "<tr><td class=l>" << esc(a.query) << " / " << esc(a.reference) << "</td><td>" << a.stats.queries << "</td><td>" << a.stats.used
+          << "</td><td>" << f(b.median_m) << "</td><td>" << f(a.stats.median_m) << "</td><td>" << f(b.rms_m) << "</td><td>"
+          << f(a.stats.rms_m) << "</td><td>" << f(b.p90_m) << "</td><td>" << f(a.stats.p90_m) << "</td></tr>";
+      }
+      h << "</table>";
+    }
+  }
+  h << "<pre>" << esc(S.FullReport()) << "</pre></body></html>\n";
+  return h.str();
+}
+
+}  // namespace mountcal
