@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <string>
 
 #include "mountcal/core/error.hpp"
@@ -385,149 +387,196 @@ int runPlan(const std::string& plan_path, const std::string& report_path, bool n
   return 0;
 }
 
+/// A subcommand and what runs it once its options are parsed.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+Command addMethods(CLI::App& app) {
+  CLI::App* c = app.add_subcommand("methods", "The calibration methods: what each observes, its job input and its options with defaults and units");
+  return {c, [] {
+            std::printf("%s", mountcal::describeMethods().c_str());
+            return 0;
+          }};
+}
+
+Command addMounting(CLI::App& app) {
+  struct Args {
+    std::string result, job;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("mounting", "A result's mounting in other programs' forms: forward-right-down and forward-left-up axes, degrees and radians, matrices and quaternions");
+  c->add_option("result", a->result, "Result JSON file of mountcal calibrate")->required();
+  c->add_option("--job", a->job, "The job, for the sensor's nominal rotation in R_bs (default: none)");
+  c->add_flag("--json", a->json, "Write JSON instead of text");
+  return {c, [a] {
+            using namespace mountcal;
+            Mat3 R_nom = Mat3::Identity();
+            if (!a->job.empty()) R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(a->job).nominal_rotation_deg).R_nom;
+            const MountingParameters m = readResultMounting(a->result, R_nom);
+            const std::vector<double> lasers = readResultLaserElevation(a->result);
+            std::printf("%s", (a->json ? mountingFormsJson(m, lasers) : mountingFormsText(m, lasers)).c_str());
+            return withNotices(0);
+          }};
+}
+
+Command addSimulate(CLI::App& app) {
+  struct Args {
+    std::string scenario, preset, out, crs;
+    std::uint64_t seed = 1;
+    bool no_noise = false, no_ties = false, laz = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("simulate", "Simulate a survey with known mounting truth (SPEC §4)");
+  c->add_option("scenario", a->scenario, "Scenario JSON file (a preset with overrides)");
+  c->add_option("--preset", a->preset, "Preset: paper-calibration-field, paper-check-block, uav-vlp16");
+  c->add_option("--seed", a->seed, "Random seed for the noise")->capture_default_str();
+  c->add_option("--out", a->out, "Output folder")->required();
+  c->add_flag("--no-noise", a->no_noise, "Switch every noise source off");
+  c->add_flag("--no-ties", a->no_ties, "Write no ties file: the job calibrates automatically (method \"correspondences\")");
+  c->add_option("--crs", a->crs, "Write the survey in this CRS (e.g. EPSG:32611) with an SBET trajectory");
+  c->add_flag("--laz", a->laz, "Write the strips as LAZ (strip_ID.laz)");
+  return {c, [a] {
+            if (a->scenario.empty() == a->preset.empty()) {
+              std::fprintf(stderr, "mountcal simulate: give either a SCENARIO file or --preset NAME\n");
+              return 2;
+            }
+            return runSimulate(a->scenario, a->preset, a->seed, a->out, a->no_noise, a->crs, a->no_ties, a->laz);
+          }};
+}
+
+Command addCalibrate(CLI::App& app) {
+  struct Args {
+    std::string job, report, pair_dir, result;
+    std::vector<std::string> profiles;
+    bool quiet = false;
+    int threads = -1;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("calibrate", "Calibrate the mounting from a job file (SPEC §4); writes the result file");
+  c->add_option("job", a->job, "Job JSON file")->required();
+  c->add_flag("--quiet", a->quiet, "Print nothing on success");
+  c->add_option("--report", a->report, "Write the visual HTML report here (instead of the job's output.report)");
+  c->add_option("--profile", a->profiles, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
+  c->add_option("--result", a->result, "Write the result file here (instead of the job's output.result)");
+  c->add_option("--correspondences", a->pair_dir, "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
+  c->add_option("--threads", a->threads, "Threads for building the observations: correspondence search, VTPM construction (default: every core); results do not depend on it")
+      ->check(CLI::Range(1, 4096));
+  return {c, [a] { return withNotices(runCalibrate(a->job, a->quiet, a->report, a->profiles, a->pair_dir, a->threads, a->result)); }};
+}
+
+Command addApply(CLI::App& app) {
+  struct Args {
+    std::string job, result, out, format;
+    std::vector<std::string> strips;
+    int threads = -1;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("apply", "Rewrite the job's LAS strips with the calibrated mounting");
+  c->add_option("job", a->job, "Job JSON file")->required();
+  c->add_option("--result", a->result, "Result JSON file of mountcal calibrate")->required();
+  c->add_option("--out", a->out, "Output folder (the strips keep their file names)")->required();
+  c->add_option("--format", a->format, "las or laz: write this format whatever the input's (default: the input's)")->check(CLI::IsMember({"las", "laz"}));
+  c->add_option("--strip", a->strips, "Rewrite only the file of this strip (repeatable; a workflow's per-strip job)");
+  c->add_option("--threads", a->threads, "Files rewritten at once (default: every core)")->check(CLI::Range(1, 4096));
+  return {c, [a] { return withNotices(runApply(a->job, a->result, a->out, a->format, a->strips, a->threads)); }};
+}
+
+Command addEvaluate(CLI::App& app) {
+  struct Args {
+    std::string job, result, report;
+    std::vector<std::string> profiles;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
+  c->add_option("job", a->job, "Job JSON file")->required();
+  c->add_option("--result", a->result, "Result JSON file")->required();
+  c->add_option("--report", a->report, "Write the visual HTML report of the result here");
+  c->add_option("--profile", a->profiles, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
+  return {c, [a] { return withNotices(runEvaluate(a->job, a->result, a->report, a->profiles)); }};
+}
+
+/// info, convert, curves: commands on single files.
+std::vector<Command> addFileCommands(CLI::App& app) {
+  auto info = std::make_shared<std::string>();
+  CLI::App* ci = app.add_subcommand("info", "Summary of a LAS, LAZ or SBET file");
+  ci->add_option("file", *info, "LAS, LAZ or SBET file")->required();
+  auto conv = std::make_shared<std::pair<std::string, std::string>>();
+  CLI::App* cc = app.add_subcommand("convert", "LAS to LAZ or LAZ to LAS, by the output's extension; every record, VLR and EVLR kept");
+  cc->add_option("in", conv->first, "Input LAS or LAZ file")->required();
+  cc->add_option("out", conv->second, "Output file (.laz compresses, anything else writes LAS)")->required();
+  auto curves = std::make_shared<std::pair<std::string, double>>(std::string(), 0.1);
+  CLI::App* cu = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
+  cu->add_option("--out", curves->first, "Folder for fig_errors.csv and the SVG plots");
+  cu->add_option("--boresight-deg", curves->second, "Boresight error on each axis [deg]")->capture_default_str();
+  return {{ci, [info] { return runInfo(*info); }},
+          {cc, [conv] { return runConvert(conv->first, conv->second); }},
+          {cu, [curves] { return runCurves(curves->first, curves->second); }}};
+}
+
+/// pairs, match: a block's correspondence search split into jobs.
+std::vector<Command> addBlockCommands(CLI::App& app) {
+  struct Args {
+    std::string job, out;
+    std::vector<std::string> pair;
+  };
+  auto p = std::make_shared<Args>(), m = std::make_shared<Args>();
+  CLI::App* cp = app.add_subcommand("pairs", "The strip pairs of a block to match (one \"A<TAB>B\" per line), from the strips' headers");
+  cp->add_option("job", p->job, "Job JSON file")->required();
+  cp->add_option("--out", p->out, "Write the list to this file instead of stdout");
+  CLI::App* cm = app.add_subcommand("match", "The candidate correspondences of one strip pair, into a pair file (for calibrate --correspondences)");
+  cm->add_option("job", m->job, "Job JSON file")->required();
+  cm->add_option("--pair", m->pair, "The two strip ids")->required()->expected(2);
+  cm->add_option("--out", m->out, "Pair file to write (docs/command-and-files.md: \"Correspondence pair files\")")->required();
+  return {{cp, [p] { return withNotices(runPairs(p->job, p->out)); }}, {cm, [m] { return withNotices(runMatch(m->job, m->pair, m->out)); }}};
+}
+
+Command addPlan(CLI::App& app) {
+  struct Args {
+    std::string plan, report;
+    bool no_candidates = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("plan", "Predict what a planned calibration flight determines, and what to add to it (PLAN.json)");
+  c->add_option("plan", a->plan, "Plan JSON file (docs/report-and-planning.md)")->required();
+  c->add_option("--report", a->report, "Also write the plan's HTML report to this file");
+  c->add_flag("--no-candidates", a->no_candidates, "The prediction only, without trying additions");
+  return {c, [a] { return runPlan(a->plan, a->report, a->no_candidates); }};
+}
+
+/// An unknown first word is named (CLI11 would only say that a subcommand is required).
+bool knownSubcommand(const CLI::App& app, int argc, char** argv) {
+  if (argc <= 1 || argv[1][0] == '-') return true;
+  std::string names;
+  bool known = false;
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    known = known || sub->get_name() == argv[1];
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  }
+  if (!known) std::fprintf(stderr, "mountcal: unknown subcommand '%s' (subcommands: %s; mountcal --help)\n", argv[1], names.c_str());
+  return known;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mountcal " MOUNTCAL_VERSION_STRING
-               " — LiDAR mounting (lever arm and boresight) calibration from overlapping strips"};
+  CLI::App app{"mountcal " MOUNTCAL_VERSION_STRING " — LiDAR mounting (lever arm and boresight) calibration from overlapping strips"};
   app.require_subcommand(1);
-  CLI::App* methodsc = app.add_subcommand("methods", "The calibration methods: what each observes, its job input and its options with defaults and units");
-  std::string forms_result, forms_job;
-  bool forms_json = false;
-  CLI::App* formsc = app.add_subcommand("mounting", "A result's mounting in other programs' forms: forward-right-down and forward-left-up axes, degrees and radians, matrices and quaternions");
-  formsc->add_option("result", forms_result, "Result JSON file of mountcal calibrate")->required();
-  formsc->add_option("--job", forms_job, "The job, for the sensor's nominal rotation in R_bs (default: none)");
-  formsc->add_flag("--json", forms_json, "Write JSON instead of text");
-
-  std::string scenario, preset, out;
-  std::uint64_t seed = 1;
-  bool no_noise = false;
-  CLI::App* sim = app.add_subcommand("simulate", "Simulate a survey with known mounting truth (SPEC §4)");
-  sim->add_option("scenario", scenario, "Scenario JSON file (a preset with overrides)");
-  sim->add_option("--preset", preset, "Preset: paper-calibration-field, paper-check-block, uav-vlp16");
-  sim->add_option("--seed", seed, "Random seed for the noise")->capture_default_str();
-  sim->add_option("--out", out, "Output folder")->required();
-  sim->add_flag("--no-noise", no_noise, "Switch every noise source off");
-  bool no_ties = false;
-  sim->add_flag("--no-ties", no_ties, "Write no ties file: the job calibrates automatically (method \"correspondences\")");
-  std::string crs;
-  sim->add_option("--crs", crs, "Write the survey in this CRS (e.g. EPSG:32611) with an SBET trajectory");
-  bool sim_laz = false;
-  sim->add_flag("--laz", sim_laz, "Write the strips as LAZ (strip_ID.laz)");
-
-  std::string job_path;
-  bool quiet = false;
-  CLI::App* cal = app.add_subcommand("calibrate", "Calibrate the mounting from a job file (SPEC §4); writes the result file");
-  cal->add_option("job", job_path, "Job JSON file")->required();
-  cal->add_flag("--quiet", quiet, "Print nothing on success");
-  std::string report_path;
-  std::vector<std::string> profile_args;
-  cal->add_option("--report", report_path, "Write the visual HTML report here (instead of the job's output.report)");
-  cal->add_option("--profile", profile_args, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
-
-  std::string pair_dir;
-  int threads = -1;
-  std::string cal_result;
-  cal->add_option("--result", cal_result, "Write the result file here (instead of the job's output.result)");
-  cal->add_option("--correspondences", pair_dir, "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
-  cal->add_option("--threads", threads, "Threads for building the observations: correspondence search, VTPM construction (default: every core); results do not depend on it")
-      ->check(CLI::Range(1, 4096));
-
-  std::string result_path, apply_out;
-  CLI::App* apply = app.add_subcommand("apply", "Rewrite the job's LAS strips with the calibrated mounting");
-  apply->add_option("job", job_path, "Job JSON file")->required();
-  apply->add_option("--result", result_path, "Result JSON file of mountcal calibrate")->required();
-  apply->add_option("--out", apply_out, "Output folder (the strips keep their file names)")->required();
-  std::string apply_format;
-  apply->add_option("--format", apply_format, "las or laz: write this format whatever the input's (default: the input's)")
-      ->check(CLI::IsMember({"las", "laz"}));
-  std::vector<std::string> apply_strips;
-  apply->add_option("--strip", apply_strips, "Rewrite only the file of this strip (repeatable; a workflow's per-strip job)");
-  apply->add_option("--threads", threads, "Files rewritten at once (default: every core)")->check(CLI::Range(1, 4096));
-  CLI::App* evaluate = app.add_subcommand("evaluate", "Check points, check planes and the pass-to-pass discrepancy before and after a result");
-  evaluate->add_option("job", job_path, "Job JSON file")->required();
-  evaluate->add_option("--result", result_path, "Result JSON file")->required();
-  evaluate->add_option("--report", report_path, "Write the visual HTML report of the result here");
-  evaluate->add_option("--profile", profile_args, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
-  std::string info_path;
-  CLI::App* info = app.add_subcommand("info", "Summary of a LAS, LAZ or SBET file");
-  info->add_option("file", info_path, "LAS, LAZ or SBET file")->required();
-  std::string convert_in, convert_out;
-  CLI::App* convert = app.add_subcommand("convert", "LAS to LAZ or LAZ to LAS, by the output's extension; every record, VLR and EVLR kept");
-  convert->add_option("in", convert_in, "Input LAS or LAZ file")->required();
-  convert->add_option("out", convert_out, "Output file (.laz compresses, anything else writes LAS)")->required();
-  std::string curves_out;
-  double curves_deg = 0.1;
-  CLI::App* curves = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
-  curves->add_option("--out", curves_out, "Folder for fig_errors.csv and the SVG plots");
-  curves->add_option("--boresight-deg", curves_deg, "Boresight error on each axis [deg]")->capture_default_str();
-
-  std::string pairs_out;
-  CLI::App* pairsc = app.add_subcommand("pairs", "The strip pairs of a block to match (one \"A<TAB>B\" per line), from the strips' headers");
-  pairsc->add_option("job", job_path, "Job JSON file")->required();
-  pairsc->add_option("--out", pairs_out, "Write the list to this file instead of stdout");
-  std::vector<std::string> match_pair;
-  std::string match_out;
-  CLI::App* matchc = app.add_subcommand("match", "The candidate correspondences of one strip pair, into a pair file (for calibrate --correspondences)");
-  matchc->add_option("job", job_path, "Job JSON file")->required();
-  matchc->add_option("--pair", match_pair, "The two strip ids")->required()->expected(2);
-  matchc->add_option("--out", match_out, "Pair file to write (README: \"Correspondence pair files\")")->required();
-
-  std::string plan_path, plan_report;
-  bool plan_no_candidates = false;
-  CLI::App* planc = app.add_subcommand("plan", "Predict what a planned calibration flight determines, and what to add to it (PLAN.json)");
-  planc->add_option("plan", plan_path, "Plan JSON file (README: \"Planning a calibration flight\")")->required();
-  planc->add_option("--report", plan_report, "Also write the plan's HTML report to this file");
-  planc->add_flag("--no-candidates", plan_no_candidates, "The prediction only, without trying additions");
-
-  // An unknown first word is named (CLI11 would only say that a subcommand is required).
-  if (argc > 1 && argv[1][0] != '-') {
-    std::string names;
-    bool known = false;
-    for (const CLI::App* sub : app.get_subcommands({})) {
-      known = known || sub->get_name() == argv[1];
-      names += (names.empty() ? "" : ", ") + sub->get_name();
-    }
-    if (!known) {
-      std::fprintf(stderr, "mountcal: unknown subcommand '%s' (subcommands: %s; mountcal --help)\n", argv[1], names.c_str());
-      return 2;
-    }
-  }
+  std::vector<Command> commands = {addMethods(app), addMounting(app), addSimulate(app), addCalibrate(app), addApply(app), addEvaluate(app)};
+  for (Command& c : addFileCommands(app)) commands.push_back(std::move(c));
+  for (Command& c : addBlockCommands(app)) commands.push_back(std::move(c));
+  commands.push_back(addPlan(app));
+  if (!knownSubcommand(app, argc, argv)) return 2;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   try {
-    if (sim->parsed()) {
-      if (scenario.empty() == preset.empty()) {
-        std::fprintf(stderr, "mountcal simulate: give either a SCENARIO file or --preset NAME\n");
-        return 2;
-      }
-      return runSimulate(scenario, preset, seed, out, no_noise, crs, no_ties, sim_laz);
-    }
-    if (cal->parsed()) return withNotices(runCalibrate(job_path, quiet, report_path, profile_args, pair_dir, threads, cal_result));
-    if (apply->parsed()) return withNotices(runApply(job_path, result_path, apply_out, apply_format, apply_strips, threads));
-    if (pairsc->parsed()) return withNotices(runPairs(job_path, pairs_out));
-    if (matchc->parsed()) return withNotices(runMatch(job_path, match_pair, match_out));
-    if (evaluate->parsed()) return withNotices(runEvaluate(job_path, result_path, report_path, profile_args));
-    if (info->parsed()) return runInfo(info_path);
-    if (convert->parsed()) return runConvert(convert_in, convert_out);
-    if (curves->parsed()) return runCurves(curves_out, curves_deg);
-    if (planc->parsed()) return runPlan(plan_path, plan_report, plan_no_candidates);
-    if (formsc->parsed()) {
-      using namespace mountcal;
-      Mat3 R_nom = Mat3::Identity();
-      if (!forms_job.empty()) R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(forms_job).nominal_rotation_deg).R_nom;
-      const MountingParameters m = readResultMounting(forms_result, R_nom);
-      const std::vector<double> lasers = readResultLaserElevation(forms_result);
-      std::printf("%s", (forms_json ? mountingFormsJson(m, lasers) : mountingFormsText(m, lasers)).c_str());
-      return withNotices(0);
-    }
-    if (methodsc->parsed()) {
-      std::printf("%s", mountcal::describeMethods().c_str());
-      return 0;
-    }
+    for (const Command& c : commands)
+      if (c.app->parsed()) return c.run();
   } catch (const mountcal::Error& e) {
     std::fprintf(stderr, "mountcal: %s\n", e.what());
     return 2;

@@ -79,26 +79,11 @@ void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const
 
 }  // namespace
 
-void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
-  const SurveyConfig& c = survey.config;
-  JobFrame frame;  // simulated ENU → output coordinates: identity, or through WGS84 into the CRS
-  // The job.json, written through the job schema (job/schema.hpp).
-  Job job;
-  job.path = (std::filesystem::path(dir) / "job.json").string();
-  auto at = [&](const std::string& name) { return (std::filesystem::path(dir) / name).lexically_normal().string(); };
-  // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
-  // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
-  const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
-  if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
-    throw InvalidInput("CRS '" + options.crs + "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
-  }
-  const io::CrsTransform placement(placement_crs);
-  const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
-  // SBET: position through WGS84; attitude relative to the true NED frame at each sample:
-  // R_n(t)b = R_mn(t)ᵀ · R_mb, where R_mb is the simulated body attitude in the ENU frame.
+namespace {
+
+/// trajectory.sbet: position through WGS84; attitude relative to the true NED frame at each
+/// sample: R_n(t)b = R_mn(t)ᵀ · R_mb, where R_mb is the simulated body attitude in the ENU frame.
+void writeSimulatedSbet(const SimulatedSurvey& survey, const LocalTangentFrame& tangent, const std::string& dir) {
   std::vector<io::SbetRecord> records;
   for (const TrajectorySample& s : survey.measured_trajectory->samples()) {
     io::SbetRecord r{};
@@ -116,24 +101,11 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     records.push_back(r);
   }
   io::writeSbet(dir + "/trajectory.sbet", records);
-  if (options.crs.empty()) {
-    io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
-    job.trajectory_path = at("trajectory.csv");
-    job.trajectory_format = TrajectoryFormat::kCsv;
-  } else {
-    frame = JobFrame(options.crs, tangent.origin());
-    job.frame_type = JobFrameType::kCrs;
-    job.crs = options.crs;
-    job.trajectory_path = at("trajectory.sbet");
-    job.trajectory_format = TrajectoryFormat::kSbet;
-  }
-  for (std::size_t k = 0; k < survey.strips.size(); ++k) {
-    const SimulatedStrip& s = survey.strips[k];
-    const std::string strip_file = "strip_" + s.id + (options.laz ? ".laz" : ".las");
-    writeStripLas(dir + "/" + strip_file, survey, s, static_cast<int>(k + 1), frame);
-    io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
-    job.strips.push_back({s.id, at(strip_file), "las", {}});
-  }
+}
+
+/// The user's inputs of the survey in the output frame: ties, check points, check planes,
+/// plane regions, target regions and GCPs.
+void writeSimulatedInputs(const SimulatedSurvey& survey, const JobFrame& frame, const std::string& dir, const SurveyWriteOptions& options) {
   auto toObs = [&](const std::vector<TiePick>& picks) {
     std::vector<io::TieObservation> out;
     for (const TiePick& p : picks) {
@@ -164,6 +136,40 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   }
   io::writeGcpCsv(dir + "/gcps.csv", gcps);
 
+}
+
+/// truth.json: the true mounting, the mounting used and the noise of the simulation.
+void writeSimulatedTruth(const SimulatedSurvey& survey, const std::string& dir) {
+  const SurveyConfig& c = survey.config;
+  const auto nom = nominalDeg(c.nominal_mounting);
+  const NoiseModel& n = c.noise;
+  nlohmann::json truth = {
+      {"preset", c.name},
+      {"seed", c.seed},
+      {"mounting", mountingJson(c.true_mounting)},
+      {"mounting_used", mountingJson(c.nominal_mounting)},
+      {"nominal_rotation_deg", nom},
+      {"noise",
+       {{"range_sigma_m", n.range_sigma_m},
+        {"scan_angle_sigma_deg", rad2deg(n.scan_angle_sigma_rad)},
+        {"gnss_sigma_m", n.gnss_sigma_m},
+        {"gnss_correlation_s", n.gnss_correlation_s},
+        {"attitude_sigma_deg", rad2deg(n.attitude_sigma_rad)},
+        {"heading_sigma_deg", 2 * rad2deg(n.attitude_sigma_rad)},
+        {"attitude_correlation_s", n.attitude_correlation_s},
+        {"pick_sigma_m", n.pick_sigma_m}}},
+      {"strips", survey.strips.size()},
+      {"ties", survey.ties.size()},
+      {"check_points", survey.check_points.size()},
+  };
+  io::writeFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
+}
+
+/// job.json (and job_features.json when the survey has targets), through the job schema.
+void writeSimulatedJobs(const SimulatedSurvey& survey, Job job, const SurveyWriteOptions& options) {
+  const SurveyConfig& c = survey.config;
+  const std::string dir = std::filesystem::path(job.path).parent_path().string();
+  auto at = [&](const std::string& name) { return (std::filesystem::path(dir) / name).lexically_normal().string(); };
   const auto nom = nominalDeg(c.nominal_mounting);
   job.nominal_rotation_deg = Vec3(nom[0], nom[1], nom[2]);
   if (c.sensor == SensorType::kLine) {
@@ -199,27 +205,50 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
     io::writeFileAtomically(fj.path, jobJson(fj));
   }
 
-  const NoiseModel& n = c.noise;
-  nlohmann::json truth = {
-      {"preset", c.name},
-      {"seed", c.seed},
-      {"mounting", mountingJson(c.true_mounting)},
-      {"mounting_used", mountingJson(c.nominal_mounting)},
-      {"nominal_rotation_deg", nom},
-      {"noise",
-       {{"range_sigma_m", n.range_sigma_m},
-        {"scan_angle_sigma_deg", rad2deg(n.scan_angle_sigma_rad)},
-        {"gnss_sigma_m", n.gnss_sigma_m},
-        {"gnss_correlation_s", n.gnss_correlation_s},
-        {"attitude_sigma_deg", rad2deg(n.attitude_sigma_rad)},
-        {"heading_sigma_deg", 2 * rad2deg(n.attitude_sigma_rad)},
-        {"attitude_correlation_s", n.attitude_correlation_s},
-        {"pick_sigma_m", n.pick_sigma_m}}},
-      {"strips", survey.strips.size()},
-      {"ties", survey.ties.size()},
-      {"check_points", survey.check_points.size()},
-  };
-  io::writeFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
+}
+
+}  // namespace
+
+void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw FileError(dir, "", "cannot create the output folder: " + ec.message());
+  const SurveyConfig& c = survey.config;
+  JobFrame frame;  // simulated ENU → output coordinates: identity, or through WGS84 into the CRS
+  // The job.json, written through the job schema (job/schema.hpp).
+  Job job;
+  job.path = (std::filesystem::path(dir) / "job.json").string();
+  auto at = [&](const std::string& name) { return (std::filesystem::path(dir) / name).lexically_normal().string(); };
+  // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
+  // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
+  const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
+  if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
+    throw InvalidInput("CRS '" + options.crs + "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+  }
+  const io::CrsTransform placement(placement_crs);
+  const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
+  writeSimulatedSbet(survey, tangent, dir);
+  if (options.crs.empty()) {
+    io::writeTrajectoryCsv(dir + "/trajectory.csv", *survey.measured_trajectory);
+    job.trajectory_path = at("trajectory.csv");
+    job.trajectory_format = TrajectoryFormat::kCsv;
+  } else {
+    frame = JobFrame(options.crs, tangent.origin());
+    job.frame_type = JobFrameType::kCrs;
+    job.crs = options.crs;
+    job.trajectory_path = at("trajectory.sbet");
+    job.trajectory_format = TrajectoryFormat::kSbet;
+  }
+  for (std::size_t k = 0; k < survey.strips.size(); ++k) {
+    const SimulatedStrip& s = survey.strips[k];
+    const std::string strip_file = "strip_" + s.id + (options.laz ? ".laz" : ".las");
+    writeStripLas(dir + "/" + strip_file, survey, s, static_cast<int>(k + 1), frame);
+    io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
+    job.strips.push_back({s.id, at(strip_file), "las", {}});
+  }
+  writeSimulatedInputs(survey, frame, dir, options);
+  writeSimulatedJobs(survey, job, options);
+  writeSimulatedTruth(survey, dir);
 }
 
 }  // namespace mountcal
