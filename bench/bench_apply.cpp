@@ -102,11 +102,13 @@ void BM_ApplyFourFilesThreads(benchmark::State& state) {
   const fs::path dir = fs::path(one).parent_path();
   const fs::path job4 = dir / "job4.json";
   if (!fs::exists(job4)) {
-    for (int k = 1; k <= 4; ++k) fs::copy_file(dir / "strip.las", dir / ("s" + std::to_string(k) + ".las"), fs::copy_options::overwrite_existing);
-    std::ofstream(job4) << "{\"frame\": {\"type\": \"local\"}, \"trajectory\": {\"path\": \"trajectory.csv\"},"
-                           " \"sensor\": {\"type\": \"line\"}, \"mounting_used\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]},"
-                           " \"strips\": [{\"id\": \"1\", \"path\": \"s1.las\"}, {\"id\": \"2\", \"path\": \"s2.las\"},"
-                           " {\"id\": \"3\", \"path\": \"s3.las\"}, {\"id\": \"4\", \"path\": \"s4.las\"}], \"ties\": \"none.csv\"}";
+    for (int k = 1; k <= 4; ++k)
+      fs::copy_file(dir / "strip.las", dir / ("s" + std::to_string(k) + ".las"), fs::copy_options::overwrite_existing);
+    std::ofstream(job4)
+        << "{\"frame\": {\"type\": \"local\"}, \"trajectory\": {\"path\": \"trajectory.csv\"},"
+           " \"sensor\": {\"type\": \"line\"}, \"mounting_used\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]},"
+           " \"strips\": [{\"id\": \"1\", \"path\": \"s1.las\"}, {\"id\": \"2\", \"path\": \"s2.las\"},"
+           " {\"id\": \"3\", \"path\": \"s3.las\"}, {\"id\": \"4\", \"path\": \"s4.las\"}], \"ties\": \"none.csv\"}";
   }
   const auto mounting = MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12));
   const Job job = readJob(job4.string());

@@ -57,9 +57,16 @@ void BM_BlockCalibrate(benchmark::State& state) {
   state.counters["usable"] = S.IsSolutionUsable();
 }
 BENCHMARK(BM_BlockCalibrate)
-    ->Args({4, 1})->Args({8, 1})->Args({16, 1})->Args({32, 1})
-    ->Args({12, 1})->Args({12, 2})
-    ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true);
+    ->Args({4, 1})
+    ->Args({8, 1})
+    ->Args({16, 1})
+    ->Args({32, 1})
+    ->Args({12, 1})
+    ->Args({12, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true);
 
 // The same with parallel lines of one length (BlockLayout::kParallel): pairs, and each pair's
 // size, grow linearly with the strips — the time should too.
@@ -83,8 +90,15 @@ void BM_ParallelBlockCalibrate(benchmark::State& state) {
   state.counters["s_per_pair"] = S.time_s / std::max(overlapping, 1);
   state.counters["usable"] = S.IsSolutionUsable();
 }
-BENCHMARK(BM_ParallelBlockCalibrate)->Arg(4)->Arg(8)->Arg(16)->Arg(32)
-    ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true);
+BENCHMARK(BM_ParallelBlockCalibrate)
+    ->Arg(4)
+    ->Arg(8)
+    ->Arg(16)
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true);
 
 // One matching from scratch on the 12-strip block (candidates of every pair, then the matching):
 // strip points in the overlaps per second, on 1 and 2 threads.

@@ -40,7 +40,8 @@ const SimulatedSurvey& bigSurvey() {
     flat.setGround(0.0, 0.001, -0.0015);
     for (int i = 0; i < 50; ++i)
       for (int j = 0; j < 50; ++j)
-        flat.addFeature({"g" + std::to_string(i) + "_" + std::to_string(j), Vec3(-245 + 10.0 * i, -245 + 10.0 * j, 0.0), SurfaceKind::kGround, 3.0});
+        flat.addFeature(
+            {"g" + std::to_string(i) + "_" + std::to_string(j), Vec3(-245 + 10.0 * i, -245 + 10.0 * j, 0.0), SurfaceKind::kGround, 3.0});
     for (auto& f : const_cast<std::vector<FeaturePoint>&>(flat.features())) f.x_m.z() = flat.groundHeight(f.x_m.x(), f.x_m.y());
     flat.build();
     c.roi_radius_m = 3.0;

@@ -51,8 +51,7 @@ const Survey& survey() {
   return s;
 }
 
-const MountingParameters kMounting =
-    MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12));
+const MountingParameters kMounting = MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12));
 
 void BM_ForwardLineScan(benchmark::State& state) {
   const Survey& s = survey();

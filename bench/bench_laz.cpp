@@ -24,7 +24,7 @@ const std::string kLargest = std::string(MOUNTCAL_SHARED_DIR) + "/data/laz/las_w
 struct Strip {
   LasHeader header;
   std::vector<std::uint8_t> records;
-  std::vector<LazChunk> chunks;              // as compressed in the original (largest file)
+  std::vector<LazChunk> chunks;  // as compressed in the original (largest file)
   std::vector<std::vector<std::uint8_t>> compressed;
   std::uint64_t points() const { return records.size() / header.point_record_length; }
 };
@@ -132,7 +132,8 @@ void encodeOneCore(benchmark::State& state) {
     std::size_t bytes = 0;
     for (std::size_t first = 0; first < s.points(); first += vlr.chunk_size)
       bytes += encodeLazChunk(vlr, s.records.data() + first * s.header.point_record_length,
-                              std::min<std::size_t>(vlr.chunk_size, s.points() - first)).size();
+                              std::min<std::size_t>(vlr.chunk_size, s.points() - first))
+                   .size();
     benchmark::DoNotOptimize(bytes);
   }
   ratio(state, s);
@@ -150,7 +151,8 @@ void encodeAllCores(benchmark::State& state) {
     w.writeRaw(s.records.data(), s.points());
     w.close();
   }
-  state.counters["file_ratio"] = static_cast<double>(fs::file_size(fileOf(static_cast<int>(state.range(0))))) / static_cast<double>(s.records.size());
+  state.counters["file_ratio"] =
+      static_cast<double>(fs::file_size(fileOf(static_cast<int>(state.range(0))))) / static_cast<double>(s.records.size());
   state.counters["points/s"] = benchmark::Counter(static_cast<double>(s.points()), benchmark::Counter::kIsIterationInvariantRate);
 }
 
@@ -176,9 +178,37 @@ void decodeAllCores(benchmark::State& state) {
 }  // namespace
 
 // Argument 0: the largest reference file; 1: the simulated 10 M-point strip.
-BENCHMARK(decodeOneCore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true)->UseRealTime();
-BENCHMARK(decodeAllCores)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true)->UseRealTime();
-BENCHMARK(encodeOneCore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true)->UseRealTime();
-BENCHMARK(encodeAllCores)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(true)->UseRealTime();
+BENCHMARK(decodeOneCore)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true)
+    ->UseRealTime();
+BENCHMARK(decodeAllCores)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true)
+    ->UseRealTime();
+BENCHMARK(encodeOneCore)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true)
+    ->UseRealTime();
+BENCHMARK(encodeAllCores)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true)
+    ->UseRealTime();
 
 BENCHMARK_MAIN();

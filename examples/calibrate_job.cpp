@@ -10,7 +10,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const mountcal::Job job = mountcal::readJob(argv[1]);              // every field checked
+    const mountcal::Job job = mountcal::readJob(argv[1]);               // every field checked
     const mountcal::CalibrationData data = mountcal::loadJobData(job);  // strips → raw observations
     // job.options holds the job's methods and settings; fresh Options would drop them.
     const mountcal::MountingCalibrator::Summary summary = mountcal::calibrate(data, job.options);

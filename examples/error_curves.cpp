@@ -38,8 +38,7 @@ int main(int argc, char** argv) {
   for (const auto& s : samples) {
     const int a = static_cast<int>(std::lround(rad2deg(s.scan_angle_rad)));
     if (a % 15 != 0) continue;
-    std::printf("%8.0f %7d° %10.3f %10.3f %10.3f\n", s.range_m, a, s.exact_b.x(), s.exact_b.y(),
-                s.exact_b.z());
+    std::printf("%8.0f %7d° %10.3f %10.3f %10.3f\n", s.range_m, a, s.exact_b.x(), s.exact_b.y(), s.exact_b.z());
   }
   std::printf("wrote %s/fig_errors.csv, fig1_x.svg, fig2_y.svg, fig3_z.svg\n", out.c_str());
   return 0;

@@ -14,11 +14,11 @@
 using namespace mountcal;
 using namespace mountcal::simulation;
 
-
 int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
+    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc)
+      seed = std::strtoull(argv[++i], nullptr, 10);
     else {
       std::fprintf(stderr, "usage: %s [--seed N]\n", argv[0]);
       return 2;
@@ -61,8 +61,7 @@ int main(int argc, char** argv) {
   std::printf("Crossing field (seed %llu), survey-grade noise; lever_arm_z held (no ground control).\n",
               static_cast<unsigned long long>(seed));
   std::printf("Per parameter: error against the truth / sigma; lever arm [mm], boresight [0.001 deg].\n\n");
-  std::printf("%-38s %15s %15s %15s %15s %15s %7s %6s\n", "method", "lever x", "lever y", "roll", "pitch", "heading", "time s",
-              "s0^2");
+  std::printf("%-38s %15s %15s %15s %15s %15s %7s %6s\n", "method", "lever x", "lever y", "roll", "pitch", "heading", "time s", "s0^2");
   int status = 0;
   const auto t = c.true_mounting.toArray();
   for (const Row& r : rows) {
@@ -73,8 +72,10 @@ int main(int argc, char** argv) {
     for (int j : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading}) {
       const double k = j < 3 ? 1000.0 : 1000.0 * 180.0 / kPi;
       char cell[32];
-      if (!S.estimated[j]) std::snprintf(cell, sizeof cell, "undet.");
-      else std::snprintf(cell, sizeof cell, "%+.1f / %.1f", (e[j] - t[j]) * k, S.sigma[j] * k);
+      if (!S.estimated[j])
+        std::snprintf(cell, sizeof cell, "undet.");
+      else
+        std::snprintf(cell, sizeof cell, "%+.1f / %.1f", (e[j] - t[j]) * k, S.sigma[j] * k);
       std::printf(" %15s", cell);
     }
     std::printf(" %7.2f %6.2f\n", S.time_s, S.variance_factor);

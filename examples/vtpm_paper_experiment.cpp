@@ -28,20 +28,20 @@ SimulatedSurvey run(const std::string& preset, std::uint64_t seed) {
   return simulate(config, scene);
 }
 
-void table(const char* title, const std::vector<std::string>& labels, const std::vector<Vec3>& a,
-           const std::vector<Vec3>& b, const char* ha, const char* hb) {
+void table(const char* title, const std::vector<std::string>& labels, const std::vector<Vec3>& a, const std::vector<Vec3>& b,
+           const char* ha, const char* hb) {
   std::printf("\n%s\n%-16s %9s %9s %9s | %9s %9s %9s\n", title, "", ha, "", "", hb, "", "");
   std::printf("%-16s %9s %9s %9s | %9s %9s %9s\n", "point", "dX", "dY", "dZ", "dX", "dY", "dZ");
   Vec3 sa = Vec3::Zero(), sb = Vec3::Zero();
   for (std::size_t i = 0; i < a.size(); ++i) {
-    std::printf("%-16s %+9.3f %+9.3f %+9.3f | %+9.3f %+9.3f %+9.3f\n", labels[i].c_str(), a[i].x(), a[i].y(), a[i].z(),
-                b[i].x(), b[i].y(), b[i].z());
+    std::printf("%-16s %+9.3f %+9.3f %+9.3f | %+9.3f %+9.3f %+9.3f\n", labels[i].c_str(), a[i].x(), a[i].y(), a[i].z(), b[i].x(), b[i].y(),
+                b[i].z());
     sa += a[i].cwiseAbs2();
     sb += b[i].cwiseAbs2();
   }
   const double n = static_cast<double>(std::max<std::size_t>(a.size(), 1));
-  std::printf("%-16s %9.4f %9.4f %9.4f | %9.4f %9.4f %9.4f\n", "RMS", std::sqrt(sa.x() / n), std::sqrt(sa.y() / n),
-              std::sqrt(sa.z() / n), std::sqrt(sb.x() / n), std::sqrt(sb.y() / n), std::sqrt(sb.z() / n));
+  std::printf("%-16s %9.4f %9.4f %9.4f | %9.4f %9.4f %9.4f\n", "RMS", std::sqrt(sa.x() / n), std::sqrt(sa.y() / n), std::sqrt(sa.z() / n),
+              std::sqrt(sb.x() / n), std::sqrt(sb.y() / n), std::sqrt(sb.z() / n));
 }
 
 }  // namespace
@@ -50,8 +50,10 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   bool all_ties = false;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
-    else if (!std::strcmp(argv[i], "--all-ties")) all_ties = true;
+    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc)
+      seed = std::strtoull(argv[++i], nullptr, 10);
+    else if (!std::strcmp(argv[i], "--all-ties"))
+      all_ties = true;
     else {
       std::fprintf(stderr, "usage: %s [--seed N] [--all-ties]\n", argv[0]);
       return 2;
@@ -95,8 +97,8 @@ int main(int argc, char** argv) {
     const CalibrationData check = toCalibrationData(block, /*use_check_points=*/true);
     const CheckPointReport cb = evaluateCheckPoints(check, block.config.nominal_mounting);
     const CheckPointReport ca = evaluateCheckPoints(check, S.mounting);
-    std::printf("\nExperiment 2: %s, %zu strips at 3200 m, %zu check-point observations\n", block.config.name.c_str(),
-                block.strips.size(), ca.residuals.size());
+    std::printf("\nExperiment 2: %s, %zu strips at 3200 m, %zu check-point observations\n", block.config.name.c_str(), block.strips.size(),
+                ca.residuals.size());
     std::vector<std::string> cl;
     std::vector<Vec3> b2, a2;
     for (std::size_t i = 0; i < ca.residuals.size() && i < cb.residuals.size(); ++i) {
@@ -109,8 +111,8 @@ int main(int argc, char** argv) {
     for (const auto& p : block.check_planes) planes.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
     const auto pb = evaluateCheckPlanes(check, planes, block.config.nominal_mounting);
     const auto pa = evaluateCheckPlanes(check, planes, S.mounting);
-    std::printf("\nTable 3 — check planes, RMS = sqrt(sum d^2 / (n - 3)) [m] (seed eq. 13)\n%-10s %8s %10s %10s\n", "plane",
-                "points", "before", "VTPM");
+    std::printf("\nTable 3 — check planes, RMS = sqrt(sum d^2 / (n - 3)) [m] (seed eq. 13)\n%-10s %8s %10s %10s\n", "plane", "points",
+                "before", "VTPM");
     bool planes_improve = true;
     for (std::size_t i = 0; i < pa.size(); ++i) {
       std::printf("%-10s %8d %10.4f %10.4f\n", pa[i].plane_id.c_str(), pa[i].points, pb[i].rms_m, pa[i].rms_m);

@@ -12,14 +12,14 @@ seconds="${1:-60}"
 out="$root/build-fuzz"
 mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv" "$out/corpus_job" "$out/corpus_pairs"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
-       -I"$root/include" -I/usr/include/eigen3)
+       -I"$root/include" -I"$root/src" -I/usr/include/eigen3)
 laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
-clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/src/io/las.cpp" "${laz_sources[@]}" "$root/src/error.cpp" -lpthread
-clang++ "${flags[@]}" -o "$out/fuzz_laz" "$root/tests/fuzz/fuzz_laz.cpp" "${laz_sources[@]}" "$root/src/error.cpp"
+clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/src/io/las.cpp" "${laz_sources[@]}" "$root/src/core/error.cpp" -lpthread
+clang++ "${flags[@]}" -o "$out/fuzz_laz" "$root/tests/fuzz/fuzz_laz.cpp" "${laz_sources[@]}" "$root/src/core/error.cpp"
 clang++ "${flags[@]}" -o "$out/fuzz_sbet" "$root/tests/fuzz/fuzz_sbet.cpp" "$root/src/io/sbet.cpp" \
-  "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/error.cpp"
+  "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/core/geodesy.cpp" "$root/src/core/trajectory.cpp" "$root/src/core/error.cpp"
 clang++ "${flags[@]}" -o "$out/fuzz_csv" "$root/tests/fuzz/fuzz_csv.cpp" "$root/src/io/sbet.cpp" "$root/src/io/csv.cpp" \
-  "$root/src/io/atomic_file.cpp" "$root/src/geodesy.cpp" "$root/src/trajectory.cpp" "$root/src/sensor_model.cpp" "$root/src/error.cpp"
+  "$root/src/io/atomic_file.cpp" "$root/src/core/geodesy.cpp" "$root/src/core/trajectory.cpp" "$root/src/core/sensor_model.cpp" "$root/src/core/error.cpp"
 # The job parser validates settings through the calibrator's options: it is instrumented, the rest
 # of the library comes from the release build (scripts/test.sh builds it; built here if missing).
 if [ ! -f "$root/build/src/libmountcal.a" ]; then
@@ -27,10 +27,10 @@ if [ ! -f "$root/build/src/libmountcal.a" ]; then
   cmake --build "$root/build" --target mountcal -j "$(nproc)" > /dev/null
 fi
 clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_job" "$root/tests/fuzz/fuzz_job.cpp" "$root/src/job/schema.cpp" \
-  "$root/build/src/libmountcal.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+  "$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
 # The correspondence pair file reader, instrumented; the options' checks from the release library.
 clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_pairs" "$root/tests/fuzz/fuzz_pairs.cpp" "$root/src/methods/correspondence/pair_file.cpp" \
-  "$root/build/src/libmountcal.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+  "$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
 # Its seed: a small pair file written here byte by byte (README "Correspondence pair files").
 python3 - "$out/corpus_pairs/seed.mcpair" <<'PY'
 import struct, sys

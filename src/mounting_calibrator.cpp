@@ -166,8 +166,8 @@ std::string MountingCalibrator::Summary::FullReport() const {
   char buf[320];
   r << "mountcal — mounting calibration (" << methodList(methods) << ")\n\n";
   r << "Termination: " << toString(termination) << " (" << message << ")\n";
-  std::snprintf(buf, sizeof buf, "Iterations %d, cost %.6g -> %.6g, %.3f s (construction %.3f, solve %.3f, analysis %.3f)\n",
-                iterations, initial_cost, final_cost, time_s, construction_time_s, solve_time_s, analysis_time_s);
+  std::snprintf(buf, sizeof buf, "Iterations %d, cost %.6g -> %.6g, %.3f s (construction %.3f, solve %.3f, analysis %.3f)\n", iterations,
+                initial_cost, final_cost, time_s, construction_time_s, solve_time_s, analysis_time_s);
   r << buf;
   for (const auto& k : kinds) r << "  " << k.kind << ": " << k.blocks << " residual blocks, " << k.residuals << " residuals\n";
   std::snprintf(buf, sizeof buf, "Degrees of freedom %d, variance factor %.4g\n\n", degrees_of_freedom, variance_factor);
@@ -195,7 +195,8 @@ std::string MountingCalibrator::Summary::FullReport() const {
   r << "\nCorrelations:\n";
   for (int a = 0; a < 6; ++a) {
     for (int b = 0; b < 6; ++b) {
-      if (std::isnan(correlation(a, b))) r << "      -";
+      if (std::isnan(correlation(a, b)))
+        r << "      -";
       else {
         std::snprintf(buf, sizeof buf, " %+6.3f", correlation(a, b));
         r << buf;

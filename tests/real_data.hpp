@@ -14,8 +14,8 @@ inline bool envTrue(const char* name) {
   return v && *v && std::string(v) != "false" && std::string(v) != "0";
 }
 inline bool inCi() { return envTrue("MOUNTCAL_REQUIRE_REAL_DATA") || envTrue("CI"); }
-#define REQUIRE_DATA(rel)                                                                                     \
-  if (!std::filesystem::exists(dataFile(rel))) {                                                              \
+#define REQUIRE_DATA(rel)                                                                                                 \
+  if (!std::filesystem::exists(dataFile(rel))) {                                                                          \
     if (inCi()) FAIL() << "real data not found in CI: " << dataFile(rel) << " (../shared must be beside the repository)"; \
-    GTEST_SKIP() << "real data not found: " << dataFile(rel) << " (needs ../shared beside the repository)";     \
+    GTEST_SKIP() << "real data not found: " << dataFile(rel) << " (needs ../shared beside the repository)";               \
   }

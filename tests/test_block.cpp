@@ -174,7 +174,8 @@ TEST(Block, VirtualTiePointsAndSimulationDoNotDependOnThreads) {
   for (std::size_t k = 0; k < s1.ties.size(); ++k) EXPECT_EQ(s1.ties[k].x_m, s2.ties[k].x_m);
   const CalibrationData d = toCalibrationData(s1);
   MountingCalibrator::Options o;
-  const TieObservations one(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 1), two(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 2);
+  const TieObservations one(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 1),
+      two(d, d.ties, d.gcps, o.method<VtpmOptions>(), o.method<VtpmOptions>().vtp, "ties", 2);
   ASSERT_GT(one.virtualTiePoints().size(), 100u);
   ASSERT_EQ(one.virtualTiePoints().size(), two.virtualTiePoints().size());
   for (std::size_t k = 0; k < one.virtualTiePoints().size(); ++k) {

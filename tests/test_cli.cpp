@@ -99,7 +99,8 @@ std::string writeIndependentJob() {
   FILE* f = std::fopen((dir / "traj.csv").c_str(), "w");
   std::fprintf(f, "time,x,y,z,roll_deg,pitch_deg,heading_deg\n");
   for (const TrajectorySample& p : s.measured_trajectory->samples())
-    std::fprintf(f, "%.6f,%.5f,%.5f,%.5f,%.9f,%.9f,%.9f\n", p.time_s, p.p_m.x(), p.p_m.y(), p.p_m.z(), rad2deg(p.roll), rad2deg(p.pitch), rad2deg(p.heading));
+    std::fprintf(f, "%.6f,%.5f,%.5f,%.5f,%.9f,%.9f,%.9f\n", p.time_s, p.p_m.x(), p.p_m.y(), p.p_m.z(), rad2deg(p.roll), rad2deg(p.pitch),
+                 rad2deg(p.heading));
   std::fclose(f);
   std::string strips;
   for (const SimulatedStrip& st : s.strips) {
@@ -118,7 +119,8 @@ std::string writeIndependentJob() {
       << " \"mounting_used\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]},"
       << " \"strips\": [" << strips << "], \"ties\": \"ties.csv\", \"method\": \"vtpm\","
       << " \"estimate\": {\"lever_arm\": [true, true, false], \"boresight\": [true, true, true]},"
-      << " \"vtpm\": {\"radius_m\": 1.0, \"ransac_threshold_m\": 0.05, \"tie_sigma_xy_m\": 0.03, \"tie_sigma_z_m\": 0.03, \"strip_offset_sigma_m\": 0.005},"
+      << " \"vtpm\": {\"radius_m\": 1.0, \"ransac_threshold_m\": 0.05, \"tie_sigma_xy_m\": 0.03, \"tie_sigma_z_m\": 0.03, "
+         "\"strip_offset_sigma_m\": 0.005},"
       << " \"solver\": {\"max_iterations\": 100, \"loss\": \"trivial\"},"
       << " \"output\": {\"result\": \"result.json\", \"report\": \"report.html\"}}\n";
   return (dir / "job.json").string();
@@ -171,9 +173,10 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
   std::string flagged = las;  // the compression bit without a LASzip VLR
   flagged[104] = static_cast<char>(flagged[104] | 0x80);
   writeFile("points.laz", flagged);
-  writeFile("notlas.las", "this is not a LAS file, just text that is long enough to hold a header ............"
-                          "..........................................................................................."
-                          "...........................................................................");
+  writeFile("notlas.las",
+            "this is not a LAS file, just text that is long enough to hold a header ............"
+            "..........................................................................................."
+            "...........................................................................");
   writeFile("unsorted.csv", "time,x,y,z,roll_deg,pitch_deg,heading_deg\n2,0,0,0,0,0,0\n1,0,0,0,0,0,0\n");
   writeFile("nan.csv", "time,x,y,z,roll_deg,pitch_deg,heading_deg\n1,0,0,0,0,0,0\n2,nan,0,0,0,0,0\n");
   writeFile("badties.csv", "tie_id,strip_id,x,y\na,1,0,0\na,99,1,1\n");
@@ -195,13 +198,15 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("badties.json", "\"ties.csv\"", "\"badties.csv\""), "badties.csv:line 3"},
       {variant("outside.json", "\"traj.csv\"", "\"shorttraj.csv\""), "outside the trajectory"},
       {variant("offset.json", "\"format\": \"csv\"}", "\"format\": \"csv\", \"time_offset_s\": 1e9}"), "time encoding mismatch"},
-      {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"), "traj.csv:line 1: missing column 'lat_deg'"},
+      {variant("crs.json", "{\"type\": \"local\"}", "{\"type\": \"crs\", \"crs\": \"EPSG:32611\"}"),
+       "traj.csv:line 1: missing column 'lat_deg'"},
       {variant("sbetlocal.json", "\"format\": \"csv\"}", "\"format\": \"sbet\"}"), "an SBET needs"},
       {variant("features.json", "\"method\": \"vtpm\"", "\"method\": \"features\""), "needs the target regions CSV"},
       {variant("planes.json", "\"method\": \"vtpm\"", "\"method\": \"planes\""), "field 'planes': missing"},
       {variant("methods.json", "\"method\": \"vtpm\"", "\"method\": [\"vtpm\", \"vtpm\"]"), "named twice"},
       {variant("method9.json", "\"method\": \"vtpm\"", "\"method\": [\"vtpm\", 9]"), "field 'method'"},
-      {variant("budget.json", "\"method\": \"vtpm\"", "\"method\": \"correspondences\", \"correspondence\": {\"budget\": 2.5}"), "field 'correspondence.budget'"},
+      {variant("budget.json", "\"method\": \"vtpm\"", "\"method\": \"correspondences\", \"correspondence\": {\"budget\": 2.5}"),
+       "field 'correspondence.budget'"},
       {variant("nostrips.json", "\"strips\": [", "\"strip_list\": ["), "field 'strip_list'"},
       {variant("noties.json", "\"ties\": \"ties.csv\",", ""), "field 'ties': missing"},
   };
@@ -218,9 +223,7 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
 }
 
 namespace {
-nlohmann::json resultOf(const std::string& job_dir) {
-  return nlohmann::json::parse(slurp(job_dir + "/result.json"));
-}
+nlohmann::json resultOf(const std::string& job_dir) { return nlohmann::json::parse(slurp(job_dir + "/result.json")); }
 }  // namespace
 
 TEST(Cli, SameSurveyInUtmWithSbetAndInALocalFrameGivesTheSameMounting) {

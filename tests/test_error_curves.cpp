@@ -68,7 +68,7 @@ TEST_F(Curves, CrossTrackErrorIsLargestAtNadirAndFallsWithScanAngle) {
     EXPECT_NEAR(std::abs(curve[nadir].exact_b.y()), kDelta * rho, remainder(rho));
     for (std::size_t i = nadir + 1; i < curve.size(); ++i) {
       EXPECT_LT(std::abs(curve[i].exact_b.y()), std::abs(curve[i - 1].exact_b.y()));  // +θ side
-      const std::size_t j = 2 * nadir - i;                                             // −θ side
+      const std::size_t j = 2 * nadir - i;                                            // −θ side
       EXPECT_LT(std::abs(curve[j].exact_b.y()), std::abs(curve[j + 1].exact_b.y()));
     }
   }
@@ -104,8 +104,7 @@ TEST_F(Curves, CsvAndSvgAreWellFormed) {
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
   EXPECT_EQ(std::count(svg.begin(), svg.end(), '\n') > 10, true);
   size_t polylines = 0;
-  for (size_t p = svg.find("<polyline"); p != std::string::npos; p = svg.find("<polyline", p + 1))
-    ++polylines;
+  for (size_t p = svg.find("<polyline"); p != std::string::npos; p = svg.find("<polyline", p + 1)) ++polylines;
   EXPECT_EQ(polylines, ranges.size());
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
 }

@@ -187,7 +187,8 @@ TEST(FeatureMethod, OneHeightNamesThePitchLeverArmCouplingTwoHeightsDetermineBot
   const auto S1 = calibrate(toCalibrationData(one.survey), featureOptions(true));
   ASSERT_EQ(one.survey.strips.size(), 3u);
   EXPECT_TRUE(S1.section<FeatureSection>().closed_form.pitch_lever_arm_coupled);
-  EXPECT_NE(S1.section<FeatureSection>().closed_form.message.find("coupled"), std::string::npos) << S1.section<FeatureSection>().closed_form.message;
+  EXPECT_NE(S1.section<FeatureSection>().closed_form.message.find("coupled"), std::string::npos)
+      << S1.section<FeatureSection>().closed_form.message;
   const bool lever_x_named = std::find(S1.unobservable.begin(), S1.unobservable.end(), "lever_arm_x") != S1.unobservable.end() ||
                              std::find(S1.unobservable.begin(), S1.unobservable.end(), "boresight_pitch") != S1.unobservable.end();
   EXPECT_TRUE(lever_x_named || std::abs(S1.correlation(0, 4)) > 0.99) << S1.FullReport();
@@ -246,7 +247,8 @@ TEST(FeatureMethod, UnusableRegionsAreRejectedWithTheirReasonsTheRestStillUsed) 
   EXPECT_NE(reasonFor("two_boards", "").find("more than one target"), std::string::npos) << reasonFor("two_boards", "");
   EXPECT_NE(reasonFor("target_1", hidden_strip).find("does not see the target"), std::string::npos) << reasonFor("target_1", hidden_strip);
   // target_1 is still used with its other strips, and every preset target is used.
-  EXPECT_NE(std::find(S.section<FeatureSection>().target_ids.begin(), S.section<FeatureSection>().target_ids.end(), "target_1"), S.section<FeatureSection>().target_ids.end());
+  EXPECT_NE(std::find(S.section<FeatureSection>().target_ids.begin(), S.section<FeatureSection>().target_ids.end(), "target_1"),
+            S.section<FeatureSection>().target_ids.end());
   // target_3 of the preset lies on the road's centre line: the bright stripe runs through its
   // region on every strip, and the region is refused for it.
   EXPECT_NE(reasonFor("target_3", "1").find("run to the region's edge"), std::string::npos) << reasonFor("target_3", "1");
@@ -316,8 +318,9 @@ TEST(FeatureMethod, HouseCornersAfterCorrectionWithinTenCentimetres) {
       if ((f.x_m - p.p_m).norm() > s.config.multibeam.max_range_m) continue;
       const Vec3 r_s = truth.inverse(t, f.x_m);
       if (std::getenv("MOUNTCAL_DEBUG_CORNERS")) {
-        std::printf("%s strip %s range %.1f: before %.3f after %.3f at truth %.3f\n", f.id.c_str(), strip.id.c_str(), (f.x_m - p.p_m).norm(),
-                    (before.forward(t, r_s) - f.x_m).norm(), (after.forward(t, r_s) - f.x_m).norm(), (at_truth.forward(t, r_s) - f.x_m).norm());
+        std::printf("%s strip %s range %.1f: before %.3f after %.3f at truth %.3f\n", f.id.c_str(), strip.id.c_str(),
+                    (f.x_m - p.p_m).norm(), (before.forward(t, r_s) - f.x_m).norm(), (after.forward(t, r_s) - f.x_m).norm(),
+                    (at_truth.forward(t, r_s) - f.x_m).norm());
       }
       worst_before = std::max(worst_before, (before.forward(t, r_s) - f.x_m).norm());
       const double e_after = (after.forward(t, r_s) - f.x_m).norm(), e_truth = (at_truth.forward(t, r_s) - f.x_m).norm();

@@ -31,8 +31,7 @@ std::shared_ptr<const Trajectory> randomTrajectory(std::mt19937& rng, PositionIn
   for (std::size_t i = 0; i < s.size(); ++i) {
     const double t = 0.005 * static_cast<double>(i);
     s[i].time_s = 350000.0 + t;
-    s[i].p_m = Vec3(500000 + 60 * t * std::sin(h0), 4100000 + 60 * t * std::cos(h0),
-                    1200 + 2 * std::sin(0.3 * t));
+    s[i].p_m = Vec3(500000 + 60 * t * std::sin(h0), 4100000 + 60 * t * std::cos(h0), 1200 + 2 * std::sin(0.3 * t));
     s[i].roll = r0 + 0.004 * std::sin(0.7 * t);
     s[i].pitch = p0 + 0.003 * std::cos(0.5 * t);
     s[i].heading = h0 + 0.002 * std::sin(0.2 * t);
@@ -86,20 +85,25 @@ TEST(Georeference, RandomRoundTripsWithinANanometre) {
   const LineScannerModel line;
   double worst = 0;
   for (int trial = 0; trial < 20; ++trial) {
-    const auto traj = randomTrajectory(
-        rng, trial % 2 ? PositionInterpolation::kCubic : PositionInterpolation::kLinear);
-    const auto m = MountingParameters::fromDegrees(
-        Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)),
-        Vec3(180 * u(rng), 90 * u(rng), 180 * u(rng)));
+    const auto traj = randomTrajectory(rng, trial % 2 ? PositionInterpolation::kCubic : PositionInterpolation::kLinear);
+    const auto m = MountingParameters::fromDegrees(Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)),
+                                                   Vec3(180 * u(rng), 90 * u(rng), 180 * u(rng)));
     const GeoreferenceModel model(traj, m);
     std::uniform_real_distribution<double> t(traj->startTime(), traj->endTime());
     for (int k = 0; k < 200; ++k) {
       Vec3 r_s;
       switch (k % 4) {
-        case 0: r_s = line.vector(1.2 * u(rng), 200 + 3000 * std::abs(u(rng))); break;
-        case 1: r_s = vlp.vector(k % 16, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1); break;
-        case 2: r_s = hdl.vector(k % 32, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1); break;
-        default: r_s = Vec3(500 * u(rng), 500 * u(rng), 500 * u(rng));
+        case 0:
+          r_s = line.vector(1.2 * u(rng), 200 + 3000 * std::abs(u(rng)));
+          break;
+        case 1:
+          r_s = vlp.vector(k % 16, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1);
+          break;
+        case 2:
+          r_s = hdl.vector(k % 32, kPi * (1 + u(rng)), 100 * std::abs(u(rng)) + 1);
+          break;
+        default:
+          r_s = Vec3(500 * u(rng), 500 * u(rng), 500 * u(rng));
       }
       const double time = t(rng);
       const Vec3 back = model.inverse(time, model.forward(time, r_s));
@@ -126,8 +130,7 @@ TEST(Georeference, BatchEqualsSingleAndRoundTrips) {
   std::swap(t[10], t[4000]);  // unsorted times are handled too
   std::swap(theta[10], theta[4000]);
   std::swap(rho[10], rho[4000]);
-  for (std::size_t k : {std::size_t{10}, std::size_t{4000}})
-    Eigen::Map<Vec3>{&r_s[3 * k]} = line.vector(theta[k], rho[k]);
+  for (std::size_t k : {std::size_t{10}, std::size_t{4000}}) Eigen::Map<Vec3>{&r_s[3 * k]} = line.vector(theta[k], rho[k]);
   model.forward(t.data(), r_s.data(), x_m.data(), n);
   model.forwardLineScan(line, t.data(), theta.data(), rho.data(), x_line.data(), n);
   model.inverse(t.data(), x_m.data(), back.data(), n);
@@ -146,8 +149,7 @@ TEST(Georeference, TimesOutsideTheTrajectoryThrow) {
   const double r[6] = {0, 0, 1, 0, 0, 1};
   double x[6];
   EXPECT_THROW(model.forward(t, r, x, 2), TimeOutOfRange);
-  EXPECT_THROW(GeoreferenceModel(std::shared_ptr<const Trajectory>(), MountingParameters{}),
-               InvalidInput);
+  EXPECT_THROW(GeoreferenceModel(std::shared_ptr<const Trajectory>(), MountingParameters{}), InvalidInput);
 }
 
 // A committed fixture with every angle and the lever arm non-zero, derived outside mountcal:
@@ -245,7 +247,7 @@ TEST(Georeference, BatchIntervalExpansionEqualsExactSlerp) {
 TEST(Georeference, SinCosBatchAgreesWithTheCLibrary) {
   std::vector<double> theta;
   for (int k = -4000; k <= 4000; ++k) theta.push_back(k * 1.0e-3 * kPi);  // ±4π, every quadrant
-  for (int q = -16; q <= 16; ++q) {  // the quadrant boundaries and either side of them
+  for (int q = -16; q <= 16; ++q) {                                       // the quadrant boundaries and either side of them
     for (double d : {0.0, 1e-17, -1e-17, 1e-9, -1e-9}) theta.push_back(q * kPi / 4 + d);
   }
   for (double x : {0.0, -0.0, 1e-300, 12345.678, -99999.9, 1e5, -1e5}) theta.push_back(x);

@@ -39,7 +39,7 @@ TEST(PerPointPoses, EnuFluConventionByHand) {
   // right-hand side goes down.
   const Mat3 Rr = io::bodyToMapping(io::AttitudeConvention::kEnuFlu, 0.1, 0.0, 0.0);
   const Mat3 Rn = io::bodyToMapping(io::AttitudeConvention::kNedFrd, 0.1, 0.0, kPi / 2);  // heading 90° = facing East
-  EXPECT_LT((Rr * Vec3::UnitY()).z(), 0.0);  // FLU roll rotates left up, i.e. right down
+  EXPECT_LT((Rr * Vec3::UnitY()).z(), 0.0);                                               // FLU roll rotates left up, i.e. right down
   EXPECT_LT((Rn * Vec3::UnitY()).z(), 0.0);
   EXPECT_NEAR(Rr.determinant(), 1.0, 1e-12);
   // The job's nominal rotation zyx(180°, −90°, 0) is F·Ry(90°): the fullframes' scannerOrient
@@ -60,7 +60,7 @@ TEST(PerPointPoses, TruckRingsOnTheHdl32eCones) {
   ASSERT_EQ(L.data.strips.size(), 2u);
   EXPECT_EQ(L.data.strips[0].time_s.size(), 20013u);  // frameNo 712–761
   EXPECT_EQ(L.data.strips[1].time_s.size(), 6401u);   // frameNo 1189–1267
-  std::vector<double> off;  // signed offset from the nearest nominal ring [deg]
+  std::vector<double> off;                            // signed offset from the nearest nominal ring [deg]
   for (const StripData& s : L.data.strips) {
     ASSERT_EQ(s.poses.size(), s.r_s.size());
     for (const Vec3& r : s.r_s) {
@@ -192,8 +192,7 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, GravityCalibration,
-                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225},
-                                           GravityCase{"car", "Car.las", 0.20, 0.0230},
+                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225}, GravityCase{"car", "Car.las", 0.20, 0.0230},
                                            GravityCase{"tent", "Tent.las", 0.020, 0.0108}),
                          [](const auto& info) { return std::string(info.param.name); });
 

@@ -137,16 +137,20 @@ TEST_F(Hardening, OutputsNeverReplaceInputs) {
   const std::string same = variant("o_same.json", [](json& j) { j["output"] = {{"result", "x.out"}, {"report", "./x.out"}}; });
   expectRefused("calibrate --quiet " + same, "field 'output.report'", "is also output.result");
   // A report that cannot be written: refused before the solve, and the result not written.
-  const std::string nofolder = variant("o_nofolder.json", [](json& j) { j["output"] = {{"result", "r_nofolder.json"}, {"report", "/nonexistent/r.html"}}; });
+  const std::string nofolder = variant("o_nofolder.json", [](json& j) {
+    j["output"] = {{"result", "r_nofolder.json"}, {"report", "/nonexistent/r.html"}};
+  });
   expectRefused("calibrate --quiet " + nofolder, "field 'output.report'", "does not exist");
   EXPECT_FALSE(fs::exists(field() / "r_nofolder.json"));
   // apply: onto the inputs' own folder, and onto the result file it reads.
   ASSERT_EQ(cli("calibrate --quiet " + (field() / "job.json").string()).code, 0);
-  expectRefused("apply " + (field() / "job.json").string() + " --result " + (field() / "result.json").string() + " --out " + field().string(),
-                "strip_1.las", "apply would overwrite an input");
+  expectRefused(
+      "apply " + (field() / "job.json").string() + " --result " + (field() / "result.json").string() + " --out " + field().string(),
+      "strip_1.las", "apply would overwrite an input");
   spit(dir() / "strip_1.las", "a result file that looks like a strip's output");
   fs::copy_file(field() / "result.json", dir() / "strip_1.las", fs::copy_options::overwrite_existing);
-  const CliRun r = cli("apply " + (field() / "job.json").string() + " --result " + (dir() / "strip_1.las").string() + " --out " + dir().string());
+  const CliRun r =
+      cli("apply " + (field() / "job.json").string() + " --result " + (dir() / "strip_1.las").string() + " --out " + dir().string());
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("apply would overwrite an input"), std::string::npos) << r.err;
 }
@@ -169,18 +173,24 @@ TEST_F(Hardening, SeveralOutputsAllOrNothing) {
 TEST_F(Hardening, AbsurdValuesAreRefused) {
   const std::string traj = slurp(field() / "trajectory.csv");
   spit(field() / "t_att.csv", withLine(traj, 100, [](const std::string& l) { return replaceField(l, 4, "1e300"); }));
-  expectRefused("calibrate --quiet " + variant("a_att.json", [](json& j) { j["trajectory"]["path"] = "t_att.csv"; }), "t_att.csv:line 100", "attitude");
+  expectRefused("calibrate --quiet " + variant("a_att.json", [](json& j) { j["trajectory"]["path"] = "t_att.csv"; }), "t_att.csv:line 100",
+                "attitude");
   spit(field() / "t_pos.csv", withLine(traj, 100, [](const std::string& l) { return replaceField(l, 1, "1e300"); }));
-  expectRefused("calibrate --quiet " + variant("a_pos.json", [](json& j) { j["trajectory"]["path"] = "t_pos.csv"; }), "t_pos.csv:line 100", "no platform flies");
-  expectRefused("calibrate --quiet " + variant("a_rad.json", [](json& j) { j["vtpm"]["radius_m"] = 1e6; }), "field 'vtpm.radius_m'", "expected a number in");
-  expectRefused("calibrate --quiet " + variant("a_sig.json", [](json& j) { j["vtpm"]["tie_sigma_xy_m"] = 1e300; }), "field 'vtpm.tie_sigma_xy_m'", "expected a number in");
-  expectRefused("calibrate --quiet " + variant("a_neg.json", [](json& j) { j["vtpm"]["strip_offset_sigma_m"] = -1; }), "field 'vtpm.strip_offset_sigma_m'", "expected a number in");
+  expectRefused("calibrate --quiet " + variant("a_pos.json", [](json& j) { j["trajectory"]["path"] = "t_pos.csv"; }), "t_pos.csv:line 100",
+                "no platform flies");
+  expectRefused("calibrate --quiet " + variant("a_rad.json", [](json& j) { j["vtpm"]["radius_m"] = 1e6; }), "field 'vtpm.radius_m'",
+                "expected a number in");
+  expectRefused("calibrate --quiet " + variant("a_sig.json", [](json& j) { j["vtpm"]["tie_sigma_xy_m"] = 1e300; }),
+                "field 'vtpm.tie_sigma_xy_m'", "expected a number in");
+  expectRefused("calibrate --quiet " + variant("a_neg.json", [](json& j) { j["vtpm"]["strip_offset_sigma_m"] = -1; }),
+                "field 'vtpm.strip_offset_sigma_m'", "expected a number in");
   // A LAS scale that puts points 1e305 m away while the header bounds say a few hundred metres.
   std::string las = slurp(field() / "strip_1.las");
   const double scale = 1e296;
   std::memcpy(&las[131], &scale, 8);
   spit(field() / "s_scale.las", las);
-  expectRefused("calibrate --quiet " + variant("a_scale.json", [](json& j) { j["strips"][0]["path"] = "s_scale.las"; }), "s_scale.las:record 0", "outside the header's bounds");
+  expectRefused("calibrate --quiet " + variant("a_scale.json", [](json& j) { j["strips"][0]["path"] = "s_scale.las"; }),
+                "s_scale.las:record 0", "outside the header's bounds");
   // Every GPS time of a strip equal.
   las = slurp(field() / "strip_1.las");
   std::uint32_t offset;
@@ -190,9 +200,11 @@ TEST_F(Hardening, AbsurdValuesAreRefused) {
   const double t = 1.0e5;
   for (std::uint64_t i = 0; i < count; ++i) std::memcpy(&las[offset + i * 30 + 22], &t, 8);
   spit(field() / "s_time.las", las);
-  expectRefused("calibrate --quiet " + variant("a_time.json", [](json& j) { j["strips"][0]["path"] = "s_time.las"; }), "s_time.las", "the times are not the pulse times");
+  expectRefused("calibrate --quiet " + variant("a_time.json", [](json& j) { j["strips"][0]["path"] = "s_time.las"; }), "s_time.las",
+                "the times are not the pulse times");
   // Strips in another UTM zone than the trajectory (SBET): the laser ranges give it away.
-  const std::string zone = variant("zone.json", [](json& j) { j["frame"]["crs"] = "EPSG:32612"; }, utm());
+  const std::string zone = variant(
+      "zone.json", [](json& j) { j["frame"]["crs"] = "EPSG:32612"; }, utm());
   const CliRun z = cli("calibrate --quiet " + zone);
   EXPECT_EQ(z.code, 2) << z.err;
   EXPECT_NE(z.err.find("strips and trajectory do not agree in space"), std::string::npos) << z.err;
@@ -200,7 +212,8 @@ TEST_F(Hardening, AbsurdValuesAreRefused) {
   std::vector<io::SbetRecord> sbet = io::readSbet((utm() / "trajectory.sbet").string());
   sbet[7].roll_rad = 1e300;
   io::writeSbet((utm() / "bad.sbet").string(), sbet);
-  const std::string badsbet = variant("badsbet.json", [](json& j) { j["trajectory"]["path"] = "bad.sbet"; }, utm());
+  const std::string badsbet = variant(
+      "badsbet.json", [](json& j) { j["trajectory"]["path"] = "bad.sbet"; }, utm());
   const CliRun s = cli("calibrate --quiet " + badsbet);
   EXPECT_EQ(s.code, 2) << s.err;
   EXPECT_NE(s.err.find("bad.sbet:record 7: attitude"), std::string::npos) << s.err;
@@ -222,7 +235,8 @@ TEST_F(Hardening, DuplicateTiesAreRefusedNamingBothLines) {
   std::getline(ss, id, ',');
   std::getline(ss, strip, ',');
   spit(field() / "ties_dup2.csv", ties + id + "," + strip + ",0.0,0.0\n");
-  expectRefused("calibrate --quiet " + variant("d2.json", [](json& j) { j["ties"] = "ties_dup2.csv"; }), "ties_dup2.csv:lines 2 and", "is picked twice");
+  expectRefused("calibrate --quiet " + variant("d2.json", [](json& j) { j["ties"] = "ties_dup2.csv"; }), "ties_dup2.csv:lines 2 and",
+                "is picked twice");
 }
 
 // Inputs that used to end as internal errors (exit 3) are bad input naming the file.
@@ -255,9 +269,12 @@ TEST_F(Hardening, MalformedJobsAreBadInputNotInternalErrors) {
   fs::remove(field() / "adir");
   const std::string ties = slurp(field() / "ties.csv");
   spit(field() / "ties_utf.csv", withLine(ties, 2, [](const std::string& l) { return "\xff\xfe" + l; }));
-  expectRefused("calibrate --quiet " + variant("i_utf.json", [](json& v) { v["ties"] = "ties_utf.csv"; }), "ties_utf.csv:line 2", "not valid UTF-8");
-  expectRefused("calibrate --quiet " + variant("i_25.json", [](json& v) { v["solver"]["max_iterations"] = 2.5; }), "field 'solver.max_iterations'", "expected an integer");
-  expectRefused("calibrate --quiet " + variant("i_300.json", [](json& v) { v["solver"]["max_iterations"] = 1e300; }), "field 'solver.max_iterations'", "expected an integer");
+  expectRefused("calibrate --quiet " + variant("i_utf.json", [](json& v) { v["ties"] = "ties_utf.csv"; }), "ties_utf.csv:line 2",
+                "not valid UTF-8");
+  expectRefused("calibrate --quiet " + variant("i_25.json", [](json& v) { v["solver"]["max_iterations"] = 2.5; }),
+                "field 'solver.max_iterations'", "expected an integer");
+  expectRefused("calibrate --quiet " + variant("i_300.json", [](json& v) { v["solver"]["max_iterations"] = 1e300; }),
+                "field 'solver.max_iterations'", "expected an integer");
 }
 
 // Endless or absurd sizes: bounded, refused.
@@ -286,7 +303,8 @@ TEST_F(Hardening, MessagesSayWhere) {
   std::memcpy(&empty[247], &zero, 8);
   std::memcpy(&empty[107], &zero, 4);
   spit(field() / "s_empty.las", empty);
-  expectRefused("calibrate --quiet " + variant("m_empty.json", [](json& j) { j["strips"][0]["path"] = "s_empty.las"; }), "s_empty.las", "has no points");
+  expectRefused("calibrate --quiet " + variant("m_empty.json", [](json& j) { j["strips"][0]["path"] = "s_empty.las"; }), "s_empty.las",
+                "has no points");
   fs::create_directories(dir() / "adir");
   const CliRun d = cli("info " + (dir() / "adir").string());
   EXPECT_EQ(d.code, 2);
@@ -342,7 +360,8 @@ TEST_F(Hardening, GeographicCrsIsRefused) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("geographic"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir() / "geo" / "job.json"));
-  const std::string job = variant("geo.json", [](json& j) { j["frame"]["crs"] = "EPSG:4326"; }, utm());
+  const std::string job = variant(
+      "geo.json", [](json& j) { j["frame"]["crs"] = "EPSG:4326"; }, utm());
   const CliRun g = cli("calibrate --quiet " + job);
   EXPECT_EQ(g.code, 2);
   EXPECT_NE(g.err.find("geo.json:field 'frame.crs'"), std::string::npos) << g.err;

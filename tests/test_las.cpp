@@ -83,10 +83,10 @@ std::vector<LasPoint> points(const LasHeader& h, int n, std::uint32_t seed) {
 bool same(const LasPoint& a, const LasPoint& b) {
   return a.X == b.X && a.Y == b.Y && a.Z == b.Z && a.intensity == b.intensity && a.return_number == b.return_number &&
          a.number_of_returns == b.number_of_returns && a.classification_flags == b.classification_flags &&
-         a.scanner_channel == b.scanner_channel && a.scan_direction == b.scan_direction &&
-         a.edge_of_flight_line == b.edge_of_flight_line && a.classification == b.classification && a.scan_angle == b.scan_angle &&
-         a.user_data == b.user_data && a.point_source_id == b.point_source_id && std::memcmp(&a.gps_time, &b.gps_time, 8) == 0 &&
-         a.red == b.red && a.green == b.green && a.blue == b.blue && a.nir == b.nir && a.extra == b.extra;
+         a.scanner_channel == b.scanner_channel && a.scan_direction == b.scan_direction && a.edge_of_flight_line == b.edge_of_flight_line &&
+         a.classification == b.classification && a.scan_angle == b.scan_angle && a.user_data == b.user_data &&
+         a.point_source_id == b.point_source_id && std::memcmp(&a.gps_time, &b.gps_time, 8) == 0 && a.red == b.red && a.green == b.green &&
+         a.blue == b.blue && a.nir == b.nir && a.extra == b.extra;
 }
 
 }  // namespace
@@ -214,13 +214,13 @@ TEST(Las, ExtraBytesDescriptorsDecodeHandBuiltValues) {
   h.point_format = 6;
   h.point_record_length = static_cast<std::uint16_t>(io::LasHeader::standardRecordLength(6) + 2 + 12);
   std::vector<std::uint8_t> d(2 * 192, 0);
-  d[2] = 3;                 // unsigned short
-  d[3] = 8 | 16;            // scale and offset valid
+  d[2] = 3;       // unsigned short
+  d[3] = 8 | 16;  // scale and offset valid
   std::memcpy(&d[4], "height", 6);
   const double scale = 0.01, offset = 100.0;
   std::memcpy(&d[112], &scale, 8);
   std::memcpy(&d[136], &offset, 8);
-  d[192 + 2] = 29;          // deprecated: 3 × float
+  d[192 + 2] = 29;  // deprecated: 3 × float
   std::memcpy(&d[192 + 4], "vel", 3);
   h.vlrs.push_back({"LASF_Spec", 4, "extra bytes", d});
   const auto attrs = io::extraBytesAttributes(h, "hand.las");
@@ -232,7 +232,7 @@ TEST(Las, ExtraBytesDescriptorsDecodeHandBuiltValues) {
   EXPECT_EQ(attrs[1].size, 12u);
   io::LasPoint p;
   p.extra.assign(14, 0);
-  p.extra[0] = 0x39;        // 12345 = 0x3039, little endian
+  p.extra[0] = 0x39;  // 12345 = 0x3039, little endian
   p.extra[1] = 0x30;
   const float v[3] = {1.5f, -2.25f, 8.0f};
   std::memcpy(&p.extra[2], v, 12);
@@ -357,8 +357,8 @@ TEST(Las, BlockQuantizeEqualsStdRoundAndNamesTheFirstRecordThatDoesNotFit) {
     std::uniform_real_distribution<double> u(-1e6, 1e6);
     std::vector<double> xyz;
     for (int i = 0; i < 30000; ++i) xyz.push_back(u(rng));
-    for (double v : {2.5, -2.5, 0.5, -0.5, 0.49999999999999994, -0.49999999999999994, 2147483647.0, 2147483647.4,
-                     -2147483648.0, -2147483648.4, 0.0, -0.0})
+    for (double v : {2.5, -2.5, 0.5, -0.5, 0.49999999999999994, -0.49999999999999994, 2147483647.0, 2147483647.4, -2147483648.0,
+                     -2147483648.4, 0.0, -0.0})
       for (int a = 0; a < 3; ++a) xyz.push_back(a == 2 ? v : h.offset[a] + v * h.scale[a]);
     const std::size_t n = xyz.size() / 3;
     std::vector<std::int32_t> XYZ(xyz.size());

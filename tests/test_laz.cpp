@@ -36,8 +36,9 @@ std::string md5(const std::vector<std::uint8_t>& data) {
       0x8771f681, 0x6d9d6122, 0xfde5380c, 0xa4beea44, 0x4bdecfa9, 0xf6bb4b60, 0xbebfbc70, 0x289b7ec6, 0xeaa127fa, 0xd4ef3085, 0x04881d05,
       0xd9d4d039, 0xe6db99e5, 0x1fa27cf8, 0xc4ac5665, 0xf4292244, 0x432aff97, 0xab9423a7, 0xfc93a039, 0x655b59c3, 0x8f0ccc92, 0xffeff47d,
       0x85845dd1, 0x6fa87e4f, 0xfe2ce6e0, 0xa3014314, 0x4e0811a1, 0xf7537e82, 0xbd3af235, 0x2ad7d2bb, 0xeb86d391};
-  static const int S[64] = {7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22, 5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20,
-                            4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23, 6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21};
+  static const int S[64] = {7,  12, 17, 22, 7,  12, 17, 22, 7,  12, 17, 22, 7,  12, 17, 22, 5,  9,  14, 20, 5,  9,
+                            14, 20, 5,  9,  14, 20, 5,  9,  14, 20, 4,  11, 16, 23, 4,  11, 16, 23, 4,  11, 16, 23,
+                            4,  11, 16, 23, 6,  10, 15, 21, 6,  10, 15, 21, 6,  10, 15, 21, 6,  10, 15, 21};
   std::vector<std::uint8_t> m = data;
   const std::uint64_t bits = static_cast<std::uint64_t>(data.size()) * 8;
   m.push_back(0x80);
@@ -51,10 +52,14 @@ std::string md5(const std::vector<std::uint8_t>& data) {
     for (int i = 0; i < 64; ++i) {
       std::uint32_t f;
       int g;
-      if (i < 16) f = (b & c) | (~b & d), g = i;
-      else if (i < 32) f = (d & b) | (~d & c), g = (5 * i + 1) % 16;
-      else if (i < 48) f = b ^ c ^ d, g = (3 * i + 5) % 16;
-      else f = c ^ (b | ~d), g = (7 * i) % 16;
+      if (i < 16)
+        f = (b & c) | (~b & d), g = i;
+      else if (i < 32)
+        f = (d & b) | (~d & c), g = (5 * i + 1) % 16;
+      else if (i < 48)
+        f = b ^ c ^ d, g = (3 * i + 5) % 16;
+      else
+        f = c ^ (b | ~d), g = (7 * i) % 16;
       f = f + a + K[i] + w[g];
       a = d;
       d = c;
@@ -547,8 +552,12 @@ TEST(Laz, SimulatedSurveyInLazCalibratesAndApplies) {
     EXPECT_EQ(r.laz()->compressor, 3);  // the simulator writes format 6
   }
   ASSERT_EQ(std::system((cli + " calibrate --quiet " + dir + "/job.json").c_str()), 0);
-  ASSERT_EQ(std::system((cli + " apply " + dir + "/job.json --result " + dir + "/result.json --format las --out " + dir + "/las > /dev/null").c_str()), 0);
-  ASSERT_EQ(std::system((cli + " apply " + dir + "/job.json --result " + dir + "/result.json --out " + dir + "/laz > /dev/null").c_str()), 0);
+  ASSERT_EQ(
+      std::system(
+          (cli + " apply " + dir + "/job.json --result " + dir + "/result.json --format las --out " + dir + "/las > /dev/null").c_str()),
+      0);
+  ASSERT_EQ(std::system((cli + " apply " + dir + "/job.json --result " + dir + "/result.json --out " + dir + "/laz > /dev/null").c_str()),
+            0);
   LasReader a(dir + "/las/strip_1.las"), b(dir + "/laz/strip_1.laz");
   EXPECT_EQ(a.laz(), nullptr);
   EXPECT_NE(b.laz(), nullptr);

@@ -62,7 +62,7 @@ TEST(Registry, BuiltInMethodsComeFirstInTheOrderTheyJoinTheAdjustment) {
   EXPECT_EQ(std::vector<std::string>(names.begin(), names.begin() + 5), builtin);
   EXPECT_NE(findMethod("toy"), nullptr);  // registered by the test tree's toy module
   EXPECT_TRUE(findMethod("control")->implicit());
-  EXPECT_EQ(methodNames().find("control"), std::string::npos);  // not a name a job gives in "method"
+  EXPECT_EQ(methodNames().find("control"), std::string::npos);                                        // not a name a job gives in "method"
   EXPECT_THROW(registerMethod(findMethod("vtpm") ? registeredMethods()[0] : nullptr), InvalidInput);  // names are unique
 }
 
@@ -106,7 +106,7 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
         v = v != 0 ? 0 : 1;
         j[m->name()][s.key] = v != 0;
       } else {
-        v = v < s.max ? std::min(s.max, std::floor(v) + 1) : s.min;  // another value in range
+        v = v < s.max ? std::min(s.max, std::floor(v) + 1) : s.min;                   // another value in range
         if (s.key == "min_points_per_strip" || s.key == "min_neighbours") v = s.min;  // keep min <= max
         j[m->name()][s.key] = v;
       }

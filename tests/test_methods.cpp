@@ -84,8 +84,8 @@ MountingCalibrator::Options noisy(MountingCalibrator::Options o) {
   return o;
 }
 
-void expectRecovered(const MountingCalibrator::Summary& S, const MountingParameters& truth, double boresight_deg,
-                     double lever_m, const std::string& what) {
+void expectRecovered(const MountingCalibrator::Summary& S, const MountingParameters& truth, double boresight_deg, double lever_m,
+                     const std::string& what) {
   ASSERT_TRUE(S.IsSolutionUsable()) << what << "\n" << S.FullReport();
   EXPECT_TRUE(S.unobservable.empty()) << what << "\n" << S.observability_report;
   const auto e = S.mounting.toArray(), t = truth.toArray();
@@ -123,7 +123,7 @@ TEST(PlaneMethod, GivenRegionsRecoverTheTruthNoiseFree) {
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "planes (regions)");
   EXPECT_NEAR(S.mounting.a_b.z(), s.config.true_mounting.a_b.z(), 0.005);
   EXPECT_GE(S.section<PlaneSection>().patches_used, 6);
-  EXPECT_GT(S.section<PlaneSection>().rms_before_m, 0.1);   // the misalignment was real
+  EXPECT_GT(S.section<PlaneSection>().rms_before_m, 0.1);  // the misalignment was real
   EXPECT_LT(S.section<PlaneSection>().rms_after_m, 0.002);
   EXPECT_GT(S.section<ControlSection>().observations_used, 50);
   // Every patch reports its points, strips and RMS before and after.
@@ -162,8 +162,8 @@ TEST(CorrespondenceMethod, RecoversTheTruthNoiseFree) {
   const auto S = calibrate(d, o);
   expectRecovered(S, s.config.true_mounting, 2e-4, 0.005, "correspondences");
   const CorrespondenceSection& c = S.section<CorrespondenceSection>();
-  EXPECT_GE(c.rounds, 2);                  // re-matched until the mounting stopped changing
-  EXPECT_EQ(c.pairs.size(), 6u);           // four crossing strips: every pair overlaps
+  EXPECT_GE(c.rounds, 2);         // re-matched until the mounting stopped changing
+  EXPECT_EQ(c.pairs.size(), 6u);  // four crossing strips: every pair overlaps
   EXPECT_LE(c.used, o.method<CorrespondenceOptions>().budget);
   EXPECT_GT(c.median_before_m, 0.05);
   EXPECT_LT(c.median_after_m, 0.002);
@@ -241,7 +241,6 @@ TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 }
 
 // ---- the first paper's comparison: VTPM against the plane method ------------------------------
-
 
 TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
   const SimulatedSurvey& s = field(1, true);
@@ -334,9 +333,8 @@ TEST(Adjustment, PlanePointJacobiansMatchTheAnalyticDerivatives) {
   PlaneObservations planes(d, po);
   ASSERT_FALSE(planes.patches().empty());
   const double sigma = planes.section().sigma_m;
-  const std::array<std::array<double, 6>, 3> points = {{{0, 0, 0, 0, 0, 0},
-                                                       {1e-8, -1e-8, 1e-8, 1e-8, -1e-8, 1e-8},
-                                                       {0.1, -0.05, 0.2, 0.05 * kDeg, -0.08 * kDeg, 0.12 * kDeg}}};
+  const std::array<std::array<double, 6>, 3> points = {
+      {{0, 0, 0, 0, 0, 0}, {1e-8, -1e-8, 1e-8, 1e-8, -1e-8, 1e-8}, {0.1, -0.05, 0.2, 0.05 * kDeg, -0.08 * kDeg, 0.12 * kDeg}}};
   for (std::size_t pi = 0; pi < points.size(); ++pi) {
     const auto& m = points[pi];
     AdjustmentProblem P(m, 0.02, LossType::kTrivial, 0.5, 1e-6);
@@ -376,9 +374,21 @@ TEST(Adjustment, PlanePointJacobiansMatchTheAnalyticDerivatives) {
       EXPECT_LT((J.rightCols<3>() - dr_dd).norm(), tol * dr_dd.norm()) << "mounting " << pi;
       // …and the exact Euler-angle derivative, d/dω Rz Ry Rx(ω) etc., tight everywhere.
       const double w = m[3], p = m[4], h = m[5];
-      auto dRx = [](double a) { Mat3 D; D << 0, 0, 0, 0, -std::sin(a), -std::cos(a), 0, std::cos(a), -std::sin(a); return D; };
-      auto dRy = [](double a) { Mat3 D; D << -std::sin(a), 0, std::cos(a), 0, 0, 0, -std::cos(a), 0, -std::sin(a); return D; };
-      auto dRz = [](double a) { Mat3 D; D << -std::sin(a), -std::cos(a), 0, std::cos(a), -std::sin(a), 0, 0, 0, 0; return D; };
+      auto dRx = [](double a) {
+        Mat3 D;
+        D << 0, 0, 0, 0, -std::sin(a), -std::cos(a), 0, std::cos(a), -std::sin(a);
+        return D;
+      };
+      auto dRy = [](double a) {
+        Mat3 D;
+        D << -std::sin(a), 0, std::cos(a), 0, 0, 0, -std::cos(a), 0, -std::sin(a);
+        return D;
+      };
+      auto dRz = [](double a) {
+        Mat3 D;
+        D << -std::sin(a), -std::cos(a), 0, std::cos(a), -std::sin(a), 0, 0, 0, 0;
+        return D;
+      };
       const Vec3 u = M.R_nom * pp->r_s;
       const Eigen::RowVector3d exact(n.dot(pp->R_mb * Rz(h) * Ry(p) * dRx(w) * u), n.dot(pp->R_mb * Rz(h) * dRy(p) * Rx(w) * u),
                                      n.dot(pp->R_mb * dRz(h) * Ry(p) * Rx(w) * u));
@@ -405,8 +415,8 @@ TEST(Adjustment, TheExactDifferentialFormEqualsGeoreferenceModel) {
       for (std::size_t i = 0; i < strip.r_s.size(); ++i) {
         if ((strip.r_s[i] - pp.r_s).norm() > 1e-12) continue;
         const Vec3 exact = model.forward(strip.time_s[i], strip.r_s[i]);
-        const Vec3 moved = patch.centre_m + pp.x0_rel +
-                           pp.R_mb * ((M.R_bs() - d.mounting_used.R_bs()) * pp.r_s + (M.a_b - d.mounting_used.a_b));
+        const Vec3 moved =
+            patch.centre_m + pp.x0_rel + pp.R_mb * ((M.R_bs() - d.mounting_used.R_bs()) * pp.r_s + (M.a_b - d.mounting_used.a_b));
         EXPECT_LT((moved - exact).norm(), 1e-9);
         ++found;
         break;
@@ -452,7 +462,7 @@ TEST(PlaneMethod, RegionsThatCannotBeUsedAreRejectedWithAReason) {
   const SimulatedSurvey& s = field(1, false);
   CalibrationData d = withControl(s);
   const PlaneRegion good = d.plane_regions.front();
-  d.plane_regions.push_back({"nowhere", 5000, 5000, 5010, 5010});                  // no strip there
+  d.plane_regions.push_back({"nowhere", 5000, 5000, 5010, 5010});                                               // no strip there
   d.plane_regions.push_back({"edge_of_data", good.xmin + 60, good.ymin + 60, good.xmin + 61, good.ymin + 61});  // a sliver
   auto o = methodOptions({"planes"});
   o.strip_offset_sigma_m = 0;

@@ -60,15 +60,13 @@ struct TempPlan {
 
 Plan load(const json& j) { return readPlan(TempPlan(j).path); }
 
-bool coupled(const Prediction& p, int a, int b) {
-  return !p.determined[a] || !p.determined[b] || std::abs(p.correlation(a, b)) > 0.9;
-}
+bool coupled(const Prediction& p, int a, int b) { return !p.determined[a] || !p.determined[b] || std::abs(p.correlation(a, b)) > 0.9; }
 
 // Opposite lines on one track at 500 m, back and forth, and again at 800 m.
 const std::vector<std::tuple<std::string, double, double, double, double, double>> kTwoHeights = {
     {"1", -400, 0, 400, 0, 500}, {"2", 400, 0, -400, 0, 500}, {"3", -400, 0, 400, 0, 800}, {"4", 400, 0, -400, 0, 800}};
-const std::vector<std::tuple<std::string, double, double, double, double, double>> kOneHeight = {
-    {"1", -400, 0, 400, 0, 500}, {"2", 400, 0, -400, 0, 500}};
+const std::vector<std::tuple<std::string, double, double, double, double, double>> kOneHeight = {{"1", -400, 0, 400, 0, 500},
+                                                                                                 {"2", 400, 0, -400, 0, 500}};
 
 }  // namespace
 

@@ -26,7 +26,6 @@
 using namespace mountcal;
 namespace fs = std::filesystem;
 
-
 // Both records against PDAL's own published values (PDAL test/unit/io/SbetReaderTest.cpp,
 // checkPoint: the 17 fields in SI units and radians, 16 significant digits) — to those digits.
 // (SPEC §5 restates record 0 in degrees; its latitude 32.545149° is a slip: PDAL's
@@ -46,9 +45,10 @@ TEST(RealData, PdalTwoPointSbetReproducesTheExpectedValues) {
        7.372886784718076e-03, 7.179027672314571e-02}};
   for (int k = 0; k < 2; ++k) {
     const io::SbetRecord& a = r[static_cast<std::size_t>(k)];
-    const double got[17] = {a.time_s, a.lat_rad, a.lon_rad, a.h_m, a.vx, a.vy, a.vz, a.roll_rad, a.pitch_rad, a.platform_heading_rad,
-                            a.wander_rad, a.ax, a.ay, a.az, a.wx, a.wy, a.wz};
-    for (int f = 0; f < 17; ++f) EXPECT_NEAR(got[f], pdal[k][f], 1e-15 * std::max(1.0, std::abs(pdal[k][f]))) << "record " << k << " field " << f;
+    const double got[17] = {a.time_s,     a.lat_rad, a.lon_rad, a.h_m, a.vx, a.vy, a.vz, a.roll_rad, a.pitch_rad, a.platform_heading_rad,
+                            a.wander_rad, a.ax,      a.ay,      a.az,  a.wx, a.wy, a.wz};
+    for (int f = 0; f < 17; ++f)
+      EXPECT_NEAR(got[f], pdal[k][f], 1e-15 * std::max(1.0, std::abs(pdal[k][f]))) << "record " << k << " field " << f;
   }
   // The SPEC's degrees for record 0 (stated to 6 decimals), latitude aside.
   const io::SbetRecord& a = r[0];
@@ -99,8 +99,8 @@ TEST(RealData, OptechCsdFirstPulseGeoreferencesToPdalsPoint) {
   ASSERT_EQ(header_size + 69u * records, csd.size());
   Vec3 boresight;
   for (int k = 0; k < 3; ++k)
-    boresight[k] = csdField<double>(csd, 1154 + 8 * static_cast<std::size_t>(k)) +
-                   csdField<double>(csd, 1178 + 8 * static_cast<std::size_t>(k));
+    boresight[k] =
+        csdField<double>(csd, 1154 + 8 * static_cast<std::size_t>(k)) + csdField<double>(csd, 1178 + 8 * static_cast<std::size_t>(k));
 
   struct Pulse {
     double time, range, scan, roll, pitch, heading, lat, lon, h;
@@ -159,7 +159,7 @@ TEST(RealData, OptechCsdFirstPulseGeoreferencesToPdalsPoint) {
   const double d = std::hypot(x_m.x(), x_m.y());
   const double radius = std::sqrt(m_radius * n_radius);
   const double flat_earth = d * d / (2.0 * radius);
-  EXPECT_GT(d, 150.0);  // the anchor is not a nadir pulse: the scan angle and attitude matter
+  EXPECT_GT(d, 150.0);                                           // the anchor is not a nadir pulse: the scan angle and attitude matter
   EXPECT_NEAR(g.h - h_expected, flat_earth, 0.01 * flat_earth);  // 4.019 mm measured, 4.021 predicted
   const double east_m = deg2rad(rad2deg(g.lon) - lon_expected) * n_radius * std::cos(g.lat);
   const double north_m = deg2rad(rad2deg(g.lat) - lat_expected) * m_radius;
@@ -229,7 +229,8 @@ TEST(RealData, LeewardBodyVectorsLieInOneScanPlaneRotated14DegreesInYaw) {
   // the rounding is not explained here (the aircraft's roll, which the rank includes, changes
   // it by < 0.01° over this second). The bound holds the measured agreement.
   EXPECT_LT(rms, 0.6) << "mean " << mean;
-  std::printf("leeward: scan-plane sigma %.4f deg, yaw %.3f deg, scan angle - rank: mean %.3f, RMS %.3f deg\n", sigma_deg, yaw_deg, mean, rms);
+  std::printf("leeward: scan-plane sigma %.4f deg, yaw %.3f deg, scan angle - rank: mean %.3f, RMS %.3f deg\n", sigma_deg, yaw_deg, mean,
+              rms);
 }
 
 TEST(RealData, LasRoundTripKeepsEveryFieldBitIdentical) {
@@ -256,10 +257,9 @@ TEST(RealData, LasRoundTripKeepsEveryFieldBitIdentical) {
     const auto &a = pts[i], &b = pts2[i];
     ASSERT_TRUE(a.X == b.X && a.Y == b.Y && a.Z == b.Z && a.intensity == b.intensity && a.return_number == b.return_number &&
                 a.number_of_returns == b.number_of_returns && a.scan_direction == b.scan_direction &&
-                a.edge_of_flight_line == b.edge_of_flight_line && a.classification == b.classification &&
-                a.scan_angle == b.scan_angle && a.user_data == b.user_data && a.point_source_id == b.point_source_id &&
-                std::memcmp(&a.gps_time, &b.gps_time, 8) == 0 && a.red == b.red && a.green == b.green && a.blue == b.blue &&
-                a.extra == b.extra)
+                a.edge_of_flight_line == b.edge_of_flight_line && a.classification == b.classification && a.scan_angle == b.scan_angle &&
+                a.user_data == b.user_data && a.point_source_id == b.point_source_id && std::memcmp(&a.gps_time, &b.gps_time, 8) == 0 &&
+                a.red == b.red && a.green == b.green && a.blue == b.blue && a.extra == b.extra)
         << "point " << i;
   }
   // The point records themselves are byte-identical to the original file's.

@@ -70,9 +70,12 @@ Image decodePng(const std::string& png) {
       const int a = i >= static_cast<std::size_t>(channels) ? out[i - channels] : 0, b = prev[i],
                 c = i >= static_cast<std::size_t>(channels) ? prev[i - channels] : 0;
       int pred = 0;
-      if (filter == 1) pred = a;
-      else if (filter == 2) pred = b;
-      else if (filter == 3) pred = (a + b) / 2;
+      if (filter == 1)
+        pred = a;
+      else if (filter == 2)
+        pred = b;
+      else if (filter == 3)
+        pred = (a + b) / 2;
       else if (filter == 4) {
         const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
         pred = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
@@ -128,9 +131,10 @@ struct Case {
 /// Renders `html` headless; returns Chromium's exit status and fills its log and screenshot.
 int renderInChromium(const std::string& html_path, const std::string& png_path, std::string* log) {
   const std::string log_path = png_path + ".log";
-  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run --disable-extensions "
-                          "--window-size=1200,2600 --enable-logging=stderr --v=0 --screenshot=" + png_path + " file://" + html_path +
-                          " > " + log_path + " 2>&1";
+  const std::string cmd =
+      "chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run --disable-extensions "
+      "--window-size=1200,2600 --enable-logging=stderr --v=0 --screenshot=" +
+      png_path + " file://" + html_path + " > " + log_path + " 2>&1";
   const int status = std::system(cmd.c_str());
   *log = slurp(log_path);
   fs::remove(log_path);
@@ -188,8 +192,9 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     ro.profiles.push_back({"given", -20, 0, 20, 0, 1.0});
     const std::string html = visualReport(S, k.data, nullptr, ro);
     EXPECT_LT(html.size(), 5u << 20);
-    for (const char* section : {"Warnings", "class=\"heatmap\"", "class=\"mapview\"", "Elevation profiles", "class=\"profile\"",
-                                "Intensity overlay", "class=\"overlay-before\"", "class=\"overlay-after\"", "Figs 1–3", "boresight_heading"})
+    for (const char* section :
+         {"Warnings", "class=\"heatmap\"", "class=\"mapview\"", "Elevation profiles", "class=\"profile\"", "Intensity overlay",
+          "class=\"overlay-before\"", "class=\"overlay-after\"", "Figs 1–3", "boresight_heading"})
       EXPECT_NE(html.find(section), std::string::npos) << section;
     if (k.name == "vtpm") {
       EXPECT_NE(html.find("class=\"histogram\""), std::string::npos);
@@ -201,7 +206,8 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     const std::size_t prof = html.find("class=\"profile\"");
     ASSERT_NE(prof, std::string::npos);
     std::size_t circles = 0;
-    for (std::size_t at = html.find("<circle", prof); at != std::string::npos && at < html.find("</svg>", prof); at = html.find("<circle", at + 1))
+    for (std::size_t at = html.find("<circle", prof); at != std::string::npos && at < html.find("</svg>", prof);
+         at = html.find("<circle", at + 1))
       ++circles;
     EXPECT_GT(circles, 20u);
     const Image before = decodePng(embeddedPng(html, "overlay-before")), after = decodePng(embeddedPng(html, "overlay-after"));

@@ -35,8 +35,8 @@ TEST(Rotation, LocalMappingFrameSwapsNorthEastAndFlipsDown) {
 
 TEST(Rotation, HeadingNinetyMapsBodyForwardToEast) {
   const Mat3 R_mb = R_mn_local() * R_nb(0.0, 0.0, deg2rad(90.0));
-  EXPECT_NEAR((R_mb * Vec3::UnitX() - Vec3(1, 0, 0)).norm(), 0.0, 1e-15);  // forward → East
-  EXPECT_NEAR((R_mb * Vec3::UnitY() - Vec3(0, -1, 0)).norm(), 0.0, 1e-15); // right → South
+  EXPECT_NEAR((R_mb * Vec3::UnitX() - Vec3(1, 0, 0)).norm(), 0.0, 1e-15);   // forward → East
+  EXPECT_NEAR((R_mb * Vec3::UnitY() - Vec3(0, -1, 0)).norm(), 0.0, 1e-15);  // right → South
 }
 
 TEST(Rotation, PositiveRollLowersTheRightWingAndPositivePitchRaisesTheNose) {
@@ -71,8 +71,7 @@ TEST(Rotation, QuaternionLogExpRoundTripAndSlerpMidpoint) {
 }
 
 TEST(Mounting, BoresightIsZYXAndDegreeConversionIsAtTheEdgeOnly) {
-  const auto m = MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12),
-                                                 Vec3(0, 0, 90));
+  const auto m = MountingParameters::fromDegrees(Vec3(0.1, -0.05, 0.2), Vec3(0.05, -0.08, 0.12), Vec3(0, 0, 90));
   EXPECT_NEAR(m.boresight.x(), deg2rad(0.05), 1e-18);
   expectMatNear(m.R_bore(), Rz(deg2rad(0.12)) * Ry(deg2rad(-0.08)) * Rx(deg2rad(0.05)), 1e-15);
   expectMatNear(m.R_bs(), m.R_bore() * Rz(kPi / 2), 1e-15);

@@ -12,8 +12,7 @@ TEST(LineScanner, HandValues) {
   EXPECT_LT((m.vector(0.0, 800.0) - Vec3(0, 0, 800)).norm(), 1e-12);  // nadir: straight down
   // θ = +30° points to starboard (+y body) and down.
   EXPECT_LT((m.vector(deg2rad(30), 1000.0) - Vec3(0, 500, 1000 * std::sqrt(3) / 2)).norm(), 1e-9);
-  EXPECT_LT((m.vector(deg2rad(-30), 1000.0) - Vec3(0, -500, 1000 * std::sqrt(3) / 2)).norm(),
-            1e-9);
+  EXPECT_LT((m.vector(deg2rad(-30), 1000.0) - Vec3(0, -500, 1000 * std::sqrt(3) / 2)).norm(), 1e-9);
   LineScannerModel biased;
   biased.range_offset_m = 0.5;
   biased.scan_angle_scale = 1.001;
@@ -32,20 +31,11 @@ TEST(MultiBeam, VLP16HandValues) {
   ASSERT_EQ(vlp.laserCount(), 16);
   // Laser 0: −15°, +11.2 mm; azimuth 0 looks along +y.
   const double rho = 10.0;
-  EXPECT_LT((vlp.vector(0, 0.0, rho) -
-             Vec3(0, rho * std::cos(deg2rad(15)), -rho * std::sin(deg2rad(15)) + 0.0112))
-                .norm(),
-            1e-12);
+  EXPECT_LT((vlp.vector(0, 0.0, rho) - Vec3(0, rho * std::cos(deg2rad(15)), -rho * std::sin(deg2rad(15)) + 0.0112)).norm(), 1e-12);
   // Laser 1: +1°, −0.7 mm; azimuth 90° (clockwise from +y) looks along +x.
-  EXPECT_LT((vlp.vector(1, deg2rad(90), rho) -
-             Vec3(rho * std::cos(deg2rad(1)), 0, rho * std::sin(deg2rad(1)) - 0.0007))
-                .norm(),
-            1e-12);
+  EXPECT_LT((vlp.vector(1, deg2rad(90), rho) - Vec3(rho * std::cos(deg2rad(1)), 0, rho * std::sin(deg2rad(1)) - 0.0007)).norm(), 1e-12);
   // Laser 15: +15°, −11.2 mm; azimuth 180° looks along −y.
-  EXPECT_LT((vlp.vector(15, kPi, rho) -
-             Vec3(0, -rho * std::cos(deg2rad(15)), rho * std::sin(deg2rad(15)) - 0.0112))
-                .norm(),
-            1e-12);
+  EXPECT_LT((vlp.vector(15, kPi, rho) - Vec3(0, -rho * std::cos(deg2rad(15)), rho * std::sin(deg2rad(15)) - 0.0112)).norm(), 1e-12);
   EXPECT_NEAR(rad2deg(vlp.laser(14).elevation_rad), -1.0, 1e-12);
   EXPECT_NEAR(vlp.firingTime(15, 2), 2 * 55.296e-6 + 15 * 2.304e-6, 1e-15);
   EXPECT_THROW(vlp.laser(16), InvalidInput);
@@ -88,8 +78,7 @@ TEST(SensorModel, RawToVectorRoundTripsForEveryKind) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> az(0.0, 2 * kPi - 1e-9), th(-1.2, 1.2), r(1.0, 3000.0);
   const SensorModel sensors[] = {SensorModel::lineScanner(), SensorModel::multiBeam(MultiBeamModel::VLP16()),
-                                 SensorModel::multiBeam(MultiBeamModel::HDL32E()),
-                                 SensorModel::vectorSensor()};
+                                 SensorModel::multiBeam(MultiBeamModel::HDL32E()), SensorModel::vectorSensor()};
   for (const SensorModel& sensor : sensors) {
     for (int k = 0; k < 500; ++k) {
       RawPulse p;

@@ -147,8 +147,7 @@ TEST(Simulator, SameSeedSameOutputOtherSeedOtherNoise) {
   ASSERT_EQ(a.strips.size(), b.strips.size());
   for (std::size_t k = 0; k < a.strips.size(); ++k) {
     ASSERT_EQ(a.strips[k].points_m.size(), b.strips[k].points_m.size());
-    for (std::size_t i = 0; i < a.strips[k].points_m.size(); ++i)
-      ASSERT_EQ(a.strips[k].points_m[i], b.strips[k].points_m[i]);
+    for (std::size_t i = 0; i < a.strips[k].points_m.size(); ++i) ASSERT_EQ(a.strips[k].points_m[i], b.strips[k].points_m[i]);
   }
   ASSERT_EQ(a.ties.size(), b.ties.size());
   for (std::size_t i = 0; i < a.ties.size(); ++i) ASSERT_EQ(a.ties[i].x_m, b.ties[i].x_m);
@@ -163,8 +162,8 @@ TEST(Simulator, SameSeedSameOutputOtherSeedOtherNoise) {
 TEST(Simulator, BatchedNormalsFollowTheRngStream) {
   std::vector<double> x;
   for (int k = 1; k <= 4096; ++k) x.push_back(k / 4096.0);  // (0, 1]: q of the polar method
-  for (double v : {1e-300, 2.2250738585072014e-308, 0.7071067811865475, 0.7071067811865476, 1.4142135623730951,
-                   1.4142135623730950, 1.0 - 1e-16, 1.0 + 2.2e-16, 2.0, 3.0, 1e300})
+  for (double v : {1e-300, 2.2250738585072014e-308, 0.7071067811865475, 0.7071067811865476, 1.4142135623730951, 1.4142135623730950,
+                   1.0 - 1e-16, 1.0 + 2.2e-16, 2.0, 3.0, 1e300})
     x.push_back(v);
   std::mt19937 gen(5);
   std::uniform_real_distribution<double> e(-700, 700);
@@ -190,7 +189,7 @@ TEST(Simulator, BatchedNormalsFollowTheRngStream) {
     sum2 += got * got;
   }
   EXPECT_LE(worst, 1e-15);
-  EXPECT_NEAR(sum / n, 0.0, 0.02);        // 6 standard errors
+  EXPECT_NEAR(sum / n, 0.0, 0.02);  // 6 standard errors
   EXPECT_NEAR(sum2 / n, 1.0, 0.03);
 }
 

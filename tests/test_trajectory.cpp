@@ -63,8 +63,7 @@ TEST(Trajectory, LinearPositionAndSlerpAttitude) {
   // Slerp between identity and R1 at a quarter of the way is the quarter rotation.
   const Mat3 R1 = R_nb(s[1].roll, s[1].pitch, s[1].heading);
   const Eigen::AngleAxisd aa(R1);
-  const Mat3 expected =
-      R_mn_local() * Eigen::AngleAxisd(0.25 * aa.angle(), aa.axis()).toRotationMatrix();
+  const Mat3 expected = R_mn_local() * Eigen::AngleAxisd(0.25 * aa.angle(), aa.axis()).toRotationMatrix();
   EXPECT_LT((p.R_mb - expected).cwiseAbs().maxCoeff(), 1e-14);
 }
 
@@ -92,8 +91,7 @@ TEST(Trajectory, CursorGivesTheSameAnswerForSortedAndUnsortedQueries) {
   std::uniform_real_distribution<double> u(t.startTime(), t.endTime());
   std::size_t cursor = 0;
   for (int k = 0; k < 2000; ++k) {
-    const double time = (k < 1000) ? t.startTime() + k * (t.endTime() - t.startTime()) / 999.0
-                                   : u(rng);
+    const double time = (k < 1000) ? t.startTime() + k * (t.endTime() - t.startTime()) / 999.0 : u(rng);
     const Pose a = t.pose(time, &cursor);
     const Pose b = t.pose(time);
     EXPECT_LT((a.p_m - b.p_m).norm(), 1e-12);

@@ -41,7 +41,7 @@ struct StripData {
 /// georeferenced with, the strips' raw observations, and the user's input for each method.
 struct CalibrationData {
   std::shared_ptr<const Trajectory> trajectory;
-  MountingParameters mounting_used;      ///< the reference mounting of the strips
+  MountingParameters mounting_used;  ///< the reference mounting of the strips
   std::vector<StripData> strips;
   std::vector<TieObservation> ties;      ///< method "vtpm" (SPEC §3)
   std::vector<GroundControlPoint> gcps;  ///< priors on the ties with the same id; with other methods, control points
@@ -71,7 +71,8 @@ struct CalibrationData {
         throw InvalidInput("strip '" + s.id + "': " + std::to_string(s.poses.size()) + " per-point poses for " +
                            std::to_string(s.time_s.size()) + " points");
       }
-      if (s.poses.empty() && !trajectory) throw InvalidInput("calibrate: strip '" + s.id + "' has no per-point poses and there is no trajectory");
+      if (s.poses.empty() && !trajectory)
+        throw InvalidInput("calibrate: strip '" + s.id + "' has no per-point poses and there is no trajectory");
     }
   }
 };

@@ -32,9 +32,13 @@ class MountingCalibrator {
     /// Each method's options, e.g. `options.method<PlaneOptions>().automatic = true`.
     MethodOptionsMap method_options;
     template <class T>
-    T& method() { return method_options.get<T>(); }
+    T& method() {
+      return method_options.get<T>();
+    }
     template <class T>
-    const T& method() const { return method_options.get<T>(); }
+    const T& method() const {
+      return method_options.get<T>();
+    }
     /// Worker threads for building the observations (the correspondence search and matchings);
     /// 0: every core. Results do not depend on it (each thread fills its own slots, combined in
     /// a fixed order). The solver's own threads are SolverOptions::num_threads.
@@ -86,7 +90,6 @@ class MountingCalibrator {
 };
 
 /// One call: `MountingCalibrator(options).calibrate(data)`.
-MountingCalibrator::Summary calibrate(const CalibrationData& data,
-                                      const MountingCalibrator::Options& options = {});
+MountingCalibrator::Summary calibrate(const CalibrationData& data, const MountingCalibrator::Options& options = {});
 
 }  // namespace mountcal

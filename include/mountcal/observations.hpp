@@ -25,8 +25,8 @@ struct PlaneRegion {
 /// A ground control point, observed through the ties with the same id.
 struct GroundControlPoint {
   std::string id;
-  double x_m = 0, y_m = 0, z_m = 0;              ///< [m]
-  double sigma_xy_m = 0.02, sigma_z_m = 0.02;    ///< [m]
+  double x_m = 0, y_m = 0, z_m = 0;            ///< [m]
+  double sigma_xy_m = 0.02, sigma_z_m = 0.02;  ///< [m]
 };
 
 }  // namespace mountcal

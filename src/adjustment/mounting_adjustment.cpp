@@ -19,10 +19,14 @@ namespace mountcal {
 
 const char* toString(TerminationType t) {
   switch (t) {
-    case TerminationType::kConvergence: return "CONVERGENCE";
-    case TerminationType::kNoConvergence: return "NO_CONVERGENCE";
-    case TerminationType::kFailure: return "FAILURE";
-    case TerminationType::kInvalidInput: return "INVALID_INPUT";
+    case TerminationType::kConvergence:
+      return "CONVERGENCE";
+    case TerminationType::kNoConvergence:
+      return "NO_CONVERGENCE";
+    case TerminationType::kFailure:
+      return "FAILURE";
+    case TerminationType::kInvalidInput:
+      return "INVALID_INPUT";
   }
   return "UNKNOWN";
 }
@@ -70,7 +74,8 @@ bool PulseNoise::IsValid(std::string* error) const {
 
 bool StochasticOptions::IsValid(std::string* error) const {
   if (!pulse_noise.IsValid(error)) return false;
-  if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m)) return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
+  if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m))
+    return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
   if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
   return true;
 }
@@ -78,10 +83,12 @@ bool StochasticOptions::IsValid(std::string* error) const {
 bool SolverOptions::IsValid(std::string* error) const {
   if (max_iterations < 1) return failWith(error, "max_iterations must be at least 1");
   if (max_iterations_per_matching < 0) return failWith(error, "max_iterations_per_matching must be >= 0");
-  if (!(function_tolerance >= 0) || !(parameter_tolerance >= 0) || !(gradient_tolerance >= 0)) return failWith(error, "tolerances must be non-negative");
+  if (!(function_tolerance >= 0) || !(parameter_tolerance >= 0) || !(gradient_tolerance >= 0))
+    return failWith(error, "tolerances must be non-negative");
   if (!(max_solver_time_s > 0)) return failWith(error, "max_solver_time_s must be positive");
   if (num_threads < 1) return failWith(error, "num_threads must be at least 1");
-  if (!(numeric_diff_relative_step > 0) || numeric_diff_relative_step > 1e-2) return failWith(error, "numeric_diff_relative_step must be in (0, 0.01]");
+  if (!(numeric_diff_relative_step > 0) || numeric_diff_relative_step > 1e-2)
+    return failWith(error, "numeric_diff_relative_step must be in (0, 0.01]");
   if (max_rematch_rounds < 1) return failWith(error, "max_rematch_rounds must be at least 1");
   if (!(rematch_tolerance_m > 0) || !(rematch_tolerance_rad > 0)) return failWith(error, "rematch tolerances must be positive");
   if (!(rematch_sigma_fraction >= 0) || rematch_sigma_fraction > 1) return failWith(error, "rematch_sigma_fraction must be in [0, 1]");
@@ -91,7 +98,8 @@ bool SolverOptions::IsValid(std::string* error) const {
 bool AnalysisOptions::IsValid(std::string* error) const {
   if (!(observability_threshold > 0) || observability_threshold >= 1) return failWith(error, "observability_threshold must be in (0, 1)");
   if (!(outlier_factor > 0)) return failWith(error, "outlier_factor must be positive");
-  if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0)) return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
+  if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0))
+    return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
   return true;
 }
 
@@ -113,9 +121,12 @@ double robustScaleFromNorms(std::vector<double> norms, int dims) {
 
 // ---- AdjustmentProblem ----------------------------------------------------------------------
 
-AdjustmentProblem::AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss,
-                                     double loss_scale_m, double numeric_diff_relative_step)
-    : mounting_(mounting), offset_sigma_m_(strip_offset_sigma_m), loss_(loss), loss_scale_m_(loss_scale_m),
+AdjustmentProblem::AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss, double loss_scale_m,
+                                     double numeric_diff_relative_step)
+    : mounting_(mounting),
+      offset_sigma_m_(strip_offset_sigma_m),
+      loss_(loss),
+      loss_scale_m_(loss_scale_m),
       numeric_diff_relative_step_(numeric_diff_relative_step) {
   ceres::Problem::Options po;  // owns cost functions, losses and manifolds
   problem_ = std::make_unique<ceres::Problem>(po);
@@ -161,6 +172,7 @@ class BlockPrior final : public ceres::CostFunction {
     }
     return true;
   }
+
  private:
   std::vector<double> x0_, w_;
 };
@@ -177,6 +189,7 @@ class MountingPrior final : public ceres::SizedCostFunction<1, 6> {
     }
     return true;
   }
+
  private:
   int j_;
   double v_, w_;
@@ -252,8 +265,10 @@ Vec3 AdjustmentProblem::stripOffsetValue(const std::string& strip_id) const {
 double* AdjustmentProblem::addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold, bool schur_eliminable) {
   storage_.emplace_back(initial, initial + size);
   double* values = storage_.back().data();
-  if (manifold) problem_->AddParameterBlock(values, size, manifold);
-  else problem_->AddParameterBlock(values, size);
+  if (manifold)
+    problem_->AddParameterBlock(values, size, manifold);
+  else
+    problem_->AddParameterBlock(values, size);
   nuisance_.push_back({values, size, manifold, schur_eliminable, false});
   return values;
 }
@@ -267,8 +282,10 @@ int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_s
   ceres::LossFunction* loss = nullptr;
   if (loss_sigma_m > 0 && loss_ != LossType::kTrivial) {
     const double scale = loss_scale_m / loss_sigma_m;
-    if (loss_ == LossType::kHuber) loss = new ceres::HuberLoss(scale);
-    else loss = new ceres::CauchyLoss(scale);
+    if (loss_ == LossType::kHuber)
+      loss = new ceres::HuberLoss(scale);
+    else
+      loss = new ceres::CauchyLoss(scale);
   }
   problem_->AddResidualBlock(cost, loss, blocks);
   records_.push_back({cost, blocks, source_, loss_sigma_m});
@@ -399,8 +416,10 @@ Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
 
 std::string fmtParam(int j, double v) {
   char buf[64];
-  if (j < 3) std::snprintf(buf, sizeof buf, "%+.4f m", v);
-  else std::snprintf(buf, sizeof buf, "%+.5f°", rad2deg(v));
+  if (j < 3)
+    std::snprintf(buf, sizeof buf, "%+.4f m", v);
+  else
+    std::snprintf(buf, sizeof buf, "%+.5f°", rad2deg(v));
   return buf;
 }
 
@@ -415,7 +434,11 @@ class Estimation {
  public:
   Estimation(const MountingAdjustment::Options& options, const MountingParameters& mounting_used,
              const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start, AdjustmentSummary* summary)
-      : o_(options), sources_(sources), start_(start), m0_(mounting_used.toArray()), S_(*summary),
+      : o_(options),
+        sources_(sources),
+        start_(start),
+        m0_(mounting_used.toArray()),
+        S_(*summary),
         t_start_(std::chrono::steady_clock::now()) {
     for (ObservationSource* s : sources_) any_rematch_ |= s->rematches();
   }
@@ -448,8 +471,10 @@ class Estimation {
       const double change = rematchChange(est, m, m_new, history);
       bool settled = true;
       for (ObservationSource* s : sources_) settled &= s->settled();
-      if (!settled) history.clear();  // a coarse stage's fixed points are not the fine stage's
-      else history.push_back(m);
+      if (!settled)
+        history.clear();  // a coarse stage's fixed points are not the fine stage's
+      else
+        history.push_back(m);
       m = m_new;
       const bool done = !any_rematch_ || (change < 1.0 && settled);
       if ((done || round + 1 >= o_.max_rematch_rounds) && capped() && cs_.termination_type == ceres::NO_CONVERGENCE) {
@@ -504,9 +529,15 @@ class Estimation {
     S_.mounting = mounting_used.withArray(m.data());
     switch (cs_.termination_type) {
       case ceres::CONVERGENCE:
-      case ceres::USER_SUCCESS: S_.termination = TerminationType::kConvergence; break;
-      case ceres::NO_CONVERGENCE: S_.termination = TerminationType::kNoConvergence; break;
-      default: S_.termination = TerminationType::kFailure; break;
+      case ceres::USER_SUCCESS:
+        S_.termination = TerminationType::kConvergence;
+        break;
+      case ceres::NO_CONVERGENCE:
+        S_.termination = TerminationType::kNoConvergence;
+        break;
+      default:
+        S_.termination = TerminationType::kFailure;
+        break;
     }
     S_.message = cs_.message;
     varianceFactor(est);
@@ -546,15 +577,15 @@ class Estimation {
     std::vector<int> fixed;
     for (int j = 0; j < 6; ++j)
       if (!est[j]) fixed.push_back(j);
-    if (fixed.size() == 6) problem.SetParameterBlockConstant(P_->mounting());
-    else if (!fixed.empty()) problem.SetManifold(P_->mounting(), new ceres::SubsetManifold(6, fixed));
+    if (fixed.size() == 6)
+      problem.SetParameterBlockConstant(P_->mounting());
+    else if (!fixed.empty())
+      problem.SetManifold(P_->mounting(), new ceres::SubsetManifold(6, fixed));
     return true;
   }
 
   /// With re-matching sources and max_iterations_per_matching: solves between matchings are capped.
-  bool capped() const {
-    return any_rematch_ && o_.max_iterations_per_matching > 0 && o_.max_iterations_per_matching < o_.max_iterations;
-  }
+  bool capped() const { return any_rematch_ && o_.max_iterations_per_matching > 0 && o_.max_iterations_per_matching < o_.max_iterations; }
 
   /// Levenberg–Marquardt; the eliminable nuisance blocks (tie positions, planes) first in a
   /// Schur ordering, then strip offsets and the mounting.
@@ -716,8 +747,7 @@ class Estimation {
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b)
-        S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
+      for (int b = 0; b < 6; ++b) S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
   }
 
   const MountingAdjustment::Options& o_;
@@ -736,8 +766,8 @@ class Estimation {
 
 }  // namespace
 
-AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used,
-                                            const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start) const {
+AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources,
+                                            const std::array<double, 6>* start) const {
   Summary S;
   S.mounting_used = mounting_used;
   S.mounting = mounting_used;

@@ -34,8 +34,8 @@ void progress(const char* what) {
   if (tty) std::fprintf(stderr, "mountcal: %s\n", what);
 }
 
-int runSimulate(const std::string& scenario, const std::string& preset, std::uint64_t seed,
-                const std::string& out, bool no_noise, const std::string& crs, bool no_ties, bool laz) {
+int runSimulate(const std::string& scenario, const std::string& preset, std::uint64_t seed, const std::string& out, bool no_noise,
+                const std::string& crs, bool no_ties, bool laz) {
   using namespace mountcal::simulation;
   SurveyConfig config;
   Scene scene;
@@ -46,7 +46,8 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   }
   if (no_noise) config.noise = NoiseModel::none();
   if (!crs.empty() && mountcal::io::CrsTransform::isGeographic(crs)) {  // refused before the survey is simulated
-    throw mountcal::InvalidInput("--crs " + crs + " is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+    throw mountcal::InvalidInput("--crs " + crs +
+                                 " is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
   }
   const auto t0 = std::chrono::steady_clock::now();
   const SimulatedSurvey survey = simulate(config, scene);
@@ -58,9 +59,8 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;
   for (const auto& s : survey.strips) points += s.points_m.size();
-  std::printf("%s: %zu strips, %zu points, %zu tie observations, %zu check-point observations in %.1f s\n",
-              config.name.c_str(), survey.strips.size(), points, survey.ties.size(),
-              survey.check_points.size(), secs);
+  std::printf("%s: %zu strips, %zu points, %zu tie observations, %zu check-point observations in %.1f s\n", config.name.c_str(),
+              survey.strips.size(), points, survey.ties.size(), survey.check_points.size(), secs);
   std::printf("wrote %s/job.json and truth.json; run: mountcal calibrate %s/job.json\n", out.c_str(), out.c_str());
   (void)no_ties;
   return 0;
@@ -122,17 +122,21 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   ro.profiles = profileLines(profiles);
   // The visual report shows the strips' points, which a solve from pair files does not read.
   if (!pair_dir.empty() && !report.empty())
-    throw FileError(report, "", "the visual report shows the strips' points, which a solve from pair files does not read; leave out --report");
+    throw FileError(report, "",
+                    "the visual report shows the strips' points, which a solve from pair files does not read; leave out --report");
   const bool report_skipped = !pair_dir.empty() && !job.report_path.empty();
   if (report_skipped) job.report_path.clear();
-  checkJobOutputs(job, pair_dir.empty() ? std::vector<std::string>{} : std::vector<std::string>{pair_dir});  // before anything is computed: an output never replaces an input
+  checkJobOutputs(job, pair_dir.empty()
+                           ? std::vector<std::string>{}
+                           : std::vector<std::string>{pair_dir});  // before anything is computed: an output never replaces an input
   progress(pair_dir.empty() ? "reading the trajectory and strips" : "reading the trajectory and the pair files");
   const LoadedJob loaded = pair_dir.empty() ? loadJob(job) : loadJobFromPairFiles(job, pair_dir);
   const CalibrationData& data = loaded.data;
   progress("building the observations and solving");
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
   // Check data and the pass-to-pass discrepancy need the strips' points: not from pair files.
-  const ResultEvaluation ev = pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, S.laserElevationOffsetsRad()) : ResultEvaluation{};
+  const ResultEvaluation ev =
+      pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, S.laserElevationOffsetsRad()) : ResultEvaluation{};
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
   if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
@@ -140,7 +144,8 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   io::writeFilesAtomically(outputs);
   if (!quiet) std::printf("%s", S.FullReport().c_str());
   if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
-  if (report_skipped && !quiet) std::printf("no report: a solve from pair files does not read the strips' points (run calibrate on the whole job for it)\n");
+  if (report_skipped && !quiet)
+    std::printf("no report: a solve from pair files does not read the strips' points (run calibrate on the whole job for it)\n");
   if (!S.IsSolutionUsable()) {
     std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(S.termination), S.message.c_str());
     return 1;
@@ -165,8 +170,10 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
       for (const std::string& id : only_strips)
         for (const JobStrip& named : job.strips)
           if (named.id == id && io::samePath(named.path, js.path)) take = true;
-      if (take) keep.push_back(js);
-      else other_inputs.push_back(js.path);
+      if (take)
+        keep.push_back(js);
+      else
+        other_inputs.push_back(js.path);
     }
     job.strips = keep;
   }
@@ -175,14 +182,16 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
   progress("rewriting the strips");
   const StripFormat f = format == "las" ? StripFormat::las : format == "laz" ? StripFormat::laz : StripFormat::same_as_input;
   const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f, other_inputs, threads < 0 ? 0 : threads);
-  std::printf("applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
-              "largest shift %.3f m; wrote %s\n",
-              m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
-              static_cast<unsigned long long>(st.points), st.max_shift_m, out.c_str());
+  std::printf(
+      "applied lever arm (%.4f, %.4f, %.4f) m, boresight (%.5f, %.5f, %.5f) deg to %zu files, %llu points; "
+      "largest shift %.3f m; wrote %s\n",
+      m.a_b.x(), m.a_b.y(), m.a_b.z(), m.boresightDeg().x(), m.boresightDeg().y(), m.boresightDeg().z(), st.strips,
+      static_cast<unsigned long long>(st.points), st.max_shift_m, out.c_str());
   return 0;
 }
 
-int runEvaluate(const std::string& job_path, const std::string& result_path, const std::string& report, const std::vector<std::string>& profiles) {
+int runEvaluate(const std::string& job_path, const std::string& result_path, const std::string& report,
+                const std::vector<std::string>& profiles) {
   using namespace mountcal;
   Job job = readJobNoting(job_path);
   ReportOptions ro;
@@ -213,10 +222,12 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
   }
   if (!ev.discrepancy_after.empty()) {
     const DiscrepancyOptions d;
-    std::printf("pass-to-pass discrepancy (each point of the smaller strip against the local plane of the larger's %d nearest:\n"
-                "  nearest within %.2f m, plane sigma <= %.3f m, sqrt(l_mid/l_max) >= %.2f, extent <= %.2f m):\n",
-                d.neighbours, d.max_neighbour_distance_m, d.max_plane_sigma_m, d.min_spread_ratio, d.max_extent_m);
-    std::printf("  %-12s %-12s %8s %8s   median  before/after [m]     RMS before/after [m]     P90 before/after [m]\n", "query", "reference", "points", "used");
+    std::printf(
+        "pass-to-pass discrepancy (each point of the smaller strip against the local plane of the larger's %d nearest:\n"
+        "  nearest within %.2f m, plane sigma <= %.3f m, sqrt(l_mid/l_max) >= %.2f, extent <= %.2f m):\n",
+        d.neighbours, d.max_neighbour_distance_m, d.max_plane_sigma_m, d.min_spread_ratio, d.max_extent_m);
+    std::printf("  %-12s %-12s %8s %8s   median  before/after [m]     RMS before/after [m]     P90 before/after [m]\n", "query",
+                "reference", "points", "used");
     for (const PairDiscrepancy& a : ev.discrepancy_after) {
       DiscrepancyStats b;
       for (const PairDiscrepancy& x : ev.discrepancy_before)
@@ -247,31 +258,38 @@ int runInfo(const std::string& path) {
   if (ext == ".las" || ext == ".laz") {
     io::LasReader r(path);
     const io::LasHeader& h = r.header();
-    std::printf("%s: LAS %d.%d, point format %d (%d bytes, %d extra), %llu points\n", path.c_str(), h.version_major,
-                h.version_minor, h.point_format, h.point_record_length, h.extraBytesPerPoint(),
-                static_cast<unsigned long long>(h.point_count));
-    std::printf("  scale (%g, %g, %g), offset (%.3f, %.3f, %.3f)\n", h.scale[0], h.scale[1], h.scale[2], h.offset[0], h.offset[1], h.offset[2]);
+    std::printf("%s: LAS %d.%d, point format %d (%d bytes, %d extra), %llu points\n", path.c_str(), h.version_major, h.version_minor,
+                h.point_format, h.point_record_length, h.extraBytesPerPoint(), static_cast<unsigned long long>(h.point_count));
+    std::printf("  scale (%g, %g, %g), offset (%.3f, %.3f, %.3f)\n", h.scale[0], h.scale[1], h.scale[2], h.offset[0], h.offset[1],
+                h.offset[2]);
     std::printf("  bounds x [%.3f, %.3f] y [%.3f, %.3f] z [%.3f, %.3f]\n", h.min[0], h.max[0], h.min[1], h.max[1], h.min[2], h.max[2]);
-    std::printf("  GPS time: %s\n", h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
+    std::printf("  GPS time: %s\n",
+                h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
     if (const io::LazVlr* z = r.laz()) {
       static const char* kCompressor[] = {"none", "point-wise", "point-wise chunked", "layered chunked"};
       std::string items;
       for (const io::LazItem& it : z->items)
-        items += (items.empty() ? "" : ", ") + io::lazItemName(it.type) + "(" + std::to_string(it.size) + ") v" + std::to_string(it.version);
+        items +=
+            (items.empty() ? "" : ", ") + io::lazItemName(it.type) + "(" + std::to_string(it.size) + ") v" + std::to_string(it.version);
       std::printf("  LAZ: compressor %d (%s), LASzip %d.%d r%d%s; items %s\n", z->compressor, kCompressor[z->compressor], z->version_major,
                   z->version_minor, z->version_revision, (z->options & 1) ? ", LAS 1.4 compatibility mode" : "", items.c_str());
       const auto& chunks = r.lazChunks();
       std::uint64_t bytes = 0;
       for (const auto& c : chunks) bytes += c.bytes;
-      if (z->compressor == 1) std::printf("  one stream of %llu bytes (no chunks)\n", static_cast<unsigned long long>(bytes));
-      else if (z->variableChunks()) std::printf("  %zu chunks of variable size, %llu bytes\n", chunks.size(), static_cast<unsigned long long>(bytes));
-      else std::printf("  %zu chunks of %u points, %llu bytes\n", chunks.size(), z->chunk_size, static_cast<unsigned long long>(bytes));
+      if (z->compressor == 1)
+        std::printf("  one stream of %llu bytes (no chunks)\n", static_cast<unsigned long long>(bytes));
+      else if (z->variableChunks())
+        std::printf("  %zu chunks of variable size, %llu bytes\n", chunks.size(), static_cast<unsigned long long>(bytes));
+      else
+        std::printf("  %zu chunks of %u points, %llu bytes\n", chunks.size(), z->chunk_size, static_cast<unsigned long long>(bytes));
     }
-    for (const auto& v : h.vlrs) std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
-    for (const auto& v : h.evlrs) std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+    for (const auto& v : h.vlrs)
+      std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+    for (const auto& v : h.evlrs)
+      std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
     for (const auto& a : io::extraBytesAttributes(h, path)) {
-      std::printf("  extra bytes: %-24s type %2d, bytes %zu-%zu%s%s\n", a.name.c_str(), a.data_type, a.byte_offset, a.byte_offset + a.size - 1,
-                  a.hasScale() ? ", scaled" : "", a.hasOffset() ? ", offset" : "");
+      std::printf("  extra bytes: %-24s type %2d, bytes %zu-%zu%s%s\n", a.name.c_str(), a.data_type, a.byte_offset,
+                  a.byte_offset + a.size - 1, a.hasScale() ? ", scaled" : "", a.hasOffset() ? ", offset" : "");
     }
     if (h.hasGpsTime()) {
       double t0 = 1e300, t1 = -1e300, a0 = 1e300, a1 = -1e300;
@@ -296,8 +314,8 @@ int runInfo(const std::string& path) {
     h0 = std::min(h0, r.h_m), h1 = std::max(h1, r.h_m);
   }
   const double span = rec.back().time_s - rec.front().time_s;
-  std::printf("%s: SBET, %zu records, time [%.6f, %.6f] s (%.1f Hz)\n", path.c_str(), rec.size(), rec.front().time_s,
-              rec.back().time_s, span > 0 ? static_cast<double>(rec.size() - 1) / span : 0.0);
+  std::printf("%s: SBET, %zu records, time [%.6f, %.6f] s (%.1f Hz)\n", path.c_str(), rec.size(), rec.front().time_s, rec.back().time_s,
+              span > 0 ? static_cast<double>(rec.size() - 1) / span : 0.0);
   std::printf("  latitude [%.7f, %.7f] deg, longitude [%.7f, %.7f] deg, height [%.3f, %.3f] m\n", rad2deg(lat0), rad2deg(lat1),
               rad2deg(lon0), rad2deg(lon1), h0, h1);
   return 0;
@@ -350,8 +368,10 @@ int runPairs(const std::string& job_path, const std::string& out) {
   }
   std::string text;
   for (const auto& [a, b] : jobStripPairs(job)) text += a + "\t" + b + "\n";
-  if (out.empty()) std::fputs(text.c_str(), stdout);
-  else io::writeFileAtomically(out, text);
+  if (out.empty())
+    std::fputs(text.c_str(), stdout);
+  else
+    io::writeFileAtomically(out, text);
   return 0;
 }
 
@@ -366,7 +386,8 @@ int runMatch(const std::string& job_path, const std::vector<std::string>& pair, 
   writePairCandidates(out, p, job.options.method<CorrespondenceOptions>(), job.mounting_used.toArray());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s / %s: %s, %zu samples (%d sparse), %zu + %zu points in %.2f s; wrote %s\n", p.strip_a.c_str(), p.strip_b.c_str(),
-              p.overlap ? "overlap" : "no overlap", p.samples(), p.sparse_samples, p.samples_a.size(), p.points_b.size(), secs, out.c_str());
+              p.overlap ? "overlap" : "no overlap", p.samples(), p.sparse_samples, p.samples_a.size(), p.points_b.size(), secs,
+              out.c_str());
   return 0;
 }
 
@@ -394,7 +415,8 @@ struct Command {
 };
 
 Command addMethods(CLI::App& app) {
-  CLI::App* c = app.add_subcommand("methods", "The calibration methods: what each observes, its job input and its options with defaults and units");
+  CLI::App* c =
+      app.add_subcommand("methods", "The calibration methods: what each observes, its job input and its options with defaults and units");
   return {c, [] {
             std::printf("%s", mountcal::describeMethods().c_str());
             return 0;
@@ -407,14 +429,17 @@ Command addMounting(CLI::App& app) {
     bool json = false;
   };
   auto a = std::make_shared<Args>();
-  CLI::App* c = app.add_subcommand("mounting", "A result's mounting in other programs' forms: forward-right-down and forward-left-up axes, degrees and radians, matrices and quaternions");
+  CLI::App* c = app.add_subcommand("mounting",
+                                   "A result's mounting in other programs' forms: forward-right-down and forward-left-up axes, degrees and "
+                                   "radians, matrices and quaternions");
   c->add_option("result", a->result, "Result JSON file of mountcal calibrate")->required();
   c->add_option("--job", a->job, "The job, for the sensor's nominal rotation in R_bs (default: none)");
   c->add_flag("--json", a->json, "Write JSON instead of text");
   return {c, [a] {
             using namespace mountcal;
             Mat3 R_nom = Mat3::Identity();
-            if (!a->job.empty()) R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(a->job).nominal_rotation_deg).R_nom;
+            if (!a->job.empty())
+              R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(a->job).nominal_rotation_deg).R_nom;
             const MountingParameters m = readResultMounting(a->result, R_nom);
             const std::vector<double> lasers = readResultLaserElevation(a->result);
             std::printf("%s", (a->json ? mountingFormsJson(m, lasers) : mountingFormsText(m, lasers)).c_str());
@@ -461,8 +486,11 @@ Command addCalibrate(CLI::App& app) {
   c->add_option("--report", a->report, "Write the visual HTML report here (instead of the job's output.report)");
   c->add_option("--profile", a->profiles, "A profile for the report: x0,y0,x1,y1[,width] in metres (repeatable)");
   c->add_option("--result", a->result, "Write the result file here (instead of the job's output.result)");
-  c->add_option("--correspondences", a->pair_dir, "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
-  c->add_option("--threads", a->threads, "Threads for building the observations: correspondence search, VTPM construction (default: every core); results do not depend on it")
+  c->add_option("--correspondences", a->pair_dir,
+                "Solve from the pair files (*.mcpair) of mountcal match in this folder instead of searching the strips");
+  c->add_option(
+       "--threads", a->threads,
+       "Threads for building the observations: correspondence search, VTPM construction (default: every core); results do not depend on it")
       ->check(CLI::Range(1, 4096));
   return {c, [a] { return withNotices(runCalibrate(a->job, a->quiet, a->report, a->profiles, a->pair_dir, a->threads, a->result)); }};
 }
@@ -478,7 +506,8 @@ Command addApply(CLI::App& app) {
   c->add_option("job", a->job, "Job JSON file")->required();
   c->add_option("--result", a->result, "Result JSON file of mountcal calibrate")->required();
   c->add_option("--out", a->out, "Output folder (the strips keep their file names)")->required();
-  c->add_option("--format", a->format, "las or laz: write this format whatever the input's (default: the input's)")->check(CLI::IsMember({"las", "laz"}));
+  c->add_option("--format", a->format, "las or laz: write this format whatever the input's (default: the input's)")
+      ->check(CLI::IsMember({"las", "laz"}));
   c->add_option("--strip", a->strips, "Rewrite only the file of this strip (repeatable; a workflow's per-strip job)");
   c->add_option("--threads", a->threads, "Files rewritten at once (default: every core)")->check(CLI::Range(1, 4096));
   return {c, [a] { return withNotices(runApply(a->job, a->result, a->out, a->format, a->strips, a->threads)); }};
@@ -526,11 +555,13 @@ std::vector<Command> addBlockCommands(CLI::App& app) {
   CLI::App* cp = app.add_subcommand("pairs", "The strip pairs of a block to match (one \"A<TAB>B\" per line), from the strips' headers");
   cp->add_option("job", p->job, "Job JSON file")->required();
   cp->add_option("--out", p->out, "Write the list to this file instead of stdout");
-  CLI::App* cm = app.add_subcommand("match", "The candidate correspondences of one strip pair, into a pair file (for calibrate --correspondences)");
+  CLI::App* cm =
+      app.add_subcommand("match", "The candidate correspondences of one strip pair, into a pair file (for calibrate --correspondences)");
   cm->add_option("job", m->job, "Job JSON file")->required();
   cm->add_option("--pair", m->pair, "The two strip ids")->required()->expected(2);
   cm->add_option("--out", m->out, "Pair file to write (docs/command-and-files.md: \"Correspondence pair files\")")->required();
-  return {{cp, [p] { return withNotices(runPairs(p->job, p->out)); }}, {cm, [m] { return withNotices(runMatch(m->job, m->pair, m->out)); }}};
+  return {{cp, [p] { return withNotices(runPairs(p->job, p->out)); }},
+          {cm, [m] { return withNotices(runMatch(m->job, m->pair, m->out)); }}};
 }
 
 Command addPlan(CLI::App& app) {

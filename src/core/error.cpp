@@ -12,8 +12,7 @@ std::string outOfRangeMessage(double t, double a, double b) {
       << "] s; mountcal does not extrapolate (check the time offset and the time encoding)";
   return msg.str();
 }
-std::string fileMessage(const std::string& path, const std::string& location,
-                        const std::string& message) {
+std::string fileMessage(const std::string& path, const std::string& location, const std::string& message) {
   return location.empty() ? path + ": " + message : path + ":" + location + ": " + message;
 }
 }  // namespace
@@ -22,8 +21,6 @@ TimeOutOfRange::TimeOutOfRange(double time_s, double start_s, double end_s)
     : Error(outOfRangeMessage(time_s, start_s, end_s)), time_s_(time_s) {}
 
 FileError::FileError(std::string path, std::string location, const std::string& message)
-    : Error(fileMessage(path, location, message)),
-      path_(std::move(path)),
-      location_(std::move(location)) {}
+    : Error(fileMessage(path, location, message)), path_(std::move(path)), location_(std::move(location)) {}
 
 }  // namespace mountcal

@@ -5,11 +5,11 @@
 namespace mountcal {
 
 namespace {
-constexpr double kA = 6378137.0;                // WGS84 semi-major axis [m]
-constexpr double kF = 1.0 / 298.257223563;      // flattening
-constexpr double kE2 = kF * (2.0 - kF);         // first eccentricity squared
+constexpr double kA = 6378137.0;            // WGS84 semi-major axis [m]
+constexpr double kF = 1.0 / 298.257223563;  // flattening
+constexpr double kE2 = kF * (2.0 - kF);     // first eccentricity squared
 constexpr double kB = kA * (1.0 - kF);
-constexpr double kEp2 = kE2 / (1.0 - kE2);      // second eccentricity squared
+constexpr double kEp2 = kE2 / (1.0 - kE2);  // second eccentricity squared
 }  // namespace
 
 Vec3 geodeticToEcef(const Geodetic& g) {
@@ -42,18 +42,14 @@ Geodetic ecefToGeodetic(const Vec3& x) {
 Mat3 R_en(double lat, double lon) {
   const double sl = std::sin(lat), cl = std::cos(lat), so = std::sin(lon), co = std::cos(lon);
   Mat3 R;  // columns: North, East, Down in ECEF
-  R << -sl * co, -so, -cl * co,
-       -sl * so,  co, -cl * so,
-        cl,       0,  -sl;
+  R << -sl * co, -so, -cl * co, -sl * so, co, -cl * so, cl, 0, -sl;
   return R;
 }
 
 Mat3 R_e_enu(double lat, double lon) {
   const double sl = std::sin(lat), cl = std::cos(lat), so = std::sin(lon), co = std::cos(lon);
   Mat3 R;  // columns: East, North, Up in ECEF
-  R << -so, -sl * co, cl * co,
-        co, -sl * so, cl * so,
-        0,   cl,      sl;
+  R << -so, -sl * co, cl * co, co, -sl * so, cl * so, 0, cl, sl;
   return R;
 }
 
@@ -62,9 +58,7 @@ LocalTangentFrame::LocalTangentFrame(const Geodetic& origin)
 
 Vec3 LocalTangentFrame::toLocal(const Geodetic& g) const { return R_m_e_ * (geodeticToEcef(g) - origin_e_); }
 
-Geodetic LocalTangentFrame::toGeodetic(const Vec3& x_m) const {
-  return ecefToGeodetic(origin_e_ + R_m_e_.transpose() * x_m);
-}
+Geodetic LocalTangentFrame::toGeodetic(const Vec3& x_m) const { return ecefToGeodetic(origin_e_ + R_m_e_.transpose() * x_m); }
 
 Mat3 LocalTangentFrame::R_mn(double lat, double lon) const { return R_m_e_ * R_en(lat, lon); }
 

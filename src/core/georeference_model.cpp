@@ -9,14 +9,12 @@
 
 namespace mountcal {
 
-GeoreferenceModel::GeoreferenceModel(std::shared_ptr<const Trajectory> trajectory,
-                                     MountingParameters mounting)
+GeoreferenceModel::GeoreferenceModel(std::shared_ptr<const Trajectory> trajectory, MountingParameters mounting)
     : trajectory_(std::move(trajectory)), mounting_(mounting), R_bs_(mounting.R_bs()) {
   if (!trajectory_ || trajectory_->size() < 2) {
     throw InvalidInput("GeoreferenceModel: the trajectory needs at least 2 samples");
   }
-  if (!mounting_.a_b.allFinite() || !mounting_.boresight.allFinite() ||
-      !mounting_.R_nom.allFinite()) {
+  if (!mounting_.a_b.allFinite() || !mounting_.boresight.allFinite() || !mounting_.R_nom.allFinite()) {
     throw InvalidInput("GeoreferenceModel: the mounting has a non-finite value");
   }
 }
@@ -39,17 +37,17 @@ Vec3 GeoreferenceModel::inverse(double time_s, const Vec3& x_m) const {
 
 namespace {
 
-using detail::IntervalExpansion;
 using detail::expandInterval;
 using detail::forwardExpanded;
+using detail::IntervalExpansion;
 using detail::kTerms;
 
 /// The batch forward of every pulse k with laser vector laser(k): the interval walk, the
 /// expansion per interval, the exact slerp where an interval turns too fast. `cursor` and `e`
 /// carry the walk from one call to the next.
 template <typename LaserVector>
-void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const double* time_s, double* x_m, std::size_t n,
-                  LaserVector laser, std::size_t* cursor, IntervalExpansion* e) {
+void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const double* time_s, double* x_m, std::size_t n, LaserVector laser,
+                  std::size_t* cursor, IntervalExpansion* e) {
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = T.locate(time_s[k], cursor);
     const Vec3 r = laser(k);
@@ -61,16 +59,15 @@ void forwardBatch(const Trajectory& T, const Mat3& R_bs, const Vec3& a, const do
 
 }  // namespace
 
-void GeoreferenceModel::forward(const double* time_s, const double* r_s, double* x_m,
-                                std::size_t n) const {
+void GeoreferenceModel::forward(const double* time_s, const double* r_s, double* x_m, std::size_t n) const {
   std::size_t cursor = 0;
   IntervalExpansion e;
-  forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n,
-               [&](std::size_t k) { return Vec3(r_s[3 * k], r_s[3 * k + 1], r_s[3 * k + 2]); }, &cursor, &e);
+  forwardBatch(
+      *trajectory_, R_bs_, mounting_.a_b, time_s, x_m, n, [&](std::size_t k) { return Vec3(r_s[3 * k], r_s[3 * k + 1], r_s[3 * k + 2]); },
+      &cursor, &e);
 }
 
-void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double* r_s,
-                                std::size_t n) const {
+void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double* r_s, std::size_t n) const {
   std::size_t cursor = 0;
   IntervalExpansion e;
   const Vec3 a_s = R_bs_.transpose() * mounting_.a_b;
@@ -91,9 +88,8 @@ void GeoreferenceModel::inverse(const double* time_s, const double* x_m, double*
   }
 }
 
-void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const double* time_s,
-                                        const double* scan_angle_rad, const double* range_m,
-                                        double* x_m, std::size_t n) const {
+void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const double* time_s, const double* scan_angle_rad,
+                                        const double* range_m, double* x_m, std::size_t n) const {
   // Blocks of pulses: the scan angles' sines and cosines in one vectorised loop
   // (sincos_batch.hpp), then the laser vectors of SPEC §2 (0, ρ sin θ, ρ cos θ) as
   // LineScannerModel::vector forms them.
@@ -108,8 +104,9 @@ void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const d
       rho[k] = range_m[k0 + k] + scanner.range_offset_m;
     }
     detail::sinCosBatch(theta, sin_theta, cos_theta, m);
-    forwardBatch(*trajectory_, R_bs_, mounting_.a_b, time_s + k0, x_m + 3 * k0, m,
-                 [&](std::size_t k) { return Vec3(0.0, rho[k] * sin_theta[k], rho[k] * cos_theta[k]); }, &cursor, &e);
+    forwardBatch(
+        *trajectory_, R_bs_, mounting_.a_b, time_s + k0, x_m + 3 * k0, m,
+        [&](std::size_t k) { return Vec3(0.0, rho[k] * sin_theta[k], rho[k] * cos_theta[k]); }, &cursor, &e);
   }
 }
 

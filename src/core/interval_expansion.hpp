@@ -13,9 +13,8 @@ namespace mountcal::detail {
 //   R_mb(s) · (R_bs r_s + a) = Σ_{j=0..4} s^j (M_j r_s + m_j),  C_j = R_i A^j / j!,
 //   M_j = C_j R_bs,  m_j = C_j a,
 // a pulse costs five 3×3 products in Horner form instead of a quaternion exponential and a
-// matrix (the position polynomial, linear or cubic Hermite, is folded into m_0..m_3). The series' remainder is at most |ω|⁵/120 · |R_bs r_s + a|: below 1e-11 m for
-// |ω| ≤ 0.004 rad (46°/s at 200 Hz) and 3 km ranges. An interval turning faster takes the
-// exact slerp.
+// matrix (the position polynomial, linear or cubic Hermite, is folded into m_0..m_3). The series' remainder is at most |ω|⁵/120 · |R_bs r_s
+// + a|: below 1e-11 m for |ω| ≤ 0.004 rad (46°/s at 200 Hz) and 3 km ranges. An interval turning faster takes the exact slerp.
 inline constexpr double kMaxExpandedRotation_rad = 0.004;
 inline constexpr int kTerms = 5;
 
@@ -28,8 +27,7 @@ struct IntervalExpansion {
   Vec3 c[4];       // the position polynomial p(s) = Σ c_j s^j
 };
 
-inline void expandInterval(const Trajectory& T, std::size_t i, const Mat3& R_bs, const Vec3& a, bool inverse,
-                    IntervalExpansion* e) {
+inline void expandInterval(const Trajectory& T, std::size_t i, const Mat3& R_bs, const Vec3& a, bool inverse, IntervalExpansion* e) {
   e->interval = i;
   Mat3 C;
   Vec3 omega;

@@ -6,9 +6,7 @@
 
 namespace mountcal {
 
-const char* toString(BodyAxes axes) {
-  return axes == BodyAxes::kForwardRightDown ? "forward-right-down" : "forward-left-up";
-}
+const char* toString(BodyAxes axes) { return axes == BodyAxes::kForwardRightDown ? "forward-right-down" : "forward-left-up"; }
 
 namespace {
 Eigen::Quaterniond positive(const Mat3& R) {
@@ -44,17 +42,20 @@ std::string mountingFormsText(const MountingParameters& m, const std::vector<dou
     std::snprintf(b, sizeof b, "  lever arm          %+.6f %+.6f %+.6f m\n", f.lever_arm_m.x(), f.lever_arm_m.y(), f.lever_arm_m.z());
     out << b;
     std::snprintf(b, sizeof b, "  boresight (r,p,h)  %+.6f %+.6f %+.6f deg = %+.9f %+.9f %+.9f rad\n", rad2deg(f.boresight_rad.x()),
-                  rad2deg(f.boresight_rad.y()), rad2deg(f.boresight_rad.z()), f.boresight_rad.x(), f.boresight_rad.y(), f.boresight_rad.z());
+                  rad2deg(f.boresight_rad.y()), rad2deg(f.boresight_rad.z()), f.boresight_rad.x(), f.boresight_rad.y(),
+                  f.boresight_rad.z());
     out << b;
-    std::snprintf(b, sizeof b, "  q_bore (w,x,y,z)   %+.12f %+.12f %+.12f %+.12f\n", f.q_bore.w(), f.q_bore.x(), f.q_bore.y(), f.q_bore.z());
+    std::snprintf(b, sizeof b, "  q_bore (w,x,y,z)   %+.12f %+.12f %+.12f %+.12f\n", f.q_bore.w(), f.q_bore.x(), f.q_bore.y(),
+                  f.q_bore.z());
     out << b;
     out << "  R_bore             ";
     for (int r = 0; r < 3; ++r) {
-      std::snprintf(b, sizeof b, "%s[%+.12f %+.12f %+.12f]\n", r ? "                     " : "", f.R_bore(r, 0), f.R_bore(r, 1), f.R_bore(r, 2));
+      std::snprintf(b, sizeof b, "%s[%+.12f %+.12f %+.12f]\n", r ? "                     " : "", f.R_bore(r, 0), f.R_bore(r, 1),
+                    f.R_bore(r, 2));
       out << b;
     }
-    std::snprintf(b, sizeof b, "  q_bs (w,x,y,z)     %+.12f %+.12f %+.12f %+.12f   (R_bs = R_bore * R_nom)\n", f.q_bs.w(), f.q_bs.x(), f.q_bs.y(),
-                  f.q_bs.z());
+    std::snprintf(b, sizeof b, "  q_bs (w,x,y,z)     %+.12f %+.12f %+.12f %+.12f   (R_bs = R_bore * R_nom)\n", f.q_bs.w(), f.q_bs.x(),
+                  f.q_bs.y(), f.q_bs.z());
     out << b;
   }
   if (!laser_elevation_offset_rad.empty()) {

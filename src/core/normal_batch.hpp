@@ -42,8 +42,13 @@ inline void logBatch(const double* __restrict x, double* __restrict out, std::si
     const double e = (eb - 4503599627370496.0) - 1023.0;
     const double z = (m - 1.0) / (m + 1.0);  // m − 1 is exact (Sterbenz)
     const double w = z * z;
-    const double p = w * (1.0 / 3 + w * (1.0 / 5 + w * (1.0 / 7 + w * (1.0 / 9 + w * (1.0 / 11 + w * (1.0 / 13 +
-                     w * (1.0 / 15 + w * (1.0 / 17 + w * (1.0 / 19 + w * (1.0 / 21 + w * (1.0 / 23)))))))))));
+    const double p =
+        w * (1.0 / 3 +
+             w * (1.0 / 5 +
+                  w * (1.0 / 7 +
+                       w * (1.0 / 9 +
+                            w * (1.0 / 11 +
+                                 w * (1.0 / 13 + w * (1.0 / 15 + w * (1.0 / 17 + w * (1.0 / 19 + w * (1.0 / 21 + w * (1.0 / 23)))))))))));
     const double two_z = 2.0 * z;
     out[k] = e * kLn2Hi + (e * kLn2Lo + (two_z + two_z * p));
   }

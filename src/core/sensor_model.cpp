@@ -19,17 +19,14 @@ void LineScannerModel::inverse(const Vec3& r_s, double* scan_angle_rad, double* 
   *scan_angle_rad = (theta - scan_angle_offset_rad) / scan_angle_scale;
 }
 
-MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers,
-                               double sequence_period_s)
+MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, double sequence_period_s)
     : name_(std::move(name)), lasers_(std::move(lasers)), sequence_period_s_(sequence_period_s) {
   if (lasers_.empty()) throw InvalidInput("multi-beam model '" + name_ + "': no lasers");
   for (std::size_t i = 0; i < lasers_.size(); ++i) {
     const LaserSpec& l = lasers_[i];
-    if (!std::isfinite(l.elevation_rad) || !std::isfinite(l.vertical_offset_m) ||
-        !std::isfinite(l.azimuth_offset_rad) || !std::isfinite(l.range_offset_m) ||
-        !std::isfinite(l.firing_offset_s)) {
-      throw InvalidInput("multi-beam model '" + name_ + "': laser " + std::to_string(i) +
-                         " has a non-finite value");
+    if (!std::isfinite(l.elevation_rad) || !std::isfinite(l.vertical_offset_m) || !std::isfinite(l.azimuth_offset_rad) ||
+        !std::isfinite(l.range_offset_m) || !std::isfinite(l.firing_offset_s)) {
+      throw InvalidInput("multi-beam model '" + name_ + "': laser " + std::to_string(i) + " has a non-finite value");
     }
   }
   if (!std::isfinite(sequence_period_s_) || sequence_period_s_ < 0) {
@@ -39,10 +36,8 @@ MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers,
 
 MultiBeamModel MultiBeamModel::VLP16() {
   // VLP-16 user manual: vertical angle and vertical correction [mm] by laser id.
-  static const double kElevationDeg[16] = {-15, 1, -13, 3, -11, 5, -9, 7,
-                                           -7,  9, -5, 11, -3, 13, -1, 15};
-  static const double kVerticalMm[16] = {11.2, -0.7, 9.7,  -2.2, 8.1, -3.7, 6.6,  -5.1,
-                                         5.1,  -6.6, 3.7, -8.1, 2.2, -9.7, 0.7, -11.2};
+  static const double kElevationDeg[16] = {-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15};
+  static const double kVerticalMm[16] = {11.2, -0.7, 9.7, -2.2, 8.1, -3.7, 6.6, -5.1, 5.1, -6.6, 3.7, -8.1, 2.2, -9.7, 0.7, -11.2};
   std::vector<LaserSpec> lasers(16);
   for (int i = 0; i < 16; ++i) {
     lasers[i].elevation_rad = deg2rad(kElevationDeg[i]);
@@ -55,10 +50,9 @@ MultiBeamModel MultiBeamModel::VLP16() {
 MultiBeamModel MultiBeamModel::HDL32E() {
   // HDL-32E user manual: lasers alternate between the lower block (−30.67° upwards) and the
   // upper block (−9.33° upwards), 1.333° apart within each.
-  static const double kElevationDeg[32] = {
-      -30.67, -9.33,  -29.33, -8.00,  -28.00, -6.67,  -26.67, -5.33,  -25.33, -4.00, -24.00,
-      -2.67,  -22.67, -1.33,  -21.33, 0.00,   -20.00, 1.33,   -18.67, 2.67,   -17.33, 4.00,
-      -16.00, 5.33,   -14.67, 6.67,   -13.33, 8.00,   -12.00, 9.33,   -10.67, 10.67};
+  static const double kElevationDeg[32] = {-30.67, -9.33,  -29.33, -8.00,  -28.00, -6.67,  -26.67, -5.33,  -25.33, -4.00,  -24.00,
+                                           -2.67,  -22.67, -1.33,  -21.33, 0.00,   -20.00, 1.33,   -18.67, 2.67,   -17.33, 4.00,
+                                           -16.00, 5.33,   -14.67, 6.67,   -13.33, 8.00,   -12.00, 9.33,   -10.67, 10.67};
   std::vector<LaserSpec> lasers(32);
   for (int i = 0; i < 32; ++i) {
     lasers[i].elevation_rad = deg2rad(kElevationDeg[i]);
@@ -69,8 +63,8 @@ MultiBeamModel MultiBeamModel::HDL32E() {
 
 const LaserSpec& MultiBeamModel::laser(int id) const {
   if (id < 0 || id >= laserCount()) {
-    throw InvalidInput("multi-beam model '" + name_ + "': laser id " + std::to_string(id) +
-                       " is outside 0.." + std::to_string(laserCount() - 1));
+    throw InvalidInput("multi-beam model '" + name_ + "': laser id " + std::to_string(id) + " is outside 0.." +
+                       std::to_string(laserCount() - 1));
   }
   return lasers_[static_cast<std::size_t>(id)];
 }
@@ -85,12 +79,10 @@ Vec3 MultiBeamModel::vector(int laser_id, double azimuth_rad, double range_m) co
   const double alpha = azimuth_rad + l.azimuth_offset_rad;
   const double c = std::cos(l.elevation_rad);
   // SPEC §2 multi-beam (Velodyne manual convention)
-  return {rho * c * std::sin(alpha), rho * c * std::cos(alpha),
-          rho * std::sin(l.elevation_rad) + l.vertical_offset_m};
+  return {rho * c * std::sin(alpha), rho * c * std::cos(alpha), rho * std::sin(l.elevation_rad) + l.vertical_offset_m};
 }
 
-void MultiBeamModel::inverse(const Vec3& r_s, int laser_id, double* azimuth_rad,
-                             double* range_m) const {
+void MultiBeamModel::inverse(const Vec3& r_s, int laser_id, double* azimuth_rad, double* range_m) const {
   const LaserSpec& l = laser(laser_id);
   const Vec3 v(r_s.x(), r_s.y(), r_s.z() - l.vertical_offset_m);
   double alpha = std::atan2(v.x(), v.y()) - l.azimuth_offset_rad;

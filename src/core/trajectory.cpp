@@ -23,17 +23,16 @@ Trajectory::Trajectory(std::vector<TrajectorySample> samples, PositionInterpolat
   q_mb_.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const TrajectorySample& s = samples_[i];
-    if (!std::isfinite(s.time_s) || !finite(s.p_m) || !std::isfinite(s.roll) ||
-        !std::isfinite(s.pitch) || !std::isfinite(s.heading) || !s.R_mn.allFinite()) {
+    if (!std::isfinite(s.time_s) || !finite(s.p_m) || !std::isfinite(s.roll) || !std::isfinite(s.pitch) || !std::isfinite(s.heading) ||
+        !s.R_mn.allFinite()) {
       throw InvalidInput("trajectory: sample " + std::to_string(i) + " has a non-finite value");
     }
     if (i > 0 && !(s.time_s > samples_[i - 1].time_s)) {
       std::ostringstream msg;
       msg.precision(17);
       msg << "trajectory: sample " << i << " time " << s.time_s << " s is "
-          << (s.time_s == samples_[i - 1].time_s ? "a duplicate of" : "earlier than")
-          << " sample " << i - 1 << " (" << samples_[i - 1].time_s
-          << " s); times must be strictly increasing";
+          << (s.time_s == samples_[i - 1].time_s ? "a duplicate of" : "earlier than") << " sample " << i - 1 << " ("
+          << samples_[i - 1].time_s << " s); times must be strictly increasing";
       throw InvalidInput(msg.str());
     }
     time_s_[i] = s.time_s;

@@ -44,7 +44,8 @@ void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>
   namespace fs = std::filesystem;
   for (std::size_t i = 0; i < files.size(); ++i)
     for (std::size_t k = 0; k < i; ++k)
-      if (samePath(files[i].first, files[k].first)) throw FileError(files[i].first, "", "is written twice by this run (also as " + files[k].first + ")");
+      if (samePath(files[i].first, files[k].first))
+        throw FileError(files[i].first, "", "is written twice by this run (also as " + files[k].first + ")");
   std::random_device rd;
   const std::string tag = ".tmp-" + std::to_string(rd() % 1000000u);
   std::vector<std::string> temps;
@@ -73,8 +74,10 @@ void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>
   auto undo = [&] {
     for (std::size_t k = placed; k-- > 0;) {
       std::error_code ec;
-      if (!backups[k].empty()) fs::rename(backups[k], files[k].first, ec);
-      else fs::remove(files[k].first, ec);
+      if (!backups[k].empty())
+        fs::rename(backups[k], files[k].first, ec);
+      else
+        fs::remove(files[k].first, ec);
     }
     removeTemps();
   };

@@ -21,7 +21,9 @@ CrsTransform::CrsTransform(const std::string& crs) : impl_(std::make_unique<Impl
   impl_->ctx = proj_context_create();
   proj_log_level(impl_->ctx, PJ_LOG_NONE);
   PJ* raw = proj_create_crs_to_crs(impl_->ctx, crs.c_str(), "EPSG:4979", nullptr);
-  if (!raw) throw InvalidInput("unknown or unsupported CRS '" + crs + "' (PROJ: " + proj_context_errno_string(impl_->ctx, proj_context_errno(impl_->ctx)) + ")");
+  if (!raw)
+    throw InvalidInput("unknown or unsupported CRS '" + crs +
+                       "' (PROJ: " + proj_context_errno_string(impl_->ctx, proj_context_errno(impl_->ctx)) + ")");
   impl_->pj = proj_normalize_for_visualization(impl_->ctx, raw);  // x = lon/easting, y = lat/northing
   proj_destroy(raw);
   if (!impl_->pj) throw InvalidInput("CRS '" + crs + "': PROJ could not normalise the axis order");

@@ -49,17 +49,26 @@ bool validUtf8(const std::string& s) {
     const unsigned char c = p[i];
     std::size_t len;
     std::uint32_t cp;
-    if (c < 0x80) { ++i; continue; }
-    if ((c & 0xE0) == 0xC0) len = 2, cp = c & 0x1Fu;
-    else if ((c & 0xF0) == 0xE0) len = 3, cp = c & 0x0Fu;
-    else if ((c & 0xF8) == 0xF0) len = 4, cp = c & 0x07u;
-    else return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0)
+      len = 2, cp = c & 0x1Fu;
+    else if ((c & 0xF0) == 0xE0)
+      len = 3, cp = c & 0x0Fu;
+    else if ((c & 0xF8) == 0xF0)
+      len = 4, cp = c & 0x07u;
+    else
+      return false;
     if (i + len > n) return false;
     for (std::size_t k = 1; k < len; ++k) {
       if ((p[i + k] & 0xC0) != 0x80) return false;
       cp = (cp << 6) | (p[i + k] & 0x3Fu);
     }
-    if ((len == 2 && cp < 0x80) || (len == 3 && cp < 0x800) || (len == 4 && cp < 0x10000) || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    if ((len == 2 && cp < 0x80) || (len == 3 && cp < 0x800) || (len == 4 && cp < 0x10000) || cp > 0x10FFFF ||
+        (cp >= 0xD800 && cp <= 0xDFFF))
+      return false;
     i += len;
   }
   return true;
@@ -83,8 +92,9 @@ CsvTable CsvTable::read(const std::string& path) {
     const auto got = static_cast<std::size_t>(in.gcount());
     if (got == 0 && (in.eof() || in.fail())) break;
     ++n;
-    if (in.fail() && !in.eof()) throw FileError(path, lineRef(n), "longer than " + std::to_string(kMaxLineBytes) + " bytes: not a CSV file of mountcal's");
-    std::string line(buffer.data(), in.eof() ? got : got - 1);  // without the line break
+    if (in.fail() && !in.eof())
+      throw FileError(path, lineRef(n), "longer than " + std::to_string(kMaxLineBytes) + " bytes: not a CSV file of mountcal's");
+    std::string line(buffer.data(), in.eof() ? got : got - 1);                // without the line break
     if (n == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // a byte-order mark, as spreadsheets write
     if (!validUtf8(line)) throw FileError(path, lineRef(n), "not valid UTF-8 text");
     const std::string s = trim(line);
@@ -94,13 +104,17 @@ CsvTable CsvTable::read(const std::string& path) {
         for (const std::string& h : t.header_) {
           if (h.empty()) throw FileError(path, lineRef(n), "empty column name in the header");
           bool numeric = !h.empty();
-          for (char c : h) numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' || c == 'e');
-          if (numeric) throw FileError(path, lineRef(n), "the first line must be a header naming the columns, got '" + s.substr(0, 60) + "'");
+          for (char c : h)
+            numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' || c == 'e');
+          if (numeric)
+            throw FileError(path, lineRef(n), "the first line must be a header naming the columns, got '" + s.substr(0, 60) + "'");
         }
       } else {
         std::vector<std::string> cells = split(s);
         if (cells.size() != t.header_.size()) {
-          throw FileError(path, lineRef(n), "expected " + std::to_string(t.header_.size()) + " fields (as in the header), got " + std::to_string(cells.size()));
+          throw FileError(
+              path, lineRef(n),
+              "expected " + std::to_string(t.header_.size()) + " fields (as in the header), got " + std::to_string(cells.size()));
         }
         t.cells_.push_back(std::move(cells));
         t.lines_.push_back(n);
@@ -113,12 +127,14 @@ CsvTable CsvTable::read(const std::string& path) {
 }
 
 bool CsvTable::has(const std::string& column) const {
-  for (const std::string& h : header_) if (h == column) return true;
+  for (const std::string& h : header_)
+    if (h == column) return true;
   return false;
 }
 
 std::size_t CsvTable::column(const std::string& name) const {
-  for (std::size_t i = 0; i < header_.size(); ++i) if (header_[i] == name) return i;
+  for (std::size_t i = 0; i < header_.size(); ++i)
+    if (header_[i] == name) return i;
   std::string cols;
   for (const std::string& h : header_) cols += (cols.empty() ? "" : ",") + h;
   throw FileError(path_, "line 1", "missing column '" + name + "' (the header has " + cols + ")");
@@ -160,7 +176,8 @@ Trajectory readTrajectoryCsv(const std::string& path, double time_offset_s, Posi
     s.heading = deg2rad(t.number(r, ch));
     detail::checkAttitude(s.roll, s.pitch, s.heading, path, lineRef(t.lineOf(r)));
     if (r > 0 && !(s.time_s > samples[r - 1].time_s)) {
-      throw FileError(path, lineRef(t.lineOf(r)), "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
+      throw FileError(path, lineRef(t.lineOf(r)),
+                      "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
     }
     if (r > 0) detail::checkSpeed(samples[r - 1].time_s, samples[r - 1].p_m, s.time_s, s.p_m, path, lineRef(t.lineOf(r)));
   }
@@ -172,8 +189,8 @@ void writeTrajectoryCsv(const std::string& path, const Trajectory& trajectory) {
   std::string out = "time,x,y,z,roll_deg,pitch_deg,heading_deg\n";
   char line[256];
   for (const TrajectorySample& s : trajectory.samples()) {
-    std::snprintf(line, sizeof line, "%.9f,%.6f,%.6f,%.6f,%.10f,%.10f,%.10f\n", s.time_s, s.p_m.x(), s.p_m.y(), s.p_m.z(),
-                  rad2deg(s.roll), rad2deg(s.pitch), rad2deg(s.heading));
+    std::snprintf(line, sizeof line, "%.9f,%.6f,%.6f,%.6f,%.10f,%.10f,%.10f\n", s.time_s, s.p_m.x(), s.p_m.y(), s.p_m.z(), rad2deg(s.roll),
+                  rad2deg(s.pitch), rad2deg(s.heading));
     out += line;
   }
   writeFileAtomically(path, out);
@@ -289,7 +306,7 @@ std::vector<RawPulse> readRawCsv(const std::string& path, SensorType type) {
 void writeRawCsv(const std::string& path, SensorType type, const std::vector<RawPulse>& pulses) {
   std::string out;
   out.reserve(pulses.size() * 56 + 64);
-  out += type == SensorType::kLine ? "time,scan_angle_deg,range_m,intensity\n"
+  out += type == SensorType::kLine        ? "time,scan_angle_deg,range_m,intensity\n"
          : type == SensorType::kMultiBeam ? "time,laser_id,azimuth_deg,range_m,intensity\n"
                                           : "time,xs,ys,zs,intensity\n";
   char line[256];

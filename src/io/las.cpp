@@ -75,7 +75,7 @@ struct LasReader::Laz {
 
 namespace {
 constexpr std::uint64_t kMaxChunkRecordBytes = 256ull << 20;  // a decoded chunk must fit in this
-unsigned decodeThreads() {  // hardware_concurrency() reads /sys on every call: once is enough
+unsigned decodeThreads() {                                    // hardware_concurrency() reads /sys on every call: once is enough
   static const unsigned n = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
   return n;
 }
@@ -97,7 +97,9 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   file_size_ = file_size;
   in_.seekg(0);
   char h[375] = {};
-  if (file_size < 227) throw FileError(path, byteAt(file_size), "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
+  if (file_size < 227)
+    throw FileError(path, byteAt(file_size),
+                    "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
   in_.read(h, 227);
   if (std::memcmp(h, "LASF", 4) != 0) throw FileError(path, byteAt(0), "not a LAS file (signature is not 'LASF')");
   header_.file_source_id = get<std::uint16_t>(h, 4);
@@ -106,7 +108,9 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   header_.version_major = get<std::uint8_t>(h, 24);
   header_.version_minor = get<std::uint8_t>(h, 25);
   if (header_.version_major != 1 || header_.version_minor > 4) {
-    throw FileError(path, byteAt(24), "unsupported LAS version " + std::to_string(header_.version_major) + "." + std::to_string(header_.version_minor) + " (1.0-1.4 are read)");
+    throw FileError(path, byteAt(24),
+                    "unsupported LAS version " + std::to_string(header_.version_major) + "." + std::to_string(header_.version_minor) +
+                        " (1.0-1.4 are read)");
   }
   header_.system_identifier = fixedString(h, 26, 32);
   header_.generating_software = fixedString(h, 58, 32);
@@ -128,11 +132,14 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     header_.min[a] = get<double>(h, 187 + 16 * a);
   }
   if (point_offset_ > file_size) {
-    throw FileError(path, byteAt(96), "offset to point data " + std::to_string(point_offset_) + " is beyond the end of the file (" + std::to_string(file_size) + " bytes)");
+    throw FileError(path, byteAt(96),
+                    "offset to point data " + std::to_string(point_offset_) + " is beyond the end of the file (" +
+                        std::to_string(file_size) + " bytes)");
   }
   const std::uint16_t expected_header = headerSize(header_.version_minor);
   if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
-    throw FileError(path, byteAt(94), "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header_.version_minor));
+    throw FileError(path, byteAt(94),
+                    "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header_.version_minor));
   }
   std::uint64_t evlr_start = 0;
   std::uint32_t n_evlr = 0;
@@ -147,10 +154,13 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   header_.point_count = count;
   const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
   if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
-    throw FileError(path, byteAt(104), "point data record format " + std::to_string(header_.point_format) + " is not supported (0-3 and 6-8 are)");
+    throw FileError(path, byteAt(104),
+                    "point data record format " + std::to_string(header_.point_format) + " is not supported (0-3 and 6-8 are)");
   }
   if (header_.point_record_length < std_len) {
-    throw FileError(path, byteAt(105), "point record length " + std::to_string(header_.point_record_length) + " is shorter than format " + std::to_string(header_.point_format) + " needs (" + std::to_string(std_len) + ")");
+    throw FileError(path, byteAt(105),
+                    "point record length " + std::to_string(header_.point_record_length) + " is shorter than format " +
+                        std::to_string(header_.point_format) + " needs (" + std::to_string(std_len) + ")");
   }
   for (int a = 0; a < 3; ++a) {
     if (!(header_.scale[a] > 0) || !std::isfinite(header_.scale[a]) || !std::isfinite(header_.offset[a])) {
@@ -166,7 +176,10 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   // VLRs.
   std::uint64_t pos = header_size;
   for (std::uint32_t v = 0; v < n_vlr; ++v) {
-    if (pos + kVlrHeader > point_offset_) throw FileError(path, byteAt(pos), "VLR " + std::to_string(v) + " runs into the point data (offset to point data is " + std::to_string(point_offset_) + ")");
+    if (pos + kVlrHeader > point_offset_)
+      throw FileError(
+          path, byteAt(pos),
+          "VLR " + std::to_string(v) + " runs into the point data (offset to point data is " + std::to_string(point_offset_) + ")");
     char vh[kVlrHeader];
     in_.seekg(static_cast<std::streamoff>(pos));
     in_.read(vh, kVlrHeader);
@@ -175,7 +188,9 @@ LasReader::LasReader(const std::string& path) : path_(path) {
     vlr.record_id = get<std::uint16_t>(vh, 18);
     const std::uint16_t len = get<std::uint16_t>(vh, 20);
     vlr.description = fixedString(vh, 22, 32);
-    if (pos + kVlrHeader + len > point_offset_) throw FileError(path, byteAt(pos), "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
+    if (pos + kVlrHeader + len > point_offset_)
+      throw FileError(path, byteAt(pos),
+                      "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
     vlr.data.resize(len);
     in_.read(reinterpret_cast<char*>(vlr.data.data()), len);
     if (vlr.user_id == kLazVlrUserId && vlr.record_id == kLazVlrRecordId) {
@@ -196,7 +211,10 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   if (compressed_bit && !laz_) throw FileError(path, byteAt(104), "the point format says compressed (LAZ) but there is no LASzip VLR");
   // Checked by division: count · length can overflow 64 bits in a corrupt header.
   if (!laz_ && (point_offset_ > file_size || count > (file_size - point_offset_) / header_.point_record_length)) {
-    throw FileError(path, byteAt(file_size), "truncated: the header announces " + std::to_string(count) + " points of " + std::to_string(header_.point_record_length) + " bytes from byte " + std::to_string(point_offset_) + ", but the file has " + std::to_string(file_size) + " bytes");
+    throw FileError(path, byteAt(file_size),
+                    "truncated: the header announces " + std::to_string(count) + " points of " +
+                        std::to_string(header_.point_record_length) + " bytes from byte " + std::to_string(point_offset_) +
+                        ", but the file has " + std::to_string(file_size) + " bytes");
   }
   const std::uint64_t points_end = laz_ ? point_offset_ : point_offset_ + count * header_.point_record_length;
   // EVLRs.
@@ -237,19 +255,23 @@ void LasReader::openLaz(std::uint64_t data_end) {
   if (data_end < point_offset_ || data_end > file_size_) data_end = file_size_;
   if (v.compressor == 1) {  // one stream from the point data to the EVLRs or the end
     if (count > kMaxChunkRecordBytes / len)
-      throw FileError(path_, "", "point-wise compressed (compressor 1) file of " + std::to_string(count) + " points: one stream this large is not supported");
+      throw FileError(
+          path_, "",
+          "point-wise compressed (compressor 1) file of " + std::to_string(count) + " points: one stream this large is not supported");
     if (count > 0) laz_->chunks.push_back({point_offset_, data_end - point_offset_, count});
     return;
   }
-  if (file_size_ < point_offset_ + 8) throw FileError(path_, byteAt(point_offset_), "truncated: the chunk table offset is missing after the VLRs");
+  if (file_size_ < point_offset_ + 8)
+    throw FileError(path_, byteAt(point_offset_), "truncated: the chunk table offset is missing after the VLRs");
   std::int64_t table = 0;
   readAt(point_offset_, &table, 8);
   if (table == -1) {  // a streaming writer puts the offset in the last 8 bytes of the file
     if (!readAt(file_size_ - 8, &table, 8)) table = 0;
   }
   if (table < static_cast<std::int64_t>(point_offset_ + 8) || static_cast<std::uint64_t>(table) + 8 > file_size_) {
-    throw FileError(path_, byteAt(point_offset_), "the chunk table offset " + std::to_string(table) + " points outside the compressed data (bytes " +
-                                                      std::to_string(point_offset_ + 8) + " to " + std::to_string(file_size_) + "): missing or corrupt chunk table");
+    throw FileError(path_, byteAt(point_offset_),
+                    "the chunk table offset " + std::to_string(table) + " points outside the compressed data (bytes " +
+                        std::to_string(point_offset_ + 8) + " to " + std::to_string(file_size_) + "): missing or corrupt chunk table");
   }
   const std::uint64_t table_at = static_cast<std::uint64_t>(table);
   std::uint32_t head[2] = {0, 0};
@@ -258,8 +280,9 @@ void LasReader::openLaz(std::uint64_t data_end) {
   const std::uint32_t n = head[1];
   // Every chunk stores its first record raw: the chunks' bytes bound how many there can be.
   if (n > (table_at - (point_offset_ + 8)) / len) {
-    throw FileError(path_, byteAt(table_at), "the chunk table announces " + std::to_string(n) + " chunks; the " + std::to_string(table_at - point_offset_ - 8) +
-                                                 " bytes of compressed data before it hold at most " + std::to_string((table_at - point_offset_ - 8) / len));
+    throw FileError(path_, byteAt(table_at),
+                    "the chunk table announces " + std::to_string(n) + " chunks; the " + std::to_string(table_at - point_offset_ - 8) +
+                        " bytes of compressed data before it hold at most " + std::to_string((table_at - point_offset_ - 8) / len));
   }
   const std::uint64_t body_end = data_end > table_at + 8 ? data_end : file_size_;
   // An entry takes at most a few bytes: read no more than n of them can need.
@@ -272,18 +295,23 @@ void LasReader::openLaz(std::uint64_t data_end) {
     LazChunk& c = laz_->chunks[i];
     c.offset = at;
     if (c.bytes > table_at - at) {
-      throw FileError(path_, "chunk " + std::to_string(i) + " (byte " + std::to_string(at) + ")",
-                      "the chunk table gives it " + std::to_string(c.bytes) + " bytes, past the chunk table at byte " + std::to_string(table_at));
+      throw FileError(
+          path_, "chunk " + std::to_string(i) + " (byte " + std::to_string(at) + ")",
+          "the chunk table gives it " + std::to_string(c.bytes) + " bytes, past the chunk table at byte " + std::to_string(table_at));
     }
     at += c.bytes;
     if (!v.variableChunks()) c.points = std::min<std::uint64_t>(v.chunk_size, count - std::min(count, total));
     if (c.points == 0 || c.points > kMaxChunkRecordBytes / len) {
-      throw FileError(path_, "chunk " + std::to_string(i), std::to_string(c.points) + " points in one chunk is not supported (1 to " + std::to_string(kMaxChunkRecordBytes / len) + ")");
+      throw FileError(
+          path_, "chunk " + std::to_string(i),
+          std::to_string(c.points) + " points in one chunk is not supported (1 to " + std::to_string(kMaxChunkRecordBytes / len) + ")");
     }
     total += c.points;
   }
   if (total != count) {
-    throw FileError(path_, "chunk table", "its " + std::to_string(n) + " chunks hold " + std::to_string(total) + " points; the header says " + std::to_string(count));
+    throw FileError(
+        path_, "chunk table",
+        "its " + std::to_string(n) + " chunks hold " + std::to_string(total) + " points; the header says " + std::to_string(count));
   }
 }
 
@@ -389,9 +417,14 @@ std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) 
       p.user_data = get<std::uint8_t>(r, 17);
       p.point_source_id = get<std::uint16_t>(r, 18);
       std::size_t off = 20;
-      if (f == 1 || f == 3) { p.gps_time = get<double>(r, off); off += 8; }
+      if (f == 1 || f == 3) {
+        p.gps_time = get<double>(r, off);
+        off += 8;
+      }
       if (f == 2 || f == 3) {
-        p.red = get<std::uint16_t>(r, off); p.green = get<std::uint16_t>(r, off + 2); p.blue = get<std::uint16_t>(r, off + 4);
+        p.red = get<std::uint16_t>(r, off);
+        p.green = get<std::uint16_t>(r, off + 2);
+        p.blue = get<std::uint16_t>(r, off + 4);
       }
     } else {
       const std::uint8_t b15 = get<std::uint8_t>(r, 15);
@@ -406,7 +439,11 @@ std::size_t LasReader::read(std::vector<LasPoint>* out, std::size_t max_points) 
       p.scan_angle = get<std::int16_t>(r, 18);
       p.point_source_id = get<std::uint16_t>(r, 20);
       p.gps_time = get<double>(r, 22);
-      if (f >= 7) { p.red = get<std::uint16_t>(r, 30); p.green = get<std::uint16_t>(r, 32); p.blue = get<std::uint16_t>(r, 34); }
+      if (f >= 7) {
+        p.red = get<std::uint16_t>(r, 30);
+        p.green = get<std::uint16_t>(r, 32);
+        p.blue = get<std::uint16_t>(r, 34);
+      }
       if (f == 8) p.nir = get<std::uint16_t>(r, 36);
     }
     p.extra.assign(reinterpret_cast<const std::uint8_t*>(r) + std_len, reinterpret_cast<const std::uint8_t*>(r) + len);
@@ -427,8 +464,7 @@ bool endsWithLaz(const std::string& path) {
 
 LasWriter::LasWriter(const std::string& path, const LasHeader& header) : LasWriter(path, header, endsWithLaz(path)) {}
 
-LasWriter::LasWriter(const std::string& path, const LasHeader& header, bool compress)
-    : path_(path), header_(header), compress_(compress) {
+LasWriter::LasWriter(const std::string& path, const LasHeader& header, bool compress) : path_(path), header_(header), compress_(compress) {
   const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
   if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
     throw FileError(path, "", "cannot write point format " + std::to_string(header_.point_format) + " (0-3 and 6-8 are supported)");
@@ -499,7 +535,8 @@ std::int32_t LasWriter::quantize(int axis, double value, std::uint64_t record) c
   const double v = (value - header_.offset[axis]) / header_.scale[axis];
   // round(v) fits in 32 bits exactly when v lies in (−2³¹ − ½, 2³¹ − ½); NaN fails too.
   if (!(v > -2147483648.5 && v < 2147483647.5)) {
-    throw FileError(path_, "record " + std::to_string(record), "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
+    throw FileError(path_, "record " + std::to_string(record),
+                    "coordinate " + std::to_string(value) + " does not fit the header's scale and offset");
   }
   return roundToInt32(v);
 }
@@ -513,8 +550,8 @@ void LasWriter::quantize(const double* xyz, std::int32_t* XYZ, std::size_t n, st
   bool all_fit = true;
   for (std::size_t k = 0; k < n; ++k) {
     const double v0 = (xyz[3 * k] - o0) / s0, v1 = (xyz[3 * k + 1] - o1) / s1, v2 = (xyz[3 * k + 2] - o2) / s2;
-    all_fit &= (v0 > -2147483648.5) & (v0 < 2147483647.5) & (v1 > -2147483648.5) & (v1 < 2147483647.5) &
-               (v2 > -2147483648.5) & (v2 < 2147483647.5);
+    all_fit &= (v0 > -2147483648.5) & (v0 < 2147483647.5) & (v1 > -2147483648.5) & (v1 < 2147483647.5) & (v2 > -2147483648.5) &
+               (v2 < 2147483647.5);
     XYZ[3 * k] = roundToInt32(v0);
     XYZ[3 * k + 1] = roundToInt32(v1);
     XYZ[3 * k + 2] = roundToInt32(v2);
@@ -532,23 +569,38 @@ void LasWriter::write(const LasPoint& p) {
   put<std::int32_t>(r, 8, p.Z);
   put<std::uint16_t>(r, 12, p.intensity);
   if (f < 6) {
-    put<std::uint8_t>(r, 14, static_cast<std::uint8_t>((p.return_number & 7) | ((p.number_of_returns & 7) << 3) | (p.scan_direction << 6) | (p.edge_of_flight_line << 7)));
+    put<std::uint8_t>(r, 14,
+                      static_cast<std::uint8_t>((p.return_number & 7) | ((p.number_of_returns & 7) << 3) | (p.scan_direction << 6) |
+                                                (p.edge_of_flight_line << 7)));
     put<std::uint8_t>(r, 15, p.classification);
     put<std::int8_t>(r, 16, static_cast<std::int8_t>(std::clamp<int>(p.scan_angle, -128, 127)));
     put<std::uint8_t>(r, 17, p.user_data);
     put<std::uint16_t>(r, 18, p.point_source_id);
     std::size_t off = 20;
-    if (f == 1 || f == 3) { put<double>(r, off, p.gps_time); off += 8; }
-    if (f == 2 || f == 3) { put<std::uint16_t>(r, off, p.red); put<std::uint16_t>(r, off + 2, p.green); put<std::uint16_t>(r, off + 4, p.blue); }
+    if (f == 1 || f == 3) {
+      put<double>(r, off, p.gps_time);
+      off += 8;
+    }
+    if (f == 2 || f == 3) {
+      put<std::uint16_t>(r, off, p.red);
+      put<std::uint16_t>(r, off + 2, p.green);
+      put<std::uint16_t>(r, off + 4, p.blue);
+    }
   } else {
     put<std::uint8_t>(r, 14, static_cast<std::uint8_t>((p.return_number & 15) | ((p.number_of_returns & 15) << 4)));
-    put<std::uint8_t>(r, 15, static_cast<std::uint8_t>((p.classification_flags & 15) | ((p.scanner_channel & 3) << 4) | (p.scan_direction << 6) | (p.edge_of_flight_line << 7)));
+    put<std::uint8_t>(r, 15,
+                      static_cast<std::uint8_t>((p.classification_flags & 15) | ((p.scanner_channel & 3) << 4) | (p.scan_direction << 6) |
+                                                (p.edge_of_flight_line << 7)));
     put<std::uint8_t>(r, 16, p.classification);
     put<std::uint8_t>(r, 17, p.user_data);
     put<std::int16_t>(r, 18, p.scan_angle);
     put<std::uint16_t>(r, 20, p.point_source_id);
     put<double>(r, 22, p.gps_time);
-    if (f >= 7) { put<std::uint16_t>(r, 30, p.red); put<std::uint16_t>(r, 32, p.green); put<std::uint16_t>(r, 34, p.blue); }
+    if (f >= 7) {
+      put<std::uint16_t>(r, 30, p.red);
+      put<std::uint16_t>(r, 32, p.green);
+      put<std::uint16_t>(r, 34, p.blue);
+    }
     if (f == 8) put<std::uint16_t>(r, 36, p.nir);
   }
   const std::size_t std_len = LasHeader::standardRecordLength(f);
@@ -649,7 +701,9 @@ void LasWriter::close() {
   if (closed_) return;
   if (keep_statistics_) {
     if (header_.point_count != expected_count_) {
-      throw FileError(path_, "", std::to_string(header_.point_count) + " points written; the header kept from the input says " + std::to_string(expected_count_));
+      throw FileError(
+          path_, "",
+          std::to_string(header_.point_count) + " points written; the header kept from the input says " + std::to_string(expected_count_));
     }
     header_.min = kept_min_;
     header_.max = kept_max_;
@@ -696,7 +750,8 @@ void LasWriter::close() {
   // Legacy counts: zero when they cannot represent the file (LAS 1.4 rule).
   const bool legacy_ok = header_.point_format < 6 && header_.point_count <= 0xFFFFFFFFull;
   put<std::uint32_t>(h.data(), 107, legacy_ok ? static_cast<std::uint32_t>(header_.point_count) : 0u);
-  for (int r = 0; r < 5; ++r) put<std::uint32_t>(h.data(), 111 + 4 * r, legacy_ok ? static_cast<std::uint32_t>(header_.points_by_return[r]) : 0u);
+  for (int r = 0; r < 5; ++r)
+    put<std::uint32_t>(h.data(), 111 + 4 * r, legacy_ok ? static_cast<std::uint32_t>(header_.points_by_return[r]) : 0u);
   for (int a = 0; a < 3; ++a) {
     put<double>(h.data(), 131 + 8 * a, header_.scale[a]);
     put<double>(h.data(), 155 + 8 * a, header_.offset[a]);
@@ -794,7 +849,8 @@ std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, c
   if (!vlr) return out;
   constexpr std::size_t kDescriptor = 192;
   if (vlr->data.size() % kDescriptor != 0) {
-    throw FileError(path, "Extra Bytes VLR", "its " + std::to_string(vlr->data.size()) + " bytes are not a whole number of 192-byte descriptors");
+    throw FileError(path, "Extra Bytes VLR",
+                    "its " + std::to_string(vlr->data.size()) + " bytes are not a whole number of 192-byte descriptors");
   }
   std::size_t at = 0;
   const std::size_t available = header.extraBytesPerPoint();
@@ -826,8 +882,9 @@ std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, c
     a.byte_offset = at;
     at += a.size;
     if (at > available) {
-      throw FileError(path, where, "the attributes need " + std::to_string(at) + " extra bytes per point; the point record has " +
-                                       std::to_string(available));
+      throw FileError(
+          path, where,
+          "the attributes need " + std::to_string(at) + " extra bytes per point; the point record has " + std::to_string(available));
     }
     out.push_back(a);
   }
@@ -842,24 +899,71 @@ const ExtraBytesAttribute* findExtraBytesAttribute(const std::vector<ExtraBytesA
 
 double extraBytesValue(const LasPoint& p, const ExtraBytesAttribute& a, int element) {
   if (a.data_type == 0) throw InvalidInput("extra bytes attribute '" + a.name + "' is undocumented (data type 0): it has no value");
-  if (element < 0 || element >= a.elements) throw InvalidInput("extra bytes attribute '" + a.name + "' has no element " + std::to_string(element));
+  if (element < 0 || element >= a.elements)
+    throw InvalidInput("extra bytes attribute '" + a.name + "' has no element " + std::to_string(element));
   const int base = a.data_type <= 10 ? a.data_type : (a.data_type - 1) % 10 + 1;
   const std::size_t n = elementSize(base);
   const std::size_t at = a.byte_offset + n * static_cast<std::size_t>(element);
-  if (at + n > p.extra.size()) throw InvalidInput("the point has " + std::to_string(p.extra.size()) + " extra bytes; attribute '" + a.name + "' needs " + std::to_string(at + n));
+  if (at + n > p.extra.size())
+    throw InvalidInput("the point has " + std::to_string(p.extra.size()) + " extra bytes; attribute '" + a.name + "' needs " +
+                       std::to_string(at + n));
   const std::uint8_t* b = p.extra.data() + at;
   double raw = 0;
   switch (base) {
-    case 1: raw = b[0]; break;
-    case 2: raw = static_cast<std::int8_t>(b[0]); break;
-    case 3: { std::uint16_t v; std::memcpy(&v, b, 2); raw = v; break; }
-    case 4: { std::int16_t v; std::memcpy(&v, b, 2); raw = v; break; }
-    case 5: { std::uint32_t v; std::memcpy(&v, b, 4); raw = v; break; }
-    case 6: { std::int32_t v; std::memcpy(&v, b, 4); raw = v; break; }
-    case 7: { std::uint64_t v; std::memcpy(&v, b, 8); raw = static_cast<double>(v); break; }
-    case 8: { std::int64_t v; std::memcpy(&v, b, 8); raw = static_cast<double>(v); break; }
-    case 9: { float v; std::memcpy(&v, b, 4); raw = v; break; }
-    default: { double v; std::memcpy(&v, b, 8); raw = v; break; }
+    case 1:
+      raw = b[0];
+      break;
+    case 2:
+      raw = static_cast<std::int8_t>(b[0]);
+      break;
+    case 3: {
+      std::uint16_t v;
+      std::memcpy(&v, b, 2);
+      raw = v;
+      break;
+    }
+    case 4: {
+      std::int16_t v;
+      std::memcpy(&v, b, 2);
+      raw = v;
+      break;
+    }
+    case 5: {
+      std::uint32_t v;
+      std::memcpy(&v, b, 4);
+      raw = v;
+      break;
+    }
+    case 6: {
+      std::int32_t v;
+      std::memcpy(&v, b, 4);
+      raw = v;
+      break;
+    }
+    case 7: {
+      std::uint64_t v;
+      std::memcpy(&v, b, 8);
+      raw = static_cast<double>(v);
+      break;
+    }
+    case 8: {
+      std::int64_t v;
+      std::memcpy(&v, b, 8);
+      raw = static_cast<double>(v);
+      break;
+    }
+    case 9: {
+      float v;
+      std::memcpy(&v, b, 4);
+      raw = v;
+      break;
+    }
+    default: {
+      double v;
+      std::memcpy(&v, b, 8);
+      raw = v;
+      break;
+    }
   }
   const auto e = static_cast<std::size_t>(element);
   return raw * (a.hasScale() ? a.scale[e] : 1.0) + (a.hasOffset() ? a.offset[e] : 0.0);

@@ -27,27 +27,42 @@ void put(std::vector<std::uint8_t>& out, T v) {
 
 std::uint16_t fixedItemSize(std::uint16_t type) {
   switch (type) {
-    case LazItem::kPoint10: return 20;
-    case LazItem::kGpsTime11: return 8;
-    case LazItem::kRgb12: return 6;
-    case LazItem::kPoint14: return 30;
-    case LazItem::kRgb14: return 6;
-    case LazItem::kRgbNir14: return 8;
-    default: return 0;
+    case LazItem::kPoint10:
+      return 20;
+    case LazItem::kGpsTime11:
+      return 8;
+    case LazItem::kRgb12:
+      return 6;
+    case LazItem::kPoint14:
+      return 30;
+    case LazItem::kRgb14:
+      return 6;
+    case LazItem::kRgbNir14:
+      return 8;
+    default:
+      return 0;
   }
 }
 
 /// The items a point format's record is made of, in record order (extra bytes excluded).
 std::vector<std::uint16_t> itemTypesOf(std::uint8_t point_format) {
   switch (point_format) {
-    case 0: return {LazItem::kPoint10};
-    case 1: return {LazItem::kPoint10, LazItem::kGpsTime11};
-    case 2: return {LazItem::kPoint10, LazItem::kRgb12};
-    case 3: return {LazItem::kPoint10, LazItem::kGpsTime11, LazItem::kRgb12};
-    case 6: return {LazItem::kPoint14};
-    case 7: return {LazItem::kPoint14, LazItem::kRgb14};
-    case 8: return {LazItem::kPoint14, LazItem::kRgbNir14};
-    default: return {};
+    case 0:
+      return {LazItem::kPoint10};
+    case 1:
+      return {LazItem::kPoint10, LazItem::kGpsTime11};
+    case 2:
+      return {LazItem::kPoint10, LazItem::kRgb12};
+    case 3:
+      return {LazItem::kPoint10, LazItem::kGpsTime11, LazItem::kRgb12};
+    case 6:
+      return {LazItem::kPoint14};
+    case 7:
+      return {LazItem::kPoint14, LazItem::kRgb14};
+    case 8:
+      return {LazItem::kPoint14, LazItem::kRgbNir14};
+    default:
+      return {};
   }
 }
 
@@ -61,22 +76,32 @@ std::size_t LazVlr::recordLength() const {
 
 std::string lazItemName(std::uint16_t type) {
   switch (type) {
-    case LazItem::kByte: return "BYTE";
-    case LazItem::kPoint10: return "POINT10";
-    case LazItem::kGpsTime11: return "GPSTIME11";
-    case LazItem::kRgb12: return "RGB12";
-    case 9: return "WAVEPACKET13";
-    case LazItem::kPoint14: return "POINT14";
-    case LazItem::kRgb14: return "RGB14";
-    case LazItem::kRgbNir14: return "RGBNIR14";
-    case 13: return "WAVEPACKET14";
-    case LazItem::kByte14: return "BYTE14";
-    default: return "type " + std::to_string(type);
+    case LazItem::kByte:
+      return "BYTE";
+    case LazItem::kPoint10:
+      return "POINT10";
+    case LazItem::kGpsTime11:
+      return "GPSTIME11";
+    case LazItem::kRgb12:
+      return "RGB12";
+    case 9:
+      return "WAVEPACKET13";
+    case LazItem::kPoint14:
+      return "POINT14";
+    case LazItem::kRgb14:
+      return "RGB14";
+    case LazItem::kRgbNir14:
+      return "RGBNIR14";
+    case 13:
+      return "WAVEPACKET14";
+    case LazItem::kByte14:
+      return "BYTE14";
+    default:
+      return "type " + std::to_string(type);
   }
 }
 
-LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_format, std::uint16_t record_length,
-                   const std::string& path) {
+LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_format, std::uint16_t record_length, const std::string& path) {
   const std::string where = "LASzip VLR";
   if (data.size() < 34) throw FileError(path, where, "too short (" + std::to_string(data.size()) + " bytes; at least 34)");
   LazVlr v;
@@ -92,7 +117,8 @@ LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_for
   v.special_evlr_offset = get<std::int64_t>(d, 24);
   const std::uint16_t n = get<std::uint16_t>(d, 32);
   if (data.size() != 34u + 6u * n)
-    throw FileError(path, where, "holds " + std::to_string(data.size()) + " bytes; " + std::to_string(n) + " items need " + std::to_string(34 + 6 * n));
+    throw FileError(path, where,
+                    "holds " + std::to_string(data.size()) + " bytes; " + std::to_string(n) + " items need " + std::to_string(34 + 6 * n));
   for (std::uint16_t i = 0; i < n; ++i) {
     LazItem it;
     it.type = get<std::uint16_t>(d, 34 + 6u * i);
@@ -100,15 +126,23 @@ LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_for
     it.version = get<std::uint16_t>(d, 38 + 6u * i);
     v.items.push_back(it);
   }
-  if (v.compressor < 1 || v.compressor > 3) throw FileError(path, where, "unknown compressor " + std::to_string(v.compressor) + " (1-3 are defined)");
+  if (v.compressor < 1 || v.compressor > 3)
+    throw FileError(path, where, "unknown compressor " + std::to_string(v.compressor) + " (1-3 are defined)");
   if (v.coder != 0) throw FileError(path, where, "unknown coder " + std::to_string(v.coder) + " (0, arithmetic, is the only one defined)");
   if (v.compressor != 1 && v.chunk_size == 0) throw FileError(path, where, "chunk size 0");
   const bool layered = v.compressor == 3;
-  if (layered && point_format < 6) throw FileError(path, where, "layered compression (compressor 3) on point format " + std::to_string(point_format) + "; it is defined for formats 6-10");
-  if (!layered && point_format >= 6) throw FileError(path, where, "point format " + std::to_string(point_format) + " needs layered compression (compressor 3), the VLR says compressor " + std::to_string(v.compressor));
+  if (layered && point_format < 6)
+    throw FileError(
+        path, where,
+        "layered compression (compressor 3) on point format " + std::to_string(point_format) + "; it is defined for formats 6-10");
+  if (!layered && point_format >= 6)
+    throw FileError(path, where,
+                    "point format " + std::to_string(point_format) + " needs layered compression (compressor 3), the VLR says compressor " +
+                        std::to_string(v.compressor));
   // The items must be the format's, in record order, then at most one extra-bytes item.
   const std::vector<std::uint16_t> types = itemTypesOf(point_format);
-  if (types.empty()) throw FileError(path, where, "point format " + std::to_string(point_format) + " is not supported in LAZ (0-3 and 6-8 are)");
+  if (types.empty())
+    throw FileError(path, where, "point format " + std::to_string(point_format) + " is not supported in LAZ (0-3 and 6-8 are)");
   const std::size_t expected = types.size() + (v.items.size() > types.size() ? 1 : 0);
   for (std::size_t i = 0; i < v.items.size(); ++i) {
     const LazItem& it = v.items[i];
@@ -118,13 +152,20 @@ LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_for
     if (it.type != want)
       throw FileError(path, where, name + ": point format " + std::to_string(point_format) + " needs " + lazItemName(want) + " here");
     const std::uint16_t size = fixedItemSize(it.type);
-    if ((size != 0 && it.size != size) || it.size == 0) throw FileError(path, where, name + ": size " + std::to_string(it.size) + " is wrong");
+    if ((size != 0 && it.size != size) || it.size == 0)
+      throw FileError(path, where, name + ": size " + std::to_string(it.size) + " is wrong");
     if (layered ? it.version != 3 : (it.version != 1 && it.version != 2))
-      throw FileError(path, where, name + ": version " + std::to_string(it.version) + " is not supported (" + (layered ? "3" : "1 and 2") + " are)");
+      throw FileError(path, where,
+                      name + ": version " + std::to_string(it.version) + " is not supported (" + (layered ? "3" : "1 and 2") + " are)");
   }
-  if (v.items.size() < types.size()) throw FileError(path, where, "lists " + std::to_string(v.items.size()) + " items; point format " + std::to_string(point_format) + " needs " + std::to_string(types.size()));
+  if (v.items.size() < types.size())
+    throw FileError(path, where,
+                    "lists " + std::to_string(v.items.size()) + " items; point format " + std::to_string(point_format) + " needs " +
+                        std::to_string(types.size()));
   if (v.recordLength() != record_length)
-    throw FileError(path, where, "items add up to " + std::to_string(v.recordLength()) + " bytes; the header's point record length is " + std::to_string(record_length));
+    throw FileError(path, where,
+                    "items add up to " + std::to_string(v.recordLength()) + " bytes; the header's point record length is " +
+                        std::to_string(record_length));
   if (v.compressor == 1) {
     for (const LazItem& it : v.items)
       if (it.version > 2) throw FileError(path, where, "compressor 1 with item version " + std::to_string(it.version));
@@ -164,17 +205,19 @@ LazVlr lazVlrFor(std::uint8_t point_format, std::uint16_t record_length, std::ui
     v.items.push_back({t, fixedItemSize(t), static_cast<std::uint16_t>(layered ? 3 : 2)});
     n += fixedItemSize(t);
   }
-  if (record_length < n) throw InvalidInput("point record length " + std::to_string(record_length) + " is shorter than format " + std::to_string(point_format) + " needs");
+  if (record_length < n)
+    throw InvalidInput("point record length " + std::to_string(record_length) + " is shorter than format " + std::to_string(point_format) +
+                       " needs");
   if (record_length > n)
-    v.items.push_back({static_cast<std::uint16_t>(layered ? LazItem::kByte14 : LazItem::kByte), static_cast<std::uint16_t>(record_length - n),
-                       static_cast<std::uint16_t>(layered ? 3 : 2)});
+    v.items.push_back({static_cast<std::uint16_t>(layered ? LazItem::kByte14 : LazItem::kByte),
+                       static_cast<std::uint16_t>(record_length - n), static_cast<std::uint16_t>(layered ? 3 : 2)});
   return v;
 }
 
 // ---- chunk table -------------------------------------------------------------------------------
 
-std::vector<LazChunk> decodeLazChunkTable(const std::uint8_t* table, std::size_t size, std::uint32_t chunk_count,
-                                          bool variable_chunks, const std::string& path) {
+std::vector<LazChunk> decodeLazChunkTable(const std::uint8_t* table, std::size_t size, std::uint32_t chunk_count, bool variable_chunks,
+                                          const std::string& path) {
   std::vector<LazChunk> chunks;
   if (chunk_count == 0) return chunks;
   // Each entry costs at least a bit: far more entries than bytes cannot be a real table.
@@ -222,11 +265,13 @@ std::vector<std::uint8_t> encodeLazChunkTable(const std::vector<LazChunk>& chunk
 
 // ---- chunks ------------------------------------------------------------------------------------
 
-void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t size, std::uint64_t points,
-                    std::uint8_t* records, const std::string& path, const std::string& where) {
+void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t size, std::uint64_t points, std::uint8_t* records,
+                    const std::string& path, const std::string& where) {
   if (points == 0) return;
   const std::size_t len = vlr.recordLength();
-  if (size < len) throw FileError(path, where, "truncated: " + std::to_string(size) + " bytes cannot hold the first point record (" + std::to_string(len) + ")");
+  if (size < len)
+    throw FileError(path, where,
+                    "truncated: " + std::to_string(size) + " bytes cannot hold the first point record (" + std::to_string(len) + ")");
   std::memcpy(records, data, len);  // the first record of a chunk is stored raw
   std::size_t pos = len;
   try {
@@ -292,7 +337,8 @@ void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t siz
           items[i]->read(dec, record + offset);
           offset += vlr.items[i].size;
         }
-        if (dec.overrun() > 0) throw laz::Corrupt{"the compressed data ends at point " + std::to_string(p) + " of " + std::to_string(points)};
+        if (dec.overrun() > 0)
+          throw laz::Corrupt{"the compressed data ends at point " + std::to_string(p) + " of " + std::to_string(points)};
       }
     }
   } catch (const laz::Corrupt& e) {

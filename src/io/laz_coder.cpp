@@ -145,8 +145,10 @@ std::uint32_t Decoder::decodeSymbol(SymbolModel& m) {
     std::uint32_t n = m.table_[t + 1] + 1;
     while (n > sym + 1) {  // bisection within the table's bracket
       const std::uint32_t k = (sym + n) >> 1;
-      if (m.dist_[k] > dv) n = k;
-      else sym = k;
+      if (m.dist_[k] > dv)
+        n = k;
+      else
+        sym = k;
     }
     x = m.dist_[sym] * length_;
     if (sym != m.last_) y = m.dist_[sym + 1] * length_;
@@ -356,15 +358,19 @@ std::int32_t IntegerCodec::decompress(Decoder& dec, std::int32_t pred, std::uint
       v = dec.decodeSymbol(*m_corrector_[k_]);
       v = (v << k1) | dec.readBits(k1);
     }
-    if (v >= (std::uint64_t{1} << (k_ - 1))) c = static_cast<std::int64_t>(v) + 1;
-    else c = static_cast<std::int64_t>(v) - ((std::int64_t{1} << k_) - 1);
+    if (v >= (std::uint64_t{1} << (k_ - 1)))
+      c = static_cast<std::int64_t>(v) + 1;
+    else
+      c = static_cast<std::int64_t>(v) - ((std::int64_t{1} << k_) - 1);
   } else {
     c = dec.decodeBit(m_corrector0_);
   }
   if (corr_range_ == 0) return static_cast<std::int32_t>(static_cast<std::uint32_t>(pred) + static_cast<std::uint32_t>(c));
   std::int64_t real = std::int64_t{pred} + c;
-  if (real < 0) real += corr_range_;
-  else if (real >= corr_range_) real -= corr_range_;
+  if (real < 0)
+    real += corr_range_;
+  else if (real >= corr_range_)
+    real -= corr_range_;
   return static_cast<std::int32_t>(real);
 }
 
@@ -374,8 +380,10 @@ void IntegerCodec::compress(Encoder& enc, std::int32_t pred, std::int32_t real, 
     c = static_cast<std::int32_t>(static_cast<std::uint32_t>(real) - static_cast<std::uint32_t>(pred));
   } else {
     c = std::int64_t{real} - pred;
-    if (c < corr_min_) c += corr_range_;
-    else if (c > corr_max_) c -= corr_range_;
+    if (c < corr_min_)
+      c += corr_range_;
+    else if (c > corr_max_)
+      c -= corr_range_;
   }
   std::uint64_t c1 = c <= 0 ? static_cast<std::uint64_t>(-c) : static_cast<std::uint64_t>(c - 1);
   k_ = 0;

@@ -23,9 +23,9 @@ struct Corrupt {
 
 constexpr std::uint32_t kMinLength = 0x01000000u;  // renormalise below 2^24
 constexpr std::uint32_t kMaxLength = 0xFFFFFFFFu;
-constexpr std::uint32_t kBitShift = 13;            // bit model probabilities in 2^-13
+constexpr std::uint32_t kBitShift = 13;  // bit model probabilities in 2^-13
 constexpr std::uint32_t kBitMaxCount = 1u << kBitShift;
-constexpr std::uint32_t kSymShift = 15;            // symbol model distributions in 2^-15
+constexpr std::uint32_t kSymShift = 15;  // symbol model distributions in 2^-15
 constexpr std::uint32_t kSymMaxCount = 1u << kSymShift;
 
 /// Adaptive binary model.

@@ -30,7 +30,7 @@ std::int32_t wrapMul(std::int32_t a, std::int32_t b) {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) * static_cast<std::uint32_t>(b));
 }
 std::uint8_t fold(int v) { return static_cast<std::uint8_t>(v & 0xFF); }  // U8_FOLD
-int clamp8(int v) { return std::clamp(v, 0, 255); }                      // U8_CLAMP
+int clamp8(int v) { return std::clamp(v, 0, 255); }                       // U8_CLAMP
 std::uint32_t evenBelow(std::uint32_t k, std::uint32_t cap) { return k < cap ? (k & ~1u) : cap; }
 
 using ModelPtr = std::unique_ptr<SymbolModel>;
@@ -42,10 +42,9 @@ SymbolModel& lazyModel(std::array<ModelPtr, N>& models, std::size_t index, std::
 
 // Return-number contexts of POINT10 (r = return number, n = number of returns; "completed" for
 // files that number from 0 or swap r and n).
-constexpr std::uint8_t kReturnMap[8][8] = {
-    {15, 14, 13, 12, 11, 10, 9, 8}, {14, 0, 1, 3, 6, 10, 10, 9},   {13, 1, 2, 4, 7, 11, 11, 10},
-    {12, 3, 4, 5, 8, 12, 12, 11},   {11, 6, 7, 8, 9, 13, 13, 12},  {10, 10, 11, 12, 13, 14, 14, 13},
-    {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
+constexpr std::uint8_t kReturnMap[8][8] = {{15, 14, 13, 12, 11, 10, 9, 8},  {14, 0, 1, 3, 6, 10, 10, 9},   {13, 1, 2, 4, 7, 11, 11, 10},
+                                           {12, 3, 4, 5, 8, 12, 12, 11},    {11, 6, 7, 8, 9, 13, 13, 12},  {10, 10, 11, 12, 13, 14, 14, 13},
+                                           {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
 std::uint32_t returnLevel(std::uint32_t n, std::uint32_t r) { return n > r ? n - r : r - n; }
 
 // The LAS 1.4 tables: 6 return-map contexts and levels |n − r| capped at 7.
@@ -167,8 +166,7 @@ void readGpsTime(GpsTimeState& s, Decoder& dec, SymbolModel& m_multi, SymbolMode
 }
 
 /// Encodes a time (the mirror of readGpsTime); version 3 callers only call it on a change.
-void writeGpsTime(GpsTimeState& s, Encoder& enc, SymbolModel& m_multi, SymbolModel& m_0diff, IntegerCodec& ic, bool v3,
-                  std::uint64_t t) {
+void writeGpsTime(GpsTimeState& s, Encoder& enc, SymbolModel& m_multi, SymbolModel& m_0diff, IntegerCodec& ic, bool v3, std::uint64_t t) {
   const int code_full = v3 ? kMultiCodeFullV3 : kMultiCodeFullV2;
   for (int depth = 0; depth < 2; ++depth) {
     const std::int64_t d64 = static_cast<std::int64_t>(t - s.time[s.last]);
@@ -320,8 +318,8 @@ class Point10V2 final : public PointwiseItem {
     const std::uint32_t m = kReturnMap[n][r], l = returnLevel(n, r);
     const std::uint16_t intensity = get<std::uint16_t>(item, 12);
     const std::uint32_t changed = ((last_[14] != item[14]) << 5) | ((last_intensity_[m] != intensity) << 4) |
-                                  ((last_[15] != item[15]) << 3) | ((last_[16] != item[16]) << 2) |
-                                  ((last_[17] != item[17]) << 1) | (get<std::uint16_t>(last_, 18) != get<std::uint16_t>(item, 18));
+                                  ((last_[15] != item[15]) << 3) | ((last_[16] != item[16]) << 2) | ((last_[17] != item[17]) << 1) |
+                                  (get<std::uint16_t>(last_, 18) != get<std::uint16_t>(item, 18));
     enc.encodeSymbol(*changed_values_, changed);
     if (changed & 32) enc.encodeSymbol(lazyModel(bit_byte_, last_[14], 256, decoder_), item[14]);
     if (changed & 16) {
@@ -426,8 +424,8 @@ struct RgbModels {
     sym |= ((last[1] & 0xFF00) != (in[1] & 0xFF00)) << 3;
     sym |= ((last[2] & 0x00FF) != (in[2] & 0x00FF)) << 4;
     sym |= ((last[2] & 0xFF00) != (in[2] & 0xFF00)) << 5;
-    sym |= (((in[0] & 0x00FF) != (in[1] & 0x00FF)) || ((in[0] & 0x00FF) != (in[2] & 0x00FF)) ||
-            ((in[0] & 0xFF00) != (in[1] & 0xFF00)) || ((in[0] & 0xFF00) != (in[2] & 0xFF00)))
+    sym |= (((in[0] & 0x00FF) != (in[1] & 0x00FF)) || ((in[0] & 0x00FF) != (in[2] & 0x00FF)) || ((in[0] & 0xFF00) != (in[1] & 0xFF00)) ||
+            ((in[0] & 0xFF00) != (in[2] & 0xFF00)))
            << 6;
     enc.encodeSymbol(*used, sym);
     int diff_l = 0, diff_h = 0;
@@ -543,7 +541,8 @@ class Point10V1 final : public DecodeOnly {
     k = (k + ic_dy_.k()) / 2;
     put<std::int32_t>(item, 8, ic_z_.decompress(dec, get<std::int32_t>(last_, 8), k < 19 ? k : 19));
     const std::uint32_t changed = dec.decodeSymbol(*changed_values_);
-    if (changed & 32) put<std::uint16_t>(item, 12, static_cast<std::uint16_t>(ic_intensity_.decompress(dec, get<std::uint16_t>(last_, 12))));
+    if (changed & 32)
+      put<std::uint16_t>(item, 12, static_cast<std::uint16_t>(ic_intensity_.decompress(dec, get<std::uint16_t>(last_, 12))));
     if (changed & 16) item[14] = static_cast<std::uint8_t>(dec.decodeSymbol(lazyModel(bit_byte_, last_[14], 256, true)));
     if (changed & 8) item[15] = static_cast<std::uint8_t>(dec.decodeSymbol(lazyModel(classification_, last_[15], 256, true)));
     if (changed & 4) item[16] = static_cast<std::uint8_t>(ic_scan_angle_.decompress(dec, last_[16], k < 3));
@@ -650,7 +649,8 @@ class ByteV1 final : public DecodeOnly {
     std::memcpy(last_.data(), item, last_.size());
   }
   void read(Decoder& dec, std::uint8_t* item) override {
-    for (std::size_t i = 0; i < last_.size(); ++i) item[i] = static_cast<std::uint8_t>(ic_.decompress(dec, last_[i], static_cast<std::uint32_t>(i)));
+    for (std::size_t i = 0; i < last_.size(); ++i)
+      item[i] = static_cast<std::uint8_t>(ic_.decompress(dec, last_[i], static_cast<std::uint32_t>(i)));
     std::memcpy(last_.data(), item, last_.size());
   }
 
@@ -751,8 +751,7 @@ class Point14V3 final : public LayeredItem {
   static constexpr std::size_t kLayers = 9;  // XY+returns, Z, classification, flags, intensity, scan angle, user data, source, GPS time
   std::size_t layers() const override { return kLayers; }
 
-  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
-                  const std::uint32_t* size) override {
+  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data, const std::uint32_t* size) override {
     decoder_ = true;
     io_.startDecode(data, size);
     io_.changed[0] = 1;  // the XY layer always decodes (an empty one is read past its end)
@@ -786,13 +785,20 @@ class Point14V3 final : public LayeredItem {
     if (changed & 4) last->returns = n = xy.decodeSymbol(lazyModel(c->number_of_returns, last_n, 16, true));
     std::uint32_t r = last_r;
     switch (changed & 3) {
-      case 1: r = (last_r + 1) % 16; break;
-      case 2: r = (last_r + 15) % 16; break;
-      case 3:
-        if (gps_change) r = xy.decodeSymbol(lazyModel(c->return_number, last_r, 16, true));
-        else r = (last_r + xy.decodeSymbol(*c->return_number_gps_same) + 2) % 16;
+      case 1:
+        r = (last_r + 1) % 16;
         break;
-      default: break;
+      case 2:
+        r = (last_r + 15) % 16;
+        break;
+      case 3:
+        if (gps_change)
+          r = xy.decodeSymbol(lazyModel(c->return_number, last_r, 16, true));
+        else
+          r = (last_r + xy.decodeSymbol(*c->return_number_gps_same) + 2) % 16;
+        break;
+      default:
+        break;
     }
     last->return_number = r;
     const std::uint32_t m = kReturnMap6[n][r], l = returnLevel8(n, r);
@@ -827,7 +833,8 @@ class Point14V3 final : public LayeredItem {
       c->last_intensity[ii] = last->intensity;
     }
     if (io_.changed[5] && angle_change)
-      last->scan_angle = static_cast<std::int16_t>(static_cast<std::uint16_t>(c->scan_angle.decompress(io_.dec[5], last->scan_angle, gps_change)));
+      last->scan_angle =
+          static_cast<std::int16_t>(static_cast<std::uint16_t>(c->scan_angle.decompress(io_.dec[5], last->scan_angle, gps_change)));
     if (io_.changed[6]) last->user_data = io_.dec[6].decodeSymbol(lazyModel(c->user_data, last->user_data / 4, 256, true));
     if (io_.changed[7] && source_change) last->source = static_cast<std::uint16_t>(c->source.decompress(io_.dec[7], last->source));
     if (io_.changed[8] && gps_change) {
@@ -863,8 +870,10 @@ class Point14V3 final : public LayeredItem {
     }
     if (changed & 4) xy.encodeSymbol(lazyModel(c->number_of_returns, last_n, 16, false), n);
     if ((changed & 3) == 3) {
-      if (gps_change) xy.encodeSymbol(lazyModel(c->return_number, last_r, 16, false), r);
-      else xy.encodeSymbol(*c->return_number_gps_same, (r + 16 - last_r) % 16 - 2);
+      if (gps_change)
+        xy.encodeSymbol(lazyModel(c->return_number, last_r, 16, false), r);
+      else
+        xy.encodeSymbol(*c->return_number_gps_same, (r + 16 - last_r) % 16 - 2);
     }
     const std::uint32_t m = kReturnMap6[n][r], l = returnLevel8(n, r);
     const std::uint32_t cpr = (r == 1 ? 1u : 0u) + (r >= n ? 2u : 0u);
@@ -880,7 +889,8 @@ class Point14V3 final : public LayeredItem {
     c->z.compress(io_.enc[1], c->last_z[l], p.z, (n == 1) + evenBelow(k, 18));
     c->last_z[l] = p.z;
     if (p.classification != last->classification) io_.changed[2] = true;
-    io_.enc[2].encodeSymbol(lazyModel(c->classification, ((last->classification & 0x1F) << 1) + (cpr == 3 ? 1 : 0), 256, false), p.classification);
+    io_.enc[2].encodeSymbol(lazyModel(c->classification, ((last->classification & 0x1F) << 1) + (cpr == 3 ? 1 : 0), 256, false),
+                            p.classification);
     const std::uint32_t last_flags = (last->edge << 5) | (last->scan_dir << 4) | last->class_flags;
     const std::uint32_t flags = (p.edge << 5) | (p.scan_dir << 4) | p.class_flags;
     if (flags != last_flags) io_.changed[3] = true;
@@ -970,8 +980,7 @@ class Rgb14V3 final : public LayeredItem {
  public:
   explicit Rgb14V3(bool nir) : nir_(nir), io_(nir ? 2 : 1) {}
   std::size_t layers() const override { return nir_ ? 2 : 1; }
-  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
-                  const std::uint32_t* size) override {
+  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data, const std::uint32_t* size) override {
     decoder_ = true;
     io_.startDecode(data, size);
     start(item, context);
@@ -996,8 +1005,9 @@ class Rgb14V3 final : public LayeredItem {
       if (io_.changed[1]) {
         const std::uint32_t sym = io_.dec[1].decodeSymbol(*c.nir_used);
         v[3] = (sym & 1) ? fold(static_cast<int>(io_.dec[1].decodeSymbol(*c.nir_diff[0])) + (last[3] & 255)) : (last[3] & 0xFF);
-        v[3] |= (sym & 2) ? static_cast<std::uint16_t>(fold(static_cast<int>(io_.dec[1].decodeSymbol(*c.nir_diff[1])) + (last[3] >> 8)) << 8)
-                          : (last[3] & 0xFF00);
+        v[3] |= (sym & 2)
+                    ? static_cast<std::uint16_t>(fold(static_cast<int>(io_.dec[1].decodeSymbol(*c.nir_diff[1])) + (last[3] >> 8)) << 8)
+                    : (last[3] & 0xFF00);
         last[3] = v[3];
       } else {
         v[3] = last[3];
@@ -1070,8 +1080,7 @@ class Byte14V3 final : public LayeredItem {
  public:
   explicit Byte14V3(std::size_t n) : n_(n), io_(n) {}
   std::size_t layers() const override { return n_; }
-  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data,
-                  const std::uint32_t* size) override {
+  void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* data, const std::uint32_t* size) override {
     decoder_ = true;
     io_.startDecode(data, size);
     start(item, context);
@@ -1145,21 +1154,31 @@ std::unique_ptr<PointwiseItem> makePointwiseItem(const LazItem& item, bool decod
   const bool v1 = item.version == 1;
   if (v1 && !decoder) throw Corrupt{"version 1 items cannot be written"};
   switch (item.type) {
-    case LazItem::kPoint10: return v1 ? std::unique_ptr<PointwiseItem>(new Point10V1) : std::make_unique<Point10V2>(decoder);
-    case LazItem::kGpsTime11: return v1 ? std::unique_ptr<PointwiseItem>(new GpsTime11V1) : std::make_unique<GpsTime11V2>(decoder);
-    case LazItem::kRgb12: return v1 ? std::unique_ptr<PointwiseItem>(new Rgb12V1) : std::make_unique<Rgb12V2>(decoder);
-    case LazItem::kByte: return v1 ? std::unique_ptr<PointwiseItem>(new ByteV1(item.size)) : std::make_unique<ByteV2>(item.size, decoder);
-    default: throw Corrupt{"item " + lazItemName(item.type) + " is not a point-wise item"};
+    case LazItem::kPoint10:
+      return v1 ? std::unique_ptr<PointwiseItem>(new Point10V1) : std::make_unique<Point10V2>(decoder);
+    case LazItem::kGpsTime11:
+      return v1 ? std::unique_ptr<PointwiseItem>(new GpsTime11V1) : std::make_unique<GpsTime11V2>(decoder);
+    case LazItem::kRgb12:
+      return v1 ? std::unique_ptr<PointwiseItem>(new Rgb12V1) : std::make_unique<Rgb12V2>(decoder);
+    case LazItem::kByte:
+      return v1 ? std::unique_ptr<PointwiseItem>(new ByteV1(item.size)) : std::make_unique<ByteV2>(item.size, decoder);
+    default:
+      throw Corrupt{"item " + lazItemName(item.type) + " is not a point-wise item"};
   }
 }
 
 std::unique_ptr<LayeredItem> makeLayeredItem(const LazItem& item) {
   switch (item.type) {
-    case LazItem::kPoint14: return std::make_unique<Point14V3>();
-    case LazItem::kRgb14: return std::make_unique<Rgb14V3>(false);
-    case LazItem::kRgbNir14: return std::make_unique<Rgb14V3>(true);
-    case LazItem::kByte14: return std::make_unique<Byte14V3>(item.size);
-    default: throw Corrupt{"item " + lazItemName(item.type) + " is not a layered item"};
+    case LazItem::kPoint14:
+      return std::make_unique<Point14V3>();
+    case LazItem::kRgb14:
+      return std::make_unique<Rgb14V3>(false);
+    case LazItem::kRgbNir14:
+      return std::make_unique<Rgb14V3>(true);
+    case LazItem::kByte14:
+      return std::make_unique<Byte14V3>(item.size);
+    default:
+      throw Corrupt{"item " + lazItemName(item.type) + " is not a layered item"};
   }
 }
 

@@ -30,8 +30,8 @@ class LayeredItem {
   virtual ~LayeredItem() = default;
   virtual std::size_t layers() const = 0;
   /// Starts decoding a chunk: `layer_data[i]`/`layer_size[i]` hold this item's layers.
-  virtual void initDecode(const std::uint8_t* item, std::uint32_t& context,
-                          const std::uint8_t* const* layer_data, const std::uint32_t* layer_size) = 0;
+  virtual void initDecode(const std::uint8_t* item, std::uint32_t& context, const std::uint8_t* const* layer_data,
+                          const std::uint32_t* layer_size) = 0;
   virtual void read(std::uint8_t* item, std::uint32_t& context) = 0;
   /// Checks after the chunk that no layer was read past its end.
   virtual bool overrun() const = 0;

@@ -19,7 +19,8 @@ inline void checkAttitude(double roll, double pitch, double heading, const std::
   const double tol = 1e-9;
   if (!(std::abs(roll) <= kPi + tol) || !(std::abs(pitch) <= kPi / 2 + tol) || !(std::abs(heading) <= 4 * kPi + tol)) {
     char buf[200];
-    std::snprintf(buf, sizeof buf, "attitude (roll %.6g, pitch %.6g, heading %.6g deg) is out of range (roll within ±180°, pitch ±90°, heading ±720°)",
+    std::snprintf(buf, sizeof buf,
+                  "attitude (roll %.6g, pitch %.6g, heading %.6g deg) is out of range (roll within ±180°, pitch ±90°, heading ±720°)",
                   rad2deg(roll), rad2deg(pitch), rad2deg(heading));
     throw FileError(path, where, buf);
   }
@@ -31,8 +32,9 @@ inline void checkSpeed(double t0, const Vec3& p0, double t1, const Vec3& p1, con
   if (!(dt > 0)) return;  // the time order is checked where it matters, with its own message
   if (!(d / dt <= kMaxPlatformSpeed)) {
     char buf[200];
-    std::snprintf(buf, sizeof buf, "the position jumps %.6g m in %.6g s from the previous record (%.3g m/s; no platform flies faster than %.0f m/s)",
-                  d, dt, d / dt, kMaxPlatformSpeed);
+    std::snprintf(buf, sizeof buf,
+                  "the position jumps %.6g m in %.6g s from the previous record (%.3g m/s; no platform flies faster than %.0f m/s)", d, dt,
+                  d / dt, kMaxPlatformSpeed);
     throw FileError(path, where, buf);
   }
 }

@@ -36,7 +36,9 @@ ExtraBytesAttribute needAttribute(const std::vector<ExtraBytesAttribute>& attrs,
   const ExtraBytesAttribute* a = findExtraBytesAttribute(attrs, name);
   if (!a) throw FileError(path, "Extra Bytes VLR", "no attribute '" + name + "' (the file has: " + attributeList(attrs) + ")");
   if (a->data_type == 0) throw FileError(path, "Extra Bytes VLR", "attribute '" + name + "' is undocumented bytes (type 0), not a number");
-  if (a->elements != 1) throw FileError(path, "Extra Bytes VLR", "attribute '" + name + "' has " + std::to_string(a->elements) + " elements; expected one value");
+  if (a->elements != 1)
+    throw FileError(path, "Extra Bytes VLR",
+                    "attribute '" + name + "' has " + std::to_string(a->elements) + " elements; expected one value");
   return *a;
 }
 
@@ -60,8 +62,9 @@ Pose PoseFieldReader::pose(const LasPoint& p, std::uint64_t record) const {
   const double u = fields_.degrees ? kPi / 180.0 : 1.0;
   for (int k = 3; k < 6; ++k) {
     if (std::abs(v[k] * u) > 8 * kPi) {
-      throw FileError(path_, "record " + std::to_string(record), "attitude '" + attr_[k].name + "' = " + std::to_string(v[k]) +
-                                                                     (fields_.degrees ? " deg" : " rad") + " is not an angle; is the unit right?");
+      throw FileError(path_, "record " + std::to_string(record),
+                      "attitude '" + attr_[k].name + "' = " + std::to_string(v[k]) + (fields_.degrees ? " deg" : " rad") +
+                          " is not an angle; is the unit right?");
     }
   }
   Pose pose;
@@ -79,12 +82,18 @@ PointFieldReader::PointFieldReader(const LasHeader& header, const std::string& p
 
 double PointFieldReader::value(const LasPoint& p) const {
   switch (standard_) {
-    case 0: return p.gps_time;
-    case 1: return p.point_source_id;
-    case 2: return p.user_data;
-    case 3: return p.intensity;
-    case 4: return p.classification;
-    default: return extraBytesValue(p, attr_);
+    case 0:
+      return p.gps_time;
+    case 1:
+      return p.point_source_id;
+    case 2:
+      return p.user_data;
+    case 3:
+      return p.intensity;
+    case 4:
+      return p.classification;
+    default:
+      return extraBytesValue(p, attr_);
   }
 }
 

@@ -22,10 +22,12 @@ void checkRecords(const std::vector<SbetRecord>& recs, const std::string& path, 
     const SbetRecord& s = recs[i];
     detail::checkAttitude(s.roll_rad, s.pitch_rad, s.platform_heading_rad, path, where(i));
     detail::checkAttitude(0.0, 0.0, s.wander_rad, path, where(i));
-    if (!(std::abs(s.h_m) <= detail::kMaxAbsHeight)) throw FileError(path, where(i), "height " + std::to_string(s.h_m) + " m is out of range");
+    if (!(std::abs(s.h_m) <= detail::kMaxAbsHeight))
+      throw FileError(path, where(i), "height " + std::to_string(s.h_m) + " m is out of range");
     if (i > 0) {
       const SbetRecord& p = recs[i - 1];
-      const Vec3 a(0, 0, p.h_m), b(R * (s.lat_rad - p.lat_rad), R * std::cos(s.lat_rad) * std::remainder(s.lon_rad - p.lon_rad, 2 * kPi), s.h_m);
+      const Vec3 a(0, 0, p.h_m),
+          b(R * (s.lat_rad - p.lat_rad), R * std::cos(s.lat_rad) * std::remainder(s.lon_rad - p.lon_rad, 2 * kPi), s.h_m);
       detail::checkSpeed(p.time_s, a, s.time_s, b, path, where(i));
     }
   }
@@ -43,8 +45,9 @@ std::vector<SbetRecord> readSbet(const std::string& path) {
   const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0);
   if (size % 136 != 0) {
-    throw FileError(path, "byte " + std::to_string(size - size % 136),
-                    "size " + std::to_string(size) + " bytes is not a multiple of the 136-byte SBET record: the file is truncated or not an SBET");
+    throw FileError(
+        path, "byte " + std::to_string(size - size % 136),
+        "size " + std::to_string(size) + " bytes is not a multiple of the 136-byte SBET record: the file is truncated or not an SBET");
   }
   if (size == 0) throw FileError(path, "", "empty SBET file");
   std::vector<SbetRecord> out(size / 136);
@@ -96,7 +99,8 @@ Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecor
     TrajectorySample& s = samples[i];
     s.time_s = r.time_s + time_offset_s;
     if (i > 0 && !(s.time_s > samples[i - 1].time_s)) {
-      throw FileError(path, "record " + std::to_string(i), "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
+      throw FileError(path, "record " + std::to_string(i),
+                      "time is not after the previous record's: the trajectory must be sorted with no duplicate times");
     }
     s.p_m = frame.toLocal({r.lat_rad, r.lon_rad, r.h_m});
     s.R_mn = frame.R_mn(r.lat_rad, r.lon_rad);  // SPEC §2: curvature and convergence

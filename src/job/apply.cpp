@@ -20,12 +20,12 @@ namespace mountcal {
 
 namespace fs = std::filesystem;
 
-
-ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points, const std::vector<double>& laser_elevation_rad, StripFormat format,
-                         const std::vector<std::string>& also_inputs, int threads) {
+ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir, std::size_t chunk_points,
+                         const std::vector<double>& laser_elevation_rad, StripFormat format, const std::vector<std::string>& also_inputs,
+                         int threads) {
   if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
-    throw FileError(job.path, "field 'sensor.laser_field'", "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
+    throw FileError(job.path, "field 'sensor.laser_field'",
+                    "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
   }
   // Every input file once, in job order; every output checked against every input first.
   std::vector<std::string> inputs;
@@ -42,12 +42,15 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     if (format != StripFormat::same_as_input) file.replace_extension(format == StripFormat::laz ? ".laz" : ".las");
     const std::string name = file.string();
     auto [it, fresh] = by_name.emplace(name, in);
-    if (!fresh) throw FileError(in, "", "has the same file name as " + it->second + "; apply would write both to " + (fs::path(out_dir) / name).string());
+    if (!fresh)
+      throw FileError(in, "",
+                      "has the same file name as " + it->second + "; apply would write both to " + (fs::path(out_dir) / name).string());
     outputs.push_back((fs::path(out_dir) / name).string());
     std::vector<std::string> every_input = jobInputPaths(job);
     every_input.insert(every_input.end(), also_inputs.begin(), also_inputs.end());
     for (const std::string& other : every_input) {
-      if (io::samePath(outputs.back(), other)) throw FileError(outputs.back(), "", "apply would overwrite an input (" + other + "); choose another --out folder");
+      if (io::samePath(outputs.back(), other))
+        throw FileError(outputs.back(), "", "apply would overwrite an input (" + other + "); choose another --out folder");
     }
   }
   std::error_code ec;
@@ -63,8 +66,10 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     io::LasReader reader(in_path);
     const io::LasHeader& h = reader.header();
     std::unique_ptr<io::PoseFieldReader> poses;
-    if (job.per_point_poses) poses = std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
-    else if (!h.hasGpsTime()) throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
+    if (job.per_point_poses)
+      poses = std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
+    else if (!h.hasGpsTime())
+      throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
     std::unique_ptr<io::PointFieldReader> laser;
     if (!laser_elevation_rad.empty()) laser = std::make_unique<io::PointFieldReader>(h, in_path, job.laser_field);
     const Trajectory* T = loaded.data.trajectory.get();
@@ -121,7 +126,8 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
         }
         for (std::size_t k = 0; k < n; ++k) {
           if (!(times[k] >= t_start && times[k] <= t_end)) {
-            throw FileError(in_path, "record " + std::to_string(record + k), "GPS time " + std::to_string(times[k]) + " s is outside the trajectory");
+            throw FileError(in_path, "record " + std::to_string(record + k),
+                            "GPS time " + std::to_string(times[k]) + " s is outside the trajectory");
           }
         }
         const double* x_local = xyz_crs.data();
@@ -160,7 +166,8 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
           pose = poses->pose(p, record);
         } else {
           if (!(p.gps_time >= T->startTime() && p.gps_time <= T->endTime())) {
-            throw FileError(in_path, "record " + std::to_string(record), "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
+            throw FileError(in_path, "record " + std::to_string(record),
+                            "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
           }
           pose = T->pose(p.gps_time, &cursor);
         }
@@ -169,7 +176,8 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
         if (laser) {
           const double id = laser->value(p);
           if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad.size()))) {
-            throw FileError(in_path, "record " + std::to_string(record), "laser id " + std::to_string(id) + " has no elevation offset in the result");
+            throw FileError(in_path, "record " + std::to_string(record),
+                            "laser id " + std::to_string(id) + " has no elevation offset in the result");
           }
           r_s = elevateLaserVector(r_s, laser_elevation_rad[static_cast<std::size_t>(id)]);
         }

@@ -20,10 +20,12 @@ void requireBlockMethod(const Job& job, bool only) {
   const auto& m = job.options.methods;
   const bool has = std::find(m.begin(), m.end(), CorrespondenceOptions::kMethod) != m.end();
   if (!has || (only && m.size() != 1))
-    throw FileError(job.path, "field 'method'", only ? "a solve from pair files runs method \"correspondences\" alone"
-                                                     : "pair jobs need method \"correspondences\"");
+    throw FileError(job.path, "field 'method'",
+                    only ? "a solve from pair files runs method \"correspondences\" alone" : "pair jobs need method \"correspondences\"");
   if (job.options.method<CorrespondenceOptions>().dense)
-    throw FileError(job.path, "field 'correspondences.dense'", "dense matching rebuilds its k-d trees at every round and is not split into pair jobs; run mountcal calibrate on the whole job");
+    throw FileError(
+        job.path, "field 'correspondences.dense'",
+        "dense matching rebuilds its k-d trees at every round and is not split into pair jobs; run mountcal calibrate on the whole job");
 }
 
 int stripIndex(const Job& job, const std::string& id) {
@@ -92,7 +94,9 @@ PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std
 LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
   requireBlockMethod(job, true);
   if (!job.gcps_path.empty())
-    throw FileError(job.path, "field 'gcps'", "ground control is observed in the strips' points, which a solve from pair files does not read; run mountcal calibrate on the whole job");
+    throw FileError(job.path, "field 'gcps'",
+                    "ground control is observed in the strips' points, which a solve from pair files does not read; run mountcal calibrate "
+                    "on the whole job");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw FileError(dir, "", "is not a folder of pair files (mountcal match --out)");
   std::vector<std::string> files;
@@ -112,7 +116,8 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
       throw FileError(f, "", "was matched with other correspondence options than " + job.path + "; rerun mountcal match");
     if (m != used) throw FileError(f, "", "was matched at another mounting_used than " + job.path + "'s; rerun mountcal match");
     if (!p.attitudes_stored) {
-      if (!out.data.trajectory) throw FileError(f, "", "holds no attitudes, and the job has no trajectory to take them from; rerun mountcal match");
+      if (!out.data.trajectory)
+        throw FileError(f, "", "holds no attitudes, and the job has no trajectory to take them from; rerun mountcal match");
       p.attitudesFrom(*out.data.trajectory);
     }
     auto [it, fresh] = seen.emplace(std::make_pair(p.strip_a, p.strip_b), f);
@@ -121,7 +126,8 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
   }
   for (const auto& [a, b] : jobStripPairs(job)) {
     if (!seen.count({a, b}))
-      throw FileError(dir, "", "no pair file for strips '" + a + "' and '" + b + "' (mountcal match " + job.path + " --pair " + a + " " + b + ")");
+      throw FileError(dir, "",
+                      "no pair file for strips '" + a + "' and '" + b + "' (mountcal match " + job.path + " --pair " + a + " " + b + ")");
   }
   for (const JobStrip& js : job.strips) {
     StripData s;

@@ -91,22 +91,26 @@ class SplitFilter {
 };
 
 [[noreturn]] void emptySplit(const Job& job, const JobStrip& js, const SplitFilter& f) {
-  std::string what = js.split.part > 0 ? "part " + std::to_string(js.split.part) + " of " + std::to_string(f.parts()) + " (gap " + std::to_string(js.split.gap) + ")"
+  std::string what = js.split.part > 0 ? "part " + std::to_string(js.split.part) + " of " + std::to_string(f.parts()) + " (gap " +
+                                             std::to_string(js.split.gap) + ")"
                                        : "the range [" + std::to_string(js.split.min) + ", " + std::to_string(js.split.max) + "]";
-  throw FileError(js.path, "field '" + js.split.field + "'", "strip '" + js.id + "' of " + job.path + " selects " + what + ", which holds no record");
+  throw FileError(js.path, "field '" + js.split.field + "'",
+                  "strip '" + js.id + "' of " + job.path + " selects " + what + ", which holds no record");
 }
 
 /// Each point's laser id from the job's sensor.laser_field, checked against the sensor's lasers.
 class LaserIds {
  public:
   LaserIds(const io::LasHeader& h, const Job& job, const JobStrip& js)
-      : field_(h, js.path, job.laser_field), path_(js.path),
+      : field_(h, js.path, job.laser_field),
+        path_(js.path),
         lasers_(job.sensor.type == SensorType::kMultiBeam ? job.sensor.multibeam.laserCount() : 0) {}
   std::uint16_t id(const io::LasPoint& p, std::uint64_t record) const {
     const double id = field_.value(p);
     if (!(id >= 0 && id < lasers_ && id == std::floor(id))) {
-      throw FileError(path_, "record " + std::to_string(record), "laser id " + std::to_string(id) + " in field '" + field_.name() +
-                                                                    "' is not one of the " + std::to_string(lasers_) + " lasers of the sensor");
+      throw FileError(path_, "record " + std::to_string(record),
+                      "laser id " + std::to_string(id) + " in field '" + field_.name() + "' is not one of the " + std::to_string(lasers_) +
+                          " lasers of the sensor");
     }
     return static_cast<std::uint16_t>(id);
   }
@@ -138,7 +142,8 @@ StripData loadPosedLasStrip(const Job& job, const JobStrip& js) {
       const Vec3 x(reader.x(p), reader.y(p), reader.z(p));
       const Vec3 r = inverseGeoreference(pose, R_bs, job.mounting_used.a_b, x);  // SPEC §2 inverse
       if (!(r.norm() < 1e4)) {
-        throw FileError(js.path, "record " + std::to_string(rec), "the point lies " + std::to_string(r.norm()) + " m from its sensor position; are the pose fields right?");
+        throw FileError(js.path, "record " + std::to_string(rec),
+                        "the point lies " + std::to_string(r.norm()) + " m from its sensor position; are the pose fields right?");
       }
       s.time_s.push_back(h.hasGpsTime() ? p.gps_time : 0.0);
       s.x_m.push_back(x);
@@ -169,7 +174,8 @@ class BoundsCheck {
       const double margin = std::max(1.0, 1e-3 * (h_.max[a] - h_.min[a])) + 2 * h_.scale[a];
       if (!(x[a] >= h_.min[a] - margin && x[a] <= h_.max[a] + margin)) {
         char buf[200];
-        std::snprintf(buf, sizeof buf, "the point's %c = %.6g lies outside the header's bounds [%.3f, %.3f]: a wrong scale or offset in the header?",
+        std::snprintf(buf, sizeof buf,
+                      "the point's %c = %.6g lies outside the header's bounds [%.3f, %.3f]: a wrong scale or offset in the header?",
                       "xyz"[a], x[a], h_.min[a], h_.max[a]);
         throw FileError(path_, "record " + std::to_string(record), buf);
       }
@@ -190,8 +196,10 @@ void checkRanges(const StripData& s, const std::string& path) {
     const double r = s.r_s[i].norm();
     if (!(r <= kMaxRange)) {
       char buf[240];
-      std::snprintf(buf, sizeof buf, "the point at GPS time %.6f s lies %.3g m from the sensor: strips and trajectory do not agree in space "
-                    "(a wrong CRS or zone, another trajectory, or wrong lever arm units?)", s.time_s[i], r);
+      std::snprintf(buf, sizeof buf,
+                    "the point at GPS time %.6f s lies %.3g m from the sensor: strips and trajectory do not agree in space "
+                    "(a wrong CRS or zone, another trajectory, or wrong lever arm units?)",
+                    s.time_s[i], r);
       throw FileError(path, "strip '" + s.id + "'", buf);
     }
   }
@@ -202,8 +210,8 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
   io::LasReader reader(js.path);
   const io::LasHeader& h = reader.header();
   if (!h.hasGpsTime()) {
-    throw FileError(js.path, "byte 104", "point format " + std::to_string(h.point_format) +
-                                             " has no GPS time; a calibration needs formats 1, 3 or 6-8");
+    throw FileError(js.path, "byte 104",
+                    "point format " + std::to_string(h.point_format) + " has no GPS time; a calibration needs formats 1, 3 or 6-8");
   }
   SplitFilter filter(h, js);
   std::unique_ptr<LaserIds> laser;
@@ -250,8 +258,9 @@ StripData loadLasStrip(const Job& job, const JobStrip& js, const GeoreferenceMod
   if (s.time_s.empty()) throw FileError(js.path, "", "strip '" + js.id + "' has no points");
   // The pulse times place the points on the trajectory: one time for every point is no time.
   if (s.time_s.size() > 1 && std::all_of(s.time_s.begin(), s.time_s.end(), [&](double t) { return t == s.time_s.front(); })) {
-    throw FileError(js.path, "", "every point of strip '" + js.id + "' has the GPS time " + std::to_string(s.time_s.front()) +
-                                     " s: the times are not the pulse times");
+    throw FileError(js.path, "",
+                    "every point of strip '" + js.id + "' has the GPS time " + std::to_string(s.time_s.front()) +
+                        " s: the times are not the pulse times");
   }
   // Inverse georeferencing (SPEC §2): the raw vectors that, with mounting_used, gave x_m.
   const std::size_t n = s.time_s.size();
@@ -301,7 +310,8 @@ std::vector<TieObservation> readPicks(const Job& job, const std::string& path, c
   for (const JobStrip& js : job.strips) ids.insert(js.id);
   for (const TieObservation& t : picks) {
     if (!ids.count(t.strip_id)) {
-      throw FileError(path, "line " + std::to_string(t.line), what + " '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
+      throw FileError(path, "line " + std::to_string(t.line),
+                      what + " '" + t.tie_id + "' names strip '" + t.strip_id + "', which the job does not list");
     }
   }
   return picks;
@@ -348,12 +358,14 @@ LoadedJob loadJobTrajectory(const Job& job) {
   }
   if (job.frame_type == JobFrameType::kLocal) {
     if (job.trajectory_format != TrajectoryFormat::kCsv) {
-      throw FileError(job.path, "field 'trajectory.format'", "a local-frame job needs the local trajectory CSV of SPEC §4; an SBET needs \"frame\": {\"type\": \"crs\"}");
+      throw FileError(job.path, "field 'trajectory.format'",
+                      "a local-frame job needs the local trajectory CSV of SPEC §4; an SBET needs \"frame\": {\"type\": \"crs\"}");
     }
     d.trajectory = std::make_shared<const Trajectory>(io::readTrajectoryCsv(job.trajectory_path, job.time_offset_s));
   } else {
-    const std::vector<io::SbetRecord> records = job.trajectory_format == TrajectoryFormat::kSbet ? io::readSbet(job.trajectory_path)
-                                                                                                 : io::readGeodeticTrajectoryCsv(job.trajectory_path);
+    const std::vector<io::SbetRecord> records = job.trajectory_format == TrajectoryFormat::kSbet
+                                                    ? io::readSbet(job.trajectory_path)
+                                                    : io::readGeodeticTrajectoryCsv(job.trajectory_path);
     if (records.empty()) throw FileError(job.trajectory_path, "", "no trajectory records");
     try {
       out.frame = JobFrame(job.crs, Geodetic{records.front().lat_rad, records.front().lon_rad, 0.0});

@@ -17,7 +17,8 @@ void applyLaserElevation(CalibrationData* data, const std::vector<double>& offse
   for (StripData& s : data->strips) {
     if (s.laser.empty()) continue;
     for (std::size_t i = 0; i < s.r_s.size(); ++i) {
-      if (s.laser[i] >= offsets.size()) throw InvalidInput("strip '" + s.id + "': laser id " + std::to_string(s.laser[i]) + " has no elevation offset");
+      if (s.laser[i] >= offsets.size())
+        throw InvalidInput("strip '" + s.id + "': laser id " + std::to_string(s.laser[i]) + " has no elevation offset");
       s.r_s[i] = elevateLaserVector(s.r_s[i], offsets[s.laser[i]]);
     }
     s.x_m.clear();
@@ -88,9 +89,15 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
   j["strip_offsets_m"] = offs;
   j["variance_factor"] = S.variance_factor;
   j["degrees_of_freedom"] = S.degrees_of_freedom;
-  j["solver"] = {{"termination", toString(S.termination)}, {"message", S.message}, {"iterations", S.iterations},
-                 {"rematch_rounds", S.rematch_rounds}, {"initial_cost", S.initial_cost}, {"final_cost", S.final_cost},
-                 {"time_s", S.time_s}, {"construction_time_s", S.construction_time_s}, {"solve_time_s", S.solve_time_s},
+  j["solver"] = {{"termination", toString(S.termination)},
+                 {"message", S.message},
+                 {"iterations", S.iterations},
+                 {"rematch_rounds", S.rematch_rounds},
+                 {"initial_cost", S.initial_cost},
+                 {"final_cost", S.final_cost},
+                 {"time_s", S.time_s},
+                 {"construction_time_s", S.construction_time_s},
+                 {"solve_time_s", S.solve_time_s},
                  {"analysis_time_s", S.analysis_time_s}};
   j["methods"] = S.methods;
   json kinds = json::array();
@@ -108,18 +115,25 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
   if (ev) {
     json e;
     if (ev->has_check_points) {
-      e["check_points"] = {{"rms_before_m", vec(ev->check_points_before.rms_m)}, {"rms_after_m", vec(ev->check_points_after.rms_m)},
+      e["check_points"] = {{"rms_before_m", vec(ev->check_points_before.rms_m)},
+                           {"rms_after_m", vec(ev->check_points_after.rms_m)},
                            {"observations", ev->check_points_after.residuals.size()}};
     }
     json planes = json::array();
     for (std::size_t i = 0; i < ev->check_planes_after.size(); ++i) {
-      planes.push_back({{"plane_id", ev->check_planes_after[i].plane_id}, {"points", ev->check_planes_after[i].points},
-                        {"rms_before_m", numOrNull(ev->check_planes_before[i].rms_m)}, {"rms_after_m", numOrNull(ev->check_planes_after[i].rms_m)}});
+      planes.push_back({{"plane_id", ev->check_planes_after[i].plane_id},
+                        {"points", ev->check_planes_after[i].points},
+                        {"rms_before_m", numOrNull(ev->check_planes_before[i].rms_m)},
+                        {"rms_after_m", numOrNull(ev->check_planes_after[i].rms_m)}});
     }
     if (!planes.empty()) e["check_planes"] = planes;
     json disc = json::array();
     auto st = [](const DiscrepancyStats& s) {
-      return json{{"queries", s.queries}, {"used", s.used}, {"median_m", numOrNull(s.median_m)}, {"rms_m", numOrNull(s.rms_m)}, {"p90_m", numOrNull(s.p90_m)}};
+      return json{{"queries", s.queries},
+                  {"used", s.used},
+                  {"median_m", numOrNull(s.median_m)},
+                  {"rms_m", numOrNull(s.rms_m)},
+                  {"p90_m", numOrNull(s.p90_m)}};
     };
     for (const PairDiscrepancy& a : ev->discrepancy_after) {
       json d = {{"query_strip", a.query}, {"reference_strip", a.reference}, {"after", st(a.stats)}};
@@ -143,8 +157,8 @@ std::vector<double> readResultLaserElevation(const std::string& path) {
   std::vector<double> out;
   if (!j.is_object() || !j.contains("intrinsics") || j["intrinsics"].is_null()) return out;
   const json& intrinsics = j["intrinsics"];
-  if (!intrinsics.is_object() || !intrinsics.contains("laser_elevation_offset_deg") || !intrinsics["laser_elevation_offset_deg"].is_array() ||
-      intrinsics["laser_elevation_offset_deg"].size() > 4096) {
+  if (!intrinsics.is_object() || !intrinsics.contains("laser_elevation_offset_deg") ||
+      !intrinsics["laser_elevation_offset_deg"].is_array() || intrinsics["laser_elevation_offset_deg"].size() > 4096) {
     throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected an array of numbers, one per laser");
   }
   for (const json& v : intrinsics["laser_elevation_offset_deg"]) {

@@ -19,15 +19,18 @@ namespace {
 
 const char* lossName(LossType l) {
   switch (l) {
-    case LossType::kHuber: return "huber";
-    case LossType::kCauchy: return "cauchy";
-    default: return "trivial";
+    case LossType::kHuber:
+      return "huber";
+    case LossType::kCauchy:
+      return "cauchy";
+    default:
+      return "trivial";
   }
 }
 
 void readSensor(const std::string& path, const Fields& top, Job* job) {
-  const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m",
-                                           "scan_angle_scale", "scan_angle_offset_deg", "laser_field"});
+  const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m", "scan_angle_scale",
+                                           "scan_angle_offset_deg", "laser_field"});
   const std::string type = sensor.str("type");
   job->nominal_rotation_deg = sensor.has("nominal_rotation_deg") ? sensor.vec3("nominal_rotation_deg") : Vec3::Zero();
   if (type == "line") {
@@ -57,9 +60,12 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
       job->sensor = SensorModel::multiBeam(MultiBeamModel(job->sensor_model, specs, 0.0));
     } else {
       const std::string model = sensor.str("model");
-      if (model == "VLP-16") job->sensor = SensorModel::multiBeam(MultiBeamModel::VLP16());
-      else if (model == "HDL-32E") job->sensor = SensorModel::multiBeam(MultiBeamModel::HDL32E());
-      else sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
+      if (model == "VLP-16")
+        job->sensor = SensorModel::multiBeam(MultiBeamModel::VLP16());
+      else if (model == "HDL-32E")
+        job->sensor = SensorModel::multiBeam(MultiBeamModel::HDL32E());
+      else
+        sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
       job->sensor_model = model;
     }
   } else if (type == "vector") {
@@ -71,9 +77,9 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
 
 /// The top-level keys of a job: the fixed ones and every registered method's.
 std::set<std::string> topLevelKeys() {
-  std::set<std::string> keys = {"frame", "trajectory", "sensor", "mounting_used", "strips", "ties", "method", "estimate",
-                                "stochastic", "solver", "pulse_noise", "output", "gcps", "check_points", "check_planes",
-                                "planes", "targets", "poses"};
+  std::set<std::string> keys = {"frame",  "trajectory",   "sensor",       "mounting_used", "strips",      "ties",
+                                "method", "estimate",     "stochastic",   "solver",        "pulse_noise", "output",
+                                "gcps",   "check_points", "check_planes", "planes",        "targets",     "poses"};
   for (const auto& m : registeredMethods()) {
     keys.insert(m->name());
     for (const std::string& k : m->legacyOptionKeys()) keys.insert(k);
@@ -91,11 +97,15 @@ void readMethodOptions(const Fields& f, const Method& m, std::any* options) {
   for (const OptionSpec& spec : m.options()) {
     if (!f.has(spec.key)) continue;
     switch (spec.type) {
-      case OptionSpec::Type::kBoolean: spec.set(*options, f.boolean(spec.key, false) ? 1.0 : 0.0); break;
+      case OptionSpec::Type::kBoolean:
+        spec.set(*options, f.boolean(spec.key, false) ? 1.0 : 0.0);
+        break;
       case OptionSpec::Type::kInteger:
         spec.set(*options, f.integer(spec.key, 0, static_cast<int>(spec.min), static_cast<int>(spec.max)));
         break;
-      case OptionSpec::Type::kNumber: spec.set(*options, f.num(spec.key, 0.0, spec.min, spec.max)); break;
+      case OptionSpec::Type::kNumber:
+        spec.set(*options, f.num(spec.key, 0.0, spec.min, spec.max));
+        break;
     }
   }
 }
@@ -109,7 +119,8 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
     if (top.has(m->name()) && j.at(m->name()).is_object()) key = m->name();
     for (const std::string& legacy : m->legacyOptionKeys()) {
       if (!top.has(legacy)) continue;
-      if (!key.empty()) top.fail(legacy, "the options of method \"" + m->name() + "\" are given twice (\"" + key + "\" and \"" + legacy + "\")");
+      if (!key.empty())
+        top.fail(legacy, "the options of method \"" + m->name() + "\" are given twice (\"" + key + "\" and \"" + legacy + "\")");
       key = legacy;
       job->notices.push_back("field '" + legacy + "' is deprecated: write the options of method \"" + m->name() + "\" under \"" +
                              m->name() + "\"");
@@ -143,8 +154,9 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
     const json only = {{"strip_offset_sigma_m", j.at("vtpm").at("strip_offset_sigma_m")}};
     const Fields v(job->path, only, "vtpm", {"strip_offset_sigma_m"});
     o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
-    job->notices.push_back("field 'vtpm.strip_offset_sigma_m' is deprecated: every method uses the strip offsets; write it as "
-                           "\"stochastic\": {\"strip_offset_sigma_m\": …}");
+    job->notices.push_back(
+        "field 'vtpm.strip_offset_sigma_m' is deprecated: every method uses the strip offsets; write it as "
+        "\"stochastic\": {\"strip_offset_sigma_m\": …}");
   }
 }
 
@@ -156,9 +168,12 @@ namespace {
 void readFrame(const Fields& top, Job* job) {
   const Fields frame = top.sub("frame", {"type", "crs"});
   const std::string frame_type = frame.str("type");
-  if (frame_type == "local") job->frame_type = JobFrameType::kLocal;
-  else if (frame_type == "crs") job->frame_type = JobFrameType::kCrs;
-  else frame.fail("type", "expected \"local\" or \"crs\"");
+  if (frame_type == "local")
+    job->frame_type = JobFrameType::kLocal;
+  else if (frame_type == "crs")
+    job->frame_type = JobFrameType::kCrs;
+  else
+    frame.fail("type", "expected \"local\" or \"crs\"");
   if (job->frame_type == JobFrameType::kCrs) {
     job->crs = frame.str("crs");
     bool geographic = false;
@@ -167,7 +182,9 @@ void readFrame(const Fields& top, Job* job) {
     } catch (const InvalidInput& e) {
       frame.fail("crs", e.what());
     }
-    if (geographic) frame.fail("crs", "'" + job->crs + "' is geographic (degrees); the strips and the job need a projected CRS in metres (e.g. a UTM zone)");
+    if (geographic)
+      frame.fail("crs",
+                 "'" + job->crs + "' is geographic (degrees); the strips and the job need a projected CRS in metres (e.g. a UTM zone)");
   }
 }
 
@@ -176,7 +193,9 @@ void readPoseSource(const std::string& path, const Fields& top, Job* job) {
   if (top.has("poses")) {
     if (top.has("trajectory")) top.fail("poses", "a job takes either a \"trajectory\" or per-point \"poses\", not both");
     if (job->frame_type != JobFrameType::kLocal) {
-      top.fail("poses", "per-point poses need \"frame\": {\"type\": \"local\"}: positions and attitudes are taken in the strips' own (projected) coordinates");
+      top.fail("poses",
+               "per-point poses need \"frame\": {\"type\": \"local\"}: positions and attitudes are taken in the strips' own (projected) "
+               "coordinates");
     }
     const Fields p = top.sub("poses", {"from", "position", "attitude", "attitude_unit", "convention"});
     if (p.str("from", "extra_bytes") != "extra_bytes") p.fail("from", "expected \"extra_bytes\"");
@@ -204,9 +223,12 @@ void readPoseSource(const std::string& path, const Fields& top, Job* job) {
     const Fields traj = top.sub("trajectory", {"path", "format", "time_offset_s"});
     job->trajectory_path = detail::resolvePath(path, traj.str("path"));
     const std::string format = traj.str("format", "csv");
-    if (format == "csv") job->trajectory_format = TrajectoryFormat::kCsv;
-    else if (format == "sbet") job->trajectory_format = TrajectoryFormat::kSbet;
-    else traj.fail("format", "expected \"csv\" or \"sbet\"");
+    if (format == "csv")
+      job->trajectory_format = TrajectoryFormat::kCsv;
+    else if (format == "sbet")
+      job->trajectory_format = TrajectoryFormat::kSbet;
+    else
+      traj.fail("format", "expected \"csv\" or \"sbet\"");
     job->time_offset_s = traj.num("time_offset_s", 0.0);
   }
 }
@@ -223,7 +245,8 @@ void readStrips(const std::string& path, const Fields& top, Job* job) {
     js.path = detail::resolvePath(path, s.str("path"));
     js.format = s.str("format", "las");
     if (js.format != "las" && js.format != "raw_csv") s.fail("format", "expected \"las\" or \"raw_csv\"");
-    if (job->per_point_poses && js.format != "las") s.fail("format", "per-point poses come from LAS extra bytes; a raw CSV strip needs a trajectory");
+    if (job->per_point_poses && js.format != "las")
+      s.fail("format", "per-point poses come from LAS extra bytes; a raw CSV strip needs a trajectory");
     if (s.has("split")) {
       if (js.format != "las") s.fail("split", "only a LAS strip can be split by a field");
       const Fields sp = s.sub("split", {"field", "range", "part", "gap"});
@@ -235,7 +258,8 @@ void readStrips(const std::string& path, const Fields& top, Job* job) {
         if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number()) sp.fail("range", "expected [min, max]");
         js.split.min = r[0].get<double>();
         js.split.max = r[1].get<double>();
-        if (!std::isfinite(js.split.min) || !std::isfinite(js.split.max) || js.split.min > js.split.max) sp.fail("range", "expected finite min <= max");
+        if (!std::isfinite(js.split.min) || !std::isfinite(js.split.max) || js.split.min > js.split.max)
+          sp.fail("range", "expected finite min <= max");
       } else {
         js.split.part = sp.integer("part", 0, 1, 1000000);
         js.split.gap = sp.num("gap", 1.0);
@@ -264,8 +288,10 @@ void readInputs(const std::string& path, const Fields& top, const json& j, Job* 
   }
   if (job->method_inputs.count("planes")) {
     const std::string& planes = job->method_inputs["planes"];
-    if (planes == "auto") job->planes_auto = true;
-    else job->planes_path = detail::resolvePath(path, planes);
+    if (planes == "auto")
+      job->planes_auto = true;
+    else
+      job->planes_path = detail::resolvePath(path, planes);
   }
 }
 
@@ -321,8 +347,8 @@ void readSettings(const Fields& top, Job* job) {
   if (top.has("pulse_noise")) {
     // The per-point noise of the stochastic model (PulseNoise): navigation and scanner
     // precision as the manufacturers state them.
-    const Fields n = top.sub("pulse_noise", {"position_m", "roll_pitch_deg", "heading_deg", "range_m", "beam_deg",
-                                             "attitude_correlation_s"});
+    const Fields n =
+        top.sub("pulse_noise", {"position_m", "roll_pitch_deg", "heading_deg", "range_m", "beam_deg", "attitude_correlation_s"});
     PulseNoise& pn = o.pulse_noise;
     pn.position_m = n.num("position_m", pn.position_m, 0.0, 10.0);
     pn.roll_pitch_deg = n.num("roll_pitch_deg", pn.roll_pitch_deg, 0.0, 10.0);
@@ -333,14 +359,18 @@ void readSettings(const Fields& top, Job* job) {
   }
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
-                                        "scale_covariance_by_variance_factor", "max_rematch_rounds",
-                                        "rematch_tolerance_m", "rematch_tolerance_deg", "max_iterations_per_matching"});
+                                        "scale_covariance_by_variance_factor", "max_rematch_rounds", "rematch_tolerance_m",
+                                        "rematch_tolerance_deg", "max_iterations_per_matching"});
     o.max_iterations = s.integer("max_iterations", o.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", "trivial");
-    if (loss == "trivial") o.loss = LossType::kTrivial;
-    else if (loss == "huber") o.loss = LossType::kHuber;
-    else if (loss == "cauchy") o.loss = LossType::kCauchy;
-    else s.fail("loss", "expected \"trivial\", \"huber\" or \"cauchy\"");
+    if (loss == "trivial")
+      o.loss = LossType::kTrivial;
+    else if (loss == "huber")
+      o.loss = LossType::kHuber;
+    else if (loss == "cauchy")
+      o.loss = LossType::kCauchy;
+    else
+      s.fail("loss", "expected \"trivial\", \"huber\" or \"cauchy\"");
     o.loss_scale_m = s.num("loss_scale_m", o.loss_scale_m);
     o.function_tolerance = s.num("function_tolerance", o.function_tolerance);
     o.parameter_tolerance = s.num("parameter_tolerance", o.parameter_tolerance);
@@ -413,15 +443,19 @@ std::string jobJson(const Job& job) {
         sensor["model"] = job.sensor_model.empty() ? "custom" : job.sensor_model;
         json lasers = json::array();
         for (const LaserSpec& l : job.sensor.multibeam.lasers()) {
-          lasers.push_back({{"elevation_deg", rad2deg(l.elevation_rad)}, {"vertical_offset_m", l.vertical_offset_m},
-                            {"azimuth_offset_deg", rad2deg(l.azimuth_offset_rad)}, {"range_offset_m", l.range_offset_m},
+          lasers.push_back({{"elevation_deg", rad2deg(l.elevation_rad)},
+                            {"vertical_offset_m", l.vertical_offset_m},
+                            {"azimuth_offset_deg", rad2deg(l.azimuth_offset_rad)},
+                            {"range_offset_m", l.range_offset_m},
                             {"firing_offset_s", l.firing_offset_s}});
         }
         sensor["lasers"] = lasers;
       }
       if (!job.laser_field.empty()) sensor["laser_field"] = job.laser_field;
       break;
-    case SensorType::kVector: sensor["type"] = "vector"; break;
+    case SensorType::kVector:
+      sensor["type"] = "vector";
+      break;
   }
   j["sensor"] = sensor;
   const Vec3 b = job.mounting_used.boresightDeg();
@@ -448,14 +482,17 @@ std::string jobJson(const Job& job) {
   if (!job.check_points_path.empty()) j["check_points"] = rel(job.check_points_path);
   if (!job.check_planes_path.empty()) j["check_planes"] = rel(job.check_planes_path);
   if (!job.targets_path.empty()) j["targets"] = rel(job.targets_path);
-  if (job.planes_auto) j["planes"] = "auto";
-  else if (!job.planes_path.empty()) j["planes"] = rel(job.planes_path);
+  if (job.planes_auto)
+    j["planes"] = "auto";
+  else if (!job.planes_path.empty())
+    j["planes"] = rel(job.planes_path);
   if (o.methods.size() == 1) {
     j["method"] = o.methods[0];
   } else {
     j["method"] = o.methods;
   }
-  j["estimate"] = {{"lever_arm", {o.estimate[0], o.estimate[1], o.estimate[2]}}, {"boresight", {o.estimate[3], o.estimate[4], o.estimate[5]}}};
+  j["estimate"] = {{"lever_arm", {o.estimate[0], o.estimate[1], o.estimate[2]}},
+                   {"boresight", {o.estimate[3], o.estimate[4], o.estimate[5]}}};
   // Each method's options that differ from its defaults, under the method's name.
   for (const auto& m : registeredMethods()) {
     const std::any defaults = m->defaultOptions();
@@ -464,9 +501,12 @@ std::string jobJson(const Job& job) {
     for (const OptionSpec& spec : m->options()) {
       const double v = spec.get(options);
       if (v == spec.get(defaults)) continue;
-      if (spec.type == OptionSpec::Type::kBoolean) section[spec.key] = v != 0;
-      else if (spec.type == OptionSpec::Type::kInteger) section[spec.key] = static_cast<int>(v);
-      else section[spec.key] = v;
+      if (spec.type == OptionSpec::Type::kBoolean)
+        section[spec.key] = v != 0;
+      else if (spec.type == OptionSpec::Type::kInteger)
+        section[spec.key] = static_cast<int>(v);
+      else
+        section[spec.key] = v;
     }
     if (section.empty()) continue;
     if (j.contains(m->name())) {  // the input shares the key: "planes": {"regions": …, options}
@@ -477,8 +517,9 @@ std::string jobJson(const Job& job) {
   if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"] = {{"strip_offset_sigma_m", o.strip_offset_sigma_m}};
   if (o.pulse_noise.any() || o.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = o.pulse_noise;
-    j["pulse_noise"] = {{"position_m", pn.position_m}, {"roll_pitch_deg", pn.roll_pitch_deg}, {"heading_deg", pn.heading_deg},
-                        {"range_m", pn.range_m}, {"beam_deg", pn.beam_deg}, {"attitude_correlation_s", pn.attitude_correlation_s}};
+    j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},
+                        {"heading_deg", pn.heading_deg}, {"range_m", pn.range_m},
+                        {"beam_deg", pn.beam_deg},       {"attitude_correlation_s", pn.attitude_correlation_s}};
   }
   j["solver"] = {{"max_iterations", o.max_iterations}, {"loss", lossName(o.loss)}};
   if (o.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = o.loss_scale_m;
@@ -491,7 +532,8 @@ std::string jobJson(const Job& job) {
 
 std::vector<std::string> jobInputPaths(const Job& job) {
   std::vector<std::string> in = {job.path};
-  for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path, &job.planes_path, &job.targets_path})
+  for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path,
+                               &job.planes_path, &job.targets_path})
     if (!p->empty()) in.push_back(*p);
   for (const JobStrip& s : job.strips) in.push_back(s.path);
   return in;
@@ -507,13 +549,16 @@ void checkJobOutputs(const Job& job, const std::vector<std::string>& also_inputs
     if (out.empty()) continue;
     const std::string where = "field '" + field + "'";
     for (const std::string& in : inputs)
-      if (io::samePath(out, in)) throw FileError(job.path, where, out + " is also an input of the job (" + in + "); choose another output file");
+      if (io::samePath(out, in))
+        throw FileError(job.path, where, out + " is also an input of the job (" + in + "); choose another output file");
     for (std::size_t k = 0; k < i; ++k)
-      if (!outputs[k].second.empty() && io::samePath(out, outputs[k].second)) throw FileError(job.path, where, out + " is also " + outputs[k].first);
+      if (!outputs[k].second.empty() && io::samePath(out, outputs[k].second))
+        throw FileError(job.path, where, out + " is also " + outputs[k].first);
     std::error_code ec;
     if (fs::is_directory(out, ec)) throw FileError(job.path, where, out + " is a folder");
     const fs::path folder = fs::path(out).parent_path();
-    if (!folder.empty() && !fs::is_directory(folder, ec)) throw FileError(job.path, where, "the folder " + folder.string() + " does not exist");
+    if (!folder.empty() && !fs::is_directory(folder, ec))
+      throw FileError(job.path, where, "the folder " + folder.string() + " does not exist");
   }
 }
 

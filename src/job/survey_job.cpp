@@ -36,8 +36,8 @@ std::array<double, 3> nominalDeg(const MountingParameters& m) {
   return {rad2deg(rph.x()), rad2deg(rph.y()), rad2deg(rph.z())};
 }
 
-void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip,
-                   int source_id, const JobFrame& frame) {
+void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip, int source_id,
+                   const JobFrame& frame) {
   io::LasHeader h;
   h.version_minor = 4;
   h.point_format = 6;
@@ -63,7 +63,9 @@ void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const
     p.intensity = static_cast<std::uint16_t>(std::lround(std::max(0.0f, r.intensity)));
     p.gps_time = r.time_s;
     p.point_source_id = static_cast<std::uint16_t>(source_id);
-    p.classification = strip.kinds[k] == SurfaceKind::kVegetation ? 5 : strip.kinds[k] == SurfaceKind::kRoof || strip.kinds[k] == SurfaceKind::kWall ? 6 : 2;
+    p.classification = strip.kinds[k] == SurfaceKind::kVegetation                                     ? 5
+                       : strip.kinds[k] == SurfaceKind::kRoof || strip.kinds[k] == SurfaceKind::kWall ? 6
+                                                                                                      : 2;
     if (survey.config.sensor == SensorType::kLine) {
       io::setScanAngleDeg(w.header(), rad2deg(r.angle_rad), &p);
       p.user_data = 0;
@@ -120,9 +122,11 @@ void writeSimulatedInputs(const SimulatedSurvey& survey, const JobFrame& frame, 
     std::vector<io::PlaneRegion> planes;
     for (const PlanePatch& p : patches) {
       // Corners inset so that the box stays inside the patch after the CRS's rotation.
-      const Vec3 a = frame.fromLocal(Vec3(p.xmin + inset_m, p.ymin + inset_m, 0)), b = frame.fromLocal(Vec3(p.xmax - inset_m, p.ymax - inset_m, 0));
-      planes.push_back(!frame.isLocal() ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()), std::max(a.y(), b.y())}
-                                 : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
+      const Vec3 a = frame.fromLocal(Vec3(p.xmin + inset_m, p.ymin + inset_m, 0)),
+                 b = frame.fromLocal(Vec3(p.xmax - inset_m, p.ymax - inset_m, 0));
+      planes.push_back(!frame.isLocal() ? io::PlaneRegion{p.id, std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::max(a.x(), b.x()),
+                                                          std::max(a.y(), b.y())}
+                                        : io::PlaneRegion{p.id, p.xmin, p.ymin, p.xmax, p.ymax});
     }
     return planes;
   };
@@ -135,7 +139,6 @@ void writeSimulatedInputs(const SimulatedSurvey& survey, const JobFrame& frame, 
     gcps.push_back({f.id, x.x(), x.y(), x.z(), 0.02, 0.02});
   }
   io::writeGcpCsv(dir + "/gcps.csv", gcps);
-
 }
 
 /// truth.json: the true mounting, the mounting used and the noise of the simulation.
@@ -204,7 +207,6 @@ void writeSimulatedJobs(const SimulatedSurvey& survey, Job job, const SurveyWrit
     fj.report_path = at("report_features.html");
     io::writeFileAtomically(fj.path, jobJson(fj));
   }
-
 }
 
 }  // namespace
@@ -223,7 +225,8 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
   const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
   if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
-    throw InvalidInput("CRS '" + options.crs + "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+    throw InvalidInput("CRS '" + options.crs +
+                       "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
   }
   const io::CrsTransform placement(placement_crs);
   const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));

@@ -77,11 +77,11 @@ std::string describeMethods() {
   out << "Methods of mountcal (a job names one or an array of them in \"method\"; their observations join one adjustment).\n"
          "Options go in the job's object of the method's name, e.g. \"planes\": {\"sigma_m\": 0.02}.\n";
   for (const auto& m : registry()) {
-    out << "\n" << m->name() << (m->implicit() ? " (runs whenever its input is given; not named in \"method\")" : "") << "\n  "
-        << m->description() << "\n";
+    out << "\n"
+        << m->name() << (m->implicit() ? " (runs whenever its input is given; not named in \"method\")" : "") << "\n  " << m->description()
+        << "\n";
     const MethodInput in = m->input();
-    if (!in.job_key.empty())
-      out << "  input: \"" << in.job_key << "\": " << in.doc << (in.required ? "" : " (optional)") << "\n";
+    if (!in.job_key.empty()) out << "  input: \"" << in.job_key << "\": " << in.doc << (in.required ? "" : " (optional)") << "\n";
     const std::any defaults = m->defaultOptions();
     for (const OptionSpec& s : m->options()) {
       std::ostringstream def, range;

@@ -194,7 +194,8 @@ void readPlanGround(const std::string& path, const Fields& top, Plan& p) {
     if (g.has("roofs")) {
       const json& a = list("roofs");
       for (std::size_t i = 0; i < a.size(); ++i) {
-        const Fields r(path, a[i], "ground.roofs[" + std::to_string(i) + "]", {"id", "centre", "slope_deg", "aspect_deg", "size_m", "eave_height_m"});
+        const Fields r(path, a[i], "ground.roofs[" + std::to_string(i) + "]",
+                       {"id", "centre", "slope_deg", "aspect_deg", "size_m", "eave_height_m"});
         Plan::Roof roof;
         roof.id = r.str("id", "roof_" + std::to_string(i + 1));
         const auto c2 = xy(r, "centre");
@@ -283,8 +284,8 @@ void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
     }
   }
   static const json kNone = json::object();
-  const Fields sig = top.has("sigma") ? top.sub("sigma", {"tie_xy_m", "tie_z_m", "plane_m", "strip_offset_m"})
-                                      : Fields(path, kNone, "sigma", {});
+  const Fields sig =
+      top.has("sigma") ? top.sub("sigma", {"tie_xy_m", "tie_z_m", "plane_m", "strip_offset_m"}) : Fields(path, kNone, "sigma", {});
   // Every method's observation σ from the plan's noise.
   NoiseHint noise;
   noise.pick_sigma_xy_m = sig.num("tie_xy_m", std::max(n.pick_sigma_m, 1e-3), 1e-4, 10.0);
@@ -412,8 +413,8 @@ std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& o) {
     l.id = unique(first.id + "_offset");
     l.x0_m += D * rx, l.y0_m += D * ry, l.x1_m += D * rx, l.y1_m += D * ry;
     s.plan.lines.push_back(l);
-    s.description = "fly line " + first.id + " in the same direction " + fmt("%.0f m", D) + " to its right: " +
-                    fmt("(%.0f, %.0f) → (%.0f, %.0f)", l.x0_m, l.y0_m, l.x1_m, l.y1_m) + " (line " + l.id + ")";
+    s.description = "fly line " + first.id + " in the same direction " + fmt("%.0f m", D) +
+                    " to its right: " + fmt("(%.0f, %.0f) → (%.0f, %.0f)", l.x0_m, l.y0_m, l.x1_m, l.y1_m) + " (line " + l.id + ")";
     out.push_back(std::move(s));
   }
   {  // A crossing line through the first line's middle.
@@ -454,8 +455,8 @@ std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& o) {
       t.size_m = std::max(1.5, 0.003 * first.height_m);
       s.plan.targets.push_back(t);
       g.feature_id = t.id;
-      s.description = "lay a " + fmt("%.1f m", t.size_m) + " ground target at " + fmt("(%.1f, %.1f)", t.x_m, t.y_m) +
-                      " and survey its centre (σ 2 cm)";
+      s.description =
+          "lay a " + fmt("%.1f m", t.size_m) + " ground target at " + fmt("(%.1f, %.1f)", t.x_m, t.y_m) + " and survey its centre (σ 2 cm)";
     }
     s.plan.gcps.push_back(g);
     out.push_back(std::move(s));
@@ -514,14 +515,17 @@ std::string PlanAnalysis::text() const {
   std::ostringstream t;
   const auto& names = mountingParameterNames();
   const Prediction& p = base;
-  t << "predicted from " << p.strips << " simulated strips, " << p.observations << " observation blocks, in "
-    << fmt("%.1f s", p.seconds) << "\n";
+  t << "predicted from " << p.strips << " simulated strips, " << p.observations << " observation blocks, in " << fmt("%.1f s", p.seconds)
+    << "\n";
   t << "  parameter            determined  sigma\n";
   for (int j = 0; j < 6; ++j) {
     char line[160];
     const bool undet = std::find(p.undeterminable.begin(), p.undeterminable.end(), names[j]) != p.undeterminable.end();
     std::snprintf(line, sizeof line, "  %-20s %-11s %s\n", names[j].c_str(),
-                  p.determined[j] ? "yes" : undet ? "NO" : "held", p.determined[j] ? sigmaText(j, p.sigma[j]).c_str() : "—");
+                  p.determined[j] ? "yes"
+                  : undet         ? "NO"
+                                  : "held",
+                  p.determined[j] ? sigmaText(j, p.sigma[j]).c_str() : "—");
     t << line;
   }
   t << "  condition number " << fmt("%.3g", p.condition_number) << "\n";
@@ -535,8 +539,9 @@ std::string PlanAnalysis::text() const {
   }
   if (p.weakest >= 0 && !suggestions.empty()) {
     t << "weakest: " << names[p.weakest]
-      << (p.determined[p.weakest] ? " (sigma " + sigmaText(p.weakest, p.sigma[p.weakest]) + fmt(", %.3f m on the ground)", p.weakest_ground_sigma_m)
-                                  : std::string(" (undeterminable)"))
+      << (p.determined[p.weakest]
+              ? " (sigma " + sigmaText(p.weakest, p.sigma[p.weakest]) + fmt(", %.3f m on the ground)", p.weakest_ground_sigma_m)
+              : std::string(" (undeterminable)"))
       << "\ncandidate additions, best first (sigma of " << names[p.weakest] << " with each):\n";
     int k = 1;
     for (const Suggestion& s : suggestions) {

@@ -19,8 +19,7 @@ Vec3 boresightErrorFirstOrder(const Vec3& boresight, double scan_angle_rad, doub
   return range_m * Vec3(phi * c - kappa * s, -omega * c, omega * s);  // SPEC §2, first order
 }
 
-std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight,
-                                                   const std::vector<double>& scan_angles_rad,
+std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight, const std::vector<double>& scan_angles_rad,
                                                    const std::vector<double>& ranges_m) {
   // Level flight, heading 0 (body x = North), zero lever arm, a local frame: R_mb = R_mn.
   std::vector<TrajectorySample> samples(2);
@@ -55,18 +54,15 @@ std::string errorCurvesCsv(const std::vector<ErrorCurveSample>& samples) {
   csv << "range_m,scan_angle_deg,exact_x_m,exact_y_m,exact_z_m,first_x_m,first_y_m,first_z_m\n";
   char line[256];
   for (const ErrorCurveSample& e : samples) {
-    std::snprintf(line, sizeof line, "%.3f,%.4f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n", e.range_m,
-                  rad2deg(e.scan_angle_rad), e.exact_b.x(), e.exact_b.y(), e.exact_b.z(),
-                  e.first_order_b.x(), e.first_order_b.y(), e.first_order_b.z());
+    std::snprintf(line, sizeof line, "%.3f,%.4f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n", e.range_m, rad2deg(e.scan_angle_rad), e.exact_b.x(),
+                  e.exact_b.y(), e.exact_b.z(), e.first_order_b.x(), e.first_order_b.y(), e.first_order_b.z());
     csv << line;
   }
   return csv.str();
 }
 
-std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis,
-                          const std::string& title) {
-  static const char* kAxis[3] = {"along-track error x [m]", "cross-track error y [m]",
-                                 "vertical error z [m]"};
+std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis, const std::string& title) {
+  static const char* kAxis[3] = {"along-track error x [m]", "cross-track error y [m]", "vertical error z [m]"};
   SvgLinePlot plot(title, "scan angle θ [deg] (positive to starboard)", kAxis[axis % 3]);
   std::map<double, std::pair<std::vector<double>, std::vector<double>>> by_range;
   for (const ErrorCurveSample& e : samples) {
@@ -85,8 +81,7 @@ std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis
 void writeErrorCurves(const std::string& dir, const std::vector<ErrorCurveSample>& samples, double boresight_deg) {
   io::writeFileAtomically(dir + "/fig_errors.csv", errorCurvesCsv(samples));
   static const char* kNames[3] = {"fig1_x.svg", "fig2_y.svg", "fig3_z.svg"};
-  static const char* kTitles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error",
-                                   "Fig. 3 — vertical (z) error"};
+  static const char* kTitles[3] = {"Fig. 1 — along-track (x) error", "Fig. 2 — cross-track (y) error", "Fig. 3 — vertical (z) error"};
   char delta[32];
   std::snprintf(delta, sizeof delta, "%g", boresight_deg);
   for (int axis = 0; axis < 3; ++axis) {

@@ -12,8 +12,7 @@
 
 namespace mountcal {
 
-CheckPointReport evaluateCheckPoints(const CalibrationData& data, const MountingParameters& mounting,
-                                     const VtpOptions& options) {
+CheckPointReport evaluateCheckPoints(const CalibrationData& data, const MountingParameters& mounting, const VtpOptions& options) {
   CheckPointReport report;
   std::map<std::string, const StripData*> strips;
   for (const StripData& s : data.strips) strips[s.id] = &s;
@@ -26,8 +25,10 @@ CheckPointReport evaluateCheckPoints(const CalibrationData& data, const Mounting
     if (b == built.end()) b = built.emplace(t.strip_id, VtpStrip(*it->second, data.trajectory, data.mounting_used)).first;
     VirtualTiePoint v;
     std::string reason;
-    if (b->second.build(t, options, &v, &reason)) by_tie[t.tie_id].push_back(std::move(v));
-    else report.rejected.push_back({t.tie_id, t.strip_id, reason});
+    if (b->second.build(t, options, &v, &reason))
+      by_tie[t.tie_id].push_back(std::move(v));
+    else
+      report.rejected.push_back({t.tie_id, t.strip_id, reason});
   }
   const auto m6 = mounting.toArray();
   Vec3 ss = Vec3::Zero();
@@ -196,8 +197,7 @@ std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const Mo
 
 }  // namespace
 
-DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
-                                         const DiscrepancyOptions& o) {
+DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& o) {
   std::string why;
   if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::size_t queries = 0;

@@ -30,10 +30,10 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     << "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f0f0f0}"
     << ".ok{color:#070}.bad{color:#a00}td.l{text-align:left}</style></head><body>";
   h << "<h1>" << esc(title) << "</h1>";
-  h << "<p>Termination: <b class=\"" << (S.IsSolutionUsable() ? "ok" : "bad") << "\">" << toString(S.termination)
-    << "</b> — " << esc(S.message) << "<br>" << S.iterations << " iterations, cost " << f(S.initial_cost, "%.5g") << " → "
-    << f(S.final_cost, "%.5g") << ", " << f(S.time_s, "%.3f") << " s; variance factor σ₀² = " << f(S.variance_factor, "%.3g")
-    << " (" << S.degrees_of_freedom << " degrees of freedom)</p>";
+  h << "<p>Termination: <b class=\"" << (S.IsSolutionUsable() ? "ok" : "bad") << "\">" << toString(S.termination) << "</b> — "
+    << esc(S.message) << "<br>" << S.iterations << " iterations, cost " << f(S.initial_cost, "%.5g") << " → " << f(S.final_cost, "%.5g")
+    << ", " << f(S.time_s, "%.3f") << " s; variance factor σ₀² = " << f(S.variance_factor, "%.3g") << " (" << S.degrees_of_freedom
+    << " degrees of freedom)</p>";
   h << "<h2>Mounting</h2><table><tr><th>parameter</th><th>used</th><th>calibrated</th><th>σ</th><th>status</th></tr>";
   const auto& names = mountingParameterNames();
   const auto used = S.mounting_used.toArray(), est = S.mounting.toArray();
@@ -42,9 +42,12 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     const double k = lin ? 1.0 : 180.0 / kPi;
     const char* unit = lin ? " m" : "°";
     const bool unobs = std::find(S.unobservable.begin(), S.unobservable.end(), names[j]) != S.unobservable.end();
-    h << "<tr><td class=l>" << names[j] << "</td><td>" << f(used[j] * k, "%+.5f") << unit << "</td><td>" << f(est[j] * k, "%+.5f")
-      << unit << "</td><td>" << (S.estimated[j] ? f(S.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
-      << (S.estimated[j] ? "estimated" : unobs ? "<span class=bad>undeterminable</span>" : "held fixed") << "</td></tr>";
+    h << "<tr><td class=l>" << names[j] << "</td><td>" << f(used[j] * k, "%+.5f") << unit << "</td><td>" << f(est[j] * k, "%+.5f") << unit
+      << "</td><td>" << (S.estimated[j] ? f(S.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
+      << (S.estimated[j] ? "estimated"
+          : unobs        ? "<span class=bad>undeterminable</span>"
+                         : "held fixed")
+      << "</td></tr>";
   }
   h << "</table>";
   if (!S.observability_report.empty()) h << "<h2>Observability</h2><pre>" << esc(S.observability_report) << "</pre>";
@@ -66,7 +69,8 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
     std::string m;
     for (const auto& x : S.methods) m += (m.empty() ? "" : " + ") + x;
     return m;
-  }()) << ". Observations per kind:";
+  }())
+    << ". Observations per kind:";
   for (const auto& k : S.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
   h << "</p>";
   for (const auto& section : S.sections) h << section->html(S);
@@ -93,8 +97,8 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
         DiscrepancyStats b;
         for (const PairDiscrepancy& x : ev->discrepancy_before)
           if (x.query == a.query && x.reference == a.reference) b = x.stats;
-        h << "<tr><td class=l>" << esc(a.query) << " / " << esc(a.reference) << "</td><td>" << a.stats.queries << "</td><td>" << a.stats.used
-          << "</td><td>" << f(b.median_m) << "</td><td>" << f(a.stats.median_m) << "</td><td>" << f(b.rms_m) << "</td><td>"
+        h << "<tr><td class=l>" << esc(a.query) << " / " << esc(a.reference) << "</td><td>" << a.stats.queries << "</td><td>"
+          << a.stats.used << "</td><td>" << f(b.median_m) << "</td><td>" << f(a.stats.median_m) << "</td><td>" << f(b.rms_m) << "</td><td>"
           << f(a.stats.rms_m) << "</td><td>" << f(b.p90_m) << "</td><td>" << f(a.stats.p90_m) << "</td></tr>";
       }
       h << "</table>";

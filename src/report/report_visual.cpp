@@ -110,14 +110,12 @@ std::string base64(const std::string& in) {
 namespace {
 
 const char* kStripColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
-const unsigned char kStripRgb[][3] = {{31, 119, 180}, {214, 39, 40}, {44, 160, 44}, {148, 103, 189},
+const unsigned char kStripRgb[][3] = {{31, 119, 180}, {214, 39, 40}, {44, 160, 44},   {148, 103, 189},
                                       {255, 127, 14}, {140, 86, 75}, {227, 119, 194}, {23, 190, 207}};
 
-
-
 std::string imgTag(const std::string& png, int w, int h, const std::string& cls, const std::string& alt) {
-  return "<img class=\"" + cls + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) + "\" alt=\"" + detail::htmlEscape(alt) +
-         "\" src=\"data:image/png;base64," + base64(png) + "\">";
+  return "<img class=\"" + cls + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) + "\" alt=\"" +
+         detail::htmlEscape(alt) + "\" src=\"data:image/png;base64," + base64(png) + "\">";
 }
 
 /// The points of strip s at mounting `m` for the listed indices (SPEC §2 eq. (1) differenced:
@@ -217,7 +215,8 @@ std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, 
     double ux = 1, uy = 0;
     if (g.norm() > 0.05) ux = g.x() / g.norm(), uy = g.y() / g.norm();
     const double h = 0.5 * o.profile_length_m;
-    out.push_back({"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy, 0.5 * o.profile_width_m, c.d});
+    out.push_back(
+        {"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy, 0.5 * o.profile_width_m, c.d});
   }
   return out;
 }
@@ -227,27 +226,33 @@ std::string profilePanel(const std::string& title, const std::vector<std::vector
                          const std::vector<std::string>& names, double s1, double z0, double z1) {
   const int W = 520, H = 300, L = 60, R = 10, T = 28, B = 40;
   std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" class=\"profile\" font-family=\"sans-serif\" font-size=\"11\">"
-    << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - B << "\" fill=\"#fff\" stroke=\"#888\"/>"
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+    << "\" class=\"profile\" font-family=\"sans-serif\" font-size=\"11\">"
+    << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - B
+    << "\" fill=\"#fff\" stroke=\"#888\"/>"
     << "<text x=\"" << W / 2 << "\" y=\"16\" text-anchor=\"middle\" font-size=\"13\">" << detail::htmlEscape(title) << "</text>";
   if (!(z1 > z0)) z1 = z0 + 1;
   auto X = [&](double s) { return L + s / std::max(s1, 1e-9) * (W - L - R); };
   auto Y = [&](double z) { return T + (z1 - z) / (z1 - z0) * (H - T - B); };
   for (int k = 0; k <= 4; ++k) {
     const double z = z0 + (z1 - z0) * k / 4.0, s = s1 * k / 4.0;
-    o << "<text x=\"" << L - 4 << "\" y=\"" << detail::formatNumber(Y(z) + 4) << "\" text-anchor=\"end\">" << detail::formatNumber(z, "%.2f") << "</text>"
-      << "<text x=\"" << detail::formatNumber(X(s)) << "\" y=\"" << H - B + 14 << "\" text-anchor=\"middle\">" << detail::formatNumber(s, "%.0f") << "</text>";
+    o << "<text x=\"" << L - 4 << "\" y=\"" << detail::formatNumber(Y(z) + 4) << "\" text-anchor=\"end\">"
+      << detail::formatNumber(z, "%.2f") << "</text>"
+      << "<text x=\"" << detail::formatNumber(X(s)) << "\" y=\"" << H - B + 14 << "\" text-anchor=\"middle\">"
+      << detail::formatNumber(s, "%.0f") << "</text>";
   }
   o << "<text x=\"" << W / 2 << "\" y=\"" << H - 6 << "\" text-anchor=\"middle\">distance along the profile [m]</text>"
     << "<text x=\"12\" y=\"" << H / 2 << "\" transform=\"rotate(-90 12 " << H / 2 << ")\" text-anchor=\"middle\">height [m]</text>";
   for (std::size_t s = 0; s < pts.size(); ++s) {
     o << "<g fill=\"" << kStripColours[s % 8] << "\">";
-    for (const auto& [d, z] : pts[s]) o << "<circle cx=\"" << detail::formatNumber(X(d)) << "\" cy=\"" << detail::formatNumber(Y(z)) << "\" r=\"1.6\"/>";
+    for (const auto& [d, z] : pts[s])
+      o << "<circle cx=\"" << detail::formatNumber(X(d)) << "\" cy=\"" << detail::formatNumber(Y(z)) << "\" r=\"1.6\"/>";
     o << "</g>";
   }
   for (std::size_t s = 0; s < names.size(); ++s)
-    o << "<rect x=\"" << L + 8 + 90 * static_cast<int>(s) << "\" y=\"" << T + 6 << "\" width=\"10\" height=\"10\" fill=\"" << kStripColours[s % 8]
-      << "\"/><text x=\"" << L + 22 + 90 * static_cast<int>(s) << "\" y=\"" << T + 15 << "\">strip " << detail::htmlEscape(names[s]) << "</text>";
+    o << "<rect x=\"" << L + 8 + 90 * static_cast<int>(s) << "\" y=\"" << T + 6 << "\" width=\"10\" height=\"10\" fill=\""
+      << kStripColours[s % 8] << "\"/><text x=\"" << L + 22 + 90 * static_cast<int>(s) << "\" y=\"" << T + 15 << "\">strip "
+      << detail::htmlEscape(names[s]) << "</text>";
   o << "</svg>";
   return o.str();
 }
@@ -267,20 +272,22 @@ std::string histogram(const std::string& title, const std::vector<double>& befor
   const int W = 340, H = 220, L = 36, B = 36, T = 24;
   const double bw = (W - L - 10.0) / bins;
   std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" class=\"histogram\" font-family=\"sans-serif\" font-size=\"11\">"
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+    << "\" class=\"histogram\" font-family=\"sans-serif\" font-size=\"11\">"
     << "<text x=\"" << W / 2 << "\" y=\"15\" text-anchor=\"middle\" font-size=\"12\">" << detail::htmlEscape(title) << "</text>";
   for (int k = 0; k < bins; ++k) {
     const double hb_px = (H - T - B) * hb[k] / std::max(top, 1), ha_px = (H - T - B) * ha[k] / std::max(top, 1);
-    o << "<rect x=\"" << detail::formatNumber(L + k * bw) << "\" y=\"" << detail::formatNumber(H - B - hb_px) << "\" width=\"" << detail::formatNumber(bw * 0.5) << "\" height=\"" << detail::formatNumber(hb_px)
-      << "\" fill=\"#d62728\"/><rect x=\"" << detail::formatNumber(L + k * bw + bw * 0.5) << "\" y=\"" << detail::formatNumber(H - B - ha_px) << "\" width=\"" << detail::formatNumber(bw * 0.5)
-      << "\" height=\"" << detail::formatNumber(ha_px) << "\" fill=\"#1f77b4\"/>";
+    o << "<rect x=\"" << detail::formatNumber(L + k * bw) << "\" y=\"" << detail::formatNumber(H - B - hb_px) << "\" width=\""
+      << detail::formatNumber(bw * 0.5) << "\" height=\"" << detail::formatNumber(hb_px) << "\" fill=\"#d62728\"/><rect x=\""
+      << detail::formatNumber(L + k * bw + bw * 0.5) << "\" y=\"" << detail::formatNumber(H - B - ha_px) << "\" width=\""
+      << detail::formatNumber(bw * 0.5) << "\" height=\"" << detail::formatNumber(ha_px) << "\" fill=\"#1f77b4\"/>";
   }
   o << "<line x1=\"" << L << "\" y1=\"" << H - B << "\" x2=\"" << W - 10 << "\" y2=\"" << H - B << "\" stroke=\"#000\"/>"
-    << "<text x=\"" << L << "\" y=\"" << H - B + 14 << "\">" << detail::formatNumber(-m, "%.3f") << "</text><text x=\"" << W - 10 << "\" y=\"" << H - B + 14
-    << "\" text-anchor=\"end\">" << detail::formatNumber(m, "%+.3f") << "</text><text x=\"" << (L + W) / 2 << "\" y=\"" << H - B + 14
-    << "\" text-anchor=\"middle\">0 [m]</text><text x=\"" << L << "\" y=\"" << H - 6 << "\" fill=\"#d62728\">■ before</text><text x=\""
-    << L + 80 << "\" y=\"" << H - 6 << "\" fill=\"#1f77b4\">■ after</text><text x=\"" << L - 4 << "\" y=\"" << T + 8 << "\" text-anchor=\"end\">"
-    << top << "</text></svg>";
+    << "<text x=\"" << L << "\" y=\"" << H - B + 14 << "\">" << detail::formatNumber(-m, "%.3f") << "</text><text x=\"" << W - 10
+    << "\" y=\"" << H - B + 14 << "\" text-anchor=\"end\">" << detail::formatNumber(m, "%+.3f") << "</text><text x=\"" << (L + W) / 2
+    << "\" y=\"" << H - B + 14 << "\" text-anchor=\"middle\">0 [m]</text><text x=\"" << L << "\" y=\"" << H - 6
+    << "\" fill=\"#d62728\">■ before</text><text x=\"" << L + 80 << "\" y=\"" << H - 6 << "\" fill=\"#1f77b4\">■ after</text><text x=\""
+    << L - 4 << "\" y=\"" << T + 8 << "\" text-anchor=\"end\">" << top << "</text></svg>";
   return o.str();
 }
 
@@ -316,9 +323,11 @@ std::string warningsSection(const MountingCalibrator::Summary& S) {
   for (int a = 0; a < 6; ++a)
     for (int b = a + 1; b < 6; ++b)
       if (S.estimated[a] && S.estimated[b] && std::abs(S.correlation(a, b)) > 0.9)
-        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + detail::formatNumber(S.correlation(a, b), "%+.3f") + ")");
+        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + detail::formatNumber(S.correlation(a, b), "%+.3f") +
+                       ")");
   if (S.degrees_of_freedom > 0 && (S.variance_factor < 0.5 || S.variance_factor > 2.0))
-    warn.push_back("the variance factor σ₀² = " + detail::formatNumber(S.variance_factor, "%.3g") + " is far from 1: the stated σ do not match the residuals");
+    warn.push_back("the variance factor σ₀² = " + detail::formatNumber(S.variance_factor, "%.3g") +
+                   " is far from 1: the stated σ do not match the residuals");
   int outliers = 0;
   for (const auto& section : S.sections) {
     for (const std::string& w : section->warnings()) warn.push_back(w);
@@ -391,23 +400,27 @@ std::string mapSection(const CalibrationData& data, const MountingCalibrator::Su
     << "\" class=\"mapview\" font-family=\"sans-serif\" font-size=\"11\"><image width=\"" << Wd << "\" height=\"" << Hd
     << "\" href=\"data:image/png;base64," << base64(encodePng(Wd, Hd, rgb)) << "\"/>";
   for (const PlaneRegion& r : data.plane_regions)
-    v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\"" << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\""
-      << detail::formatNumber((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#8c564b\"><title>plane region " << detail::htmlEscape(r.id) << "</title></rect>";
+    v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\""
+      << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\"" << detail::formatNumber((r.ymax - r.ymin) * scale)
+      << "\" fill=\"none\" stroke=\"#8c564b\"><title>plane region " << detail::htmlEscape(r.id) << "</title></rect>";
   for (const PlaneRegion& r : data.target_regions)
-    v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\"" << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\""
-      << detail::formatNumber((r.ymax - r.ymin) * scale) << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << detail::htmlEscape(r.id) << "</title></rect>";
+    v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\""
+      << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\"" << detail::formatNumber((r.ymax - r.ymin) * scale)
+      << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << detail::htmlEscape(r.id) << "</title></rect>";
   for (const auto& section : S.sections)
     for (const PlanMark& p : section->planMarks())
-      v << "<circle cx=\"" << detail::formatNumber(PX(p.x_m)) << "\" cy=\"" << detail::formatNumber(PY(p.y_m)) << "\" r=\"3\" fill=\"#8c564b\"><title>"
-        << detail::htmlEscape(p.label) << "</title></circle>";
+      v << "<circle cx=\"" << detail::formatNumber(PX(p.x_m)) << "\" cy=\"" << detail::formatNumber(PY(p.y_m))
+        << "\" r=\"3\" fill=\"#8c564b\"><title>" << detail::htmlEscape(p.label) << "</title></circle>";
   for (const PlanResidual& r : plan_residuals) {
     const double x = PX(r.x_m), y = PY(r.y_m);
-    v << "<circle cx=\"" << detail::formatNumber(x) << "\" cy=\"" << detail::formatNumber(y) << "\" r=\"2\" fill=\"#000\"><title>" << detail::htmlEscape(r.label)
-      << "</title></circle>";
-    v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\"" << detail::formatNumber(x + r.before_m.x() * vec_scale) << "\" y2=\""
-      << detail::formatNumber(y - r.before_m.y() * vec_scale) << "\" stroke=\"#d62728\" stroke-width=\"1.5\"/>";
-    v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\"" << detail::formatNumber(x + r.after_m.x() * vec_scale) << "\" y2=\""
-      << detail::formatNumber(y - r.after_m.y() * vec_scale) << "\" stroke=\"#1f77b4\" stroke-width=\"1.5\"/>";
+    v << "<circle cx=\"" << detail::formatNumber(x) << "\" cy=\"" << detail::formatNumber(y) << "\" r=\"2\" fill=\"#000\"><title>"
+      << detail::htmlEscape(r.label) << "</title></circle>";
+    v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\""
+      << detail::formatNumber(x + r.before_m.x() * vec_scale) << "\" y2=\"" << detail::formatNumber(y - r.before_m.y() * vec_scale)
+      << "\" stroke=\"#d62728\" stroke-width=\"1.5\"/>";
+    v << "<line x1=\"" << detail::formatNumber(x) << "\" y1=\"" << detail::formatNumber(y) << "\" x2=\""
+      << detail::formatNumber(x + r.after_m.x() * vec_scale) << "\" y2=\"" << detail::formatNumber(y - r.after_m.y() * vec_scale)
+      << "\" stroke=\"#1f77b4\" stroke-width=\"1.5\"/>";
   }
   double ref = 0;
   if (vec_scale > 0) {  // a round residual length for the legend
@@ -416,11 +429,12 @@ std::string mapSection(const CalibrationData& data, const MountingCalibrator::Su
   }
   v << "<g transform=\"translate(0," << Hd + 8 << ")\">";
   for (std::size_t s = 0; s < strip_ids.size(); ++s)
-    v << "<rect x=\"" << 90 * s << "\" y=\"0\" width=\"10\" height=\"10\" fill=\"" << kStripColours[s % 8] << "\"/><text x=\"" << 90 * s + 14
-      << "\" y=\"9\">strip " << detail::htmlEscape(strip_ids[s]) << "</text>";
+    v << "<rect x=\"" << 90 * s << "\" y=\"0\" width=\"10\" height=\"10\" fill=\"" << kStripColours[s % 8] << "\"/><text x=\""
+      << 90 * s + 14 << "\" y=\"9\">strip " << detail::htmlEscape(strip_ids[s]) << "</text>";
   if (ref > 0)
-    v << "<line x1=\"0\" y1=\"24\" x2=\"" << detail::formatNumber(ref * vec_scale) << "\" y2=\"24\" stroke=\"#d62728\" stroke-width=\"2\"/><text x=\""
-      << detail::formatNumber(ref * vec_scale + 6) << "\" y=\"28\">tie residual " << detail::formatNumber(ref, "%.3g") << " m: red before, blue after (at the picks)</text>";
+    v << "<line x1=\"0\" y1=\"24\" x2=\"" << detail::formatNumber(ref * vec_scale)
+      << "\" y2=\"24\" stroke=\"#d62728\" stroke-width=\"2\"/><text x=\"" << detail::formatNumber(ref * vec_scale + 6)
+      << "\" y=\"28\">tie residual " << detail::formatNumber(ref, "%.3g") << " m: red before, blue after (at the picks)</text>";
   v << "</g></svg><p>Map " << detail::formatNumber(box.x1 - box.x0, "%.0f") << " m × " << detail::formatNumber(box.y1 - box.y0, "%.0f")
     << " m, north up; footprints shaded per strip, overlaps darker; plane regions brown, target regions dashed.</p>";
   return v.str();
@@ -486,8 +500,10 @@ std::string profilesSection(const CalibrationData& data, const MountingCalibrato
     }
     if (z0 > z1) continue;
     const double pad = 0.05 * (z1 - z0) + 0.05;
-    v << "<h3>" << detail::htmlEscape(pr.id) << ": (" << detail::formatNumber(pr.x0) << ", " << detail::formatNumber(pr.y0) << ") → (" << detail::formatNumber(pr.x1) << ", " << detail::formatNumber(pr.y1) << "), width "
-      << detail::formatNumber(2 * pr.half_width, "%.1f") << " m" << (pr.discrepancy_m > 0 ? ", strips " + detail::formatNumber(pr.discrepancy_m, "%.3f") + " m apart in height before" : "")
+    v << "<h3>" << detail::htmlEscape(pr.id) << ": (" << detail::formatNumber(pr.x0) << ", " << detail::formatNumber(pr.y0) << ") → ("
+      << detail::formatNumber(pr.x1) << ", " << detail::formatNumber(pr.y1) << "), width "
+      << detail::formatNumber(2 * pr.half_width, "%.1f") << " m"
+      << (pr.discrepancy_m > 0 ? ", strips " + detail::formatNumber(pr.discrepancy_m, "%.3f") + " m apart in height before" : "")
       << "</h3><div>" << profilePanel("before", before, strip_ids, len, z0 - pad, z1 + pad)
       << profilePanel("after", after, strip_ids, len, z0 - pad, z1 + pad) << "</div>";
   }
@@ -555,7 +571,8 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
       auto raster = [&](std::size_t s, const std::vector<Vec3>& pts) {
         std::vector<double> sum(static_cast<std::size_t>(P) * P, 0.0), n(sum.size(), 0.0);
         for (std::size_t k = 0; k < pts.size(); ++k) {
-          const int px = static_cast<int>((pts[k].x() - (cx - half)) / (2 * half) * P), py = static_cast<int>(((cy + half) - pts[k].y()) / (2 * half) * P);
+          const int px = static_cast<int>((pts[k].x() - (cx - half)) / (2 * half) * P),
+                    py = static_cast<int>(((cy + half) - pts[k].y()) / (2 * half) * P);
           if (px < 0 || py < 0 || px >= P || py >= P) continue;
           const std::size_t i = static_cast<std::size_t>(py) * P + px;
           sum[i] += data.strips[s].intensity[inside[s][k]];
@@ -608,10 +625,11 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
         }
         return encodePng(P, P, rgb);
       };
-      v << "<h2>Intensity overlay</h2><p>Strip " << detail::htmlEscape(strip_ids[A]) << " in magenta, strip " << detail::htmlEscape(strip_ids[Bs])
-        << " in green (where they agree the image is grey), " << detail::formatNumber(2 * half, "%.0f") << " m around (" << detail::formatNumber(cx) << ", " << detail::formatNumber(cy)
-        << "); before and after.</p><div>" << imgTag(overlay(data.mounting_used, true), 360, 360, "overlay-before", "intensity overlay before")
-        << " " << imgTag(overlay(S.mounting, false), 360, 360, "overlay-after", "intensity overlay after") << "</div>";
+      v << "<h2>Intensity overlay</h2><p>Strip " << detail::htmlEscape(strip_ids[A]) << " in magenta, strip "
+        << detail::htmlEscape(strip_ids[Bs]) << " in green (where they agree the image is grey), " << detail::formatNumber(2 * half, "%.0f")
+        << " m around (" << detail::formatNumber(cx) << ", " << detail::formatNumber(cy) << "); before and after.</p><div>"
+        << imgTag(overlay(data.mounting_used, true), 360, 360, "overlay-before", "intensity overlay before") << " "
+        << imgTag(overlay(S.mounting, false), 360, 360, "overlay-after", "intensity overlay after") << "</div>";
     }
   }
 
@@ -628,8 +646,8 @@ std::string errorCurvesSection(const CalibrationData& data, const MountingCalibr
     const auto curves = boresightErrorCurves(b, angles, ranges);
     v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
          "points would carry if the boresight change found here ("
-      << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.z()), "%+.4f")
-      << "°) were ignored, against scan angle, per range.</p><div>";
+      << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, "
+      << detail::formatNumber(rad2deg(b.z()), "%+.4f") << "°) were ignored, against scan angle, per range.</p><div>";
     const char* ax[3] = {"along track (x)", "across track (y)", "vertical (z)"};
     for (int a = 0; a < 3; ++a) v << errorCurveSvg(curves, a, std::string("error ") + ax[a]);
     v << "</div>";
@@ -658,8 +676,9 @@ std::string visualReport(const MountingCalibrator::Summary& S, const Calibration
   v << overlaySection(data, S, drawn, profiles, o);
   v << errorCurvesSection(data, S);
   std::string html = htmlReport(S, ev, o.title);
-  const std::string style = ".warn{background:#fff4e0;border-left:4px solid #e69500;padding:6px 10px}svg,img{max-width:100%}img{image-rendering:pixelated}"
-                            "@media print{body{margin:0}h2{page-break-after:avoid}}";
+  const std::string style =
+      ".warn{background:#fff4e0;border-left:4px solid #e69500;padding:6px 10px}svg,img{max-width:100%}img{image-rendering:pixelated}"
+      "@media print{body{margin:0}h2{page-break-after:avoid}}";
   const std::size_t st = html.find("</style>");
   if (st != std::string::npos) html.insert(st, style);
   // After the mounting table (the first table of the document).

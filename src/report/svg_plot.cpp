@@ -14,11 +14,20 @@ std::string escape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -49,8 +58,7 @@ void SvgLinePlot::addSeries(std::string name, std::vector<double> xs, std::vecto
 }
 
 std::string SvgLinePlot::render(int width, int height) const {
-  static const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
-                                   "#9467bd", "#8c564b", "#e377c2", "#17becf"};
+  static const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"};
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
   for (const Series& s : series_) {
     for (std::size_t i = 0; i < s.xs.size(); ++i) {
@@ -61,8 +69,14 @@ std::string SvgLinePlot::render(int width, int height) const {
       y1 = std::max(y1, s.ys[i]);
     }
   }
-  if (!(x1 > x0)) { x0 = std::isfinite(x0) ? x0 - 1 : 0; x1 = x0 + 2; }
-  if (!(y1 > y0)) { y0 = std::isfinite(y0) ? y0 - 1 : 0; y1 = y0 + 2; }
+  if (!(x1 > x0)) {
+    x0 = std::isfinite(x0) ? x0 - 1 : 0;
+    x1 = x0 + 2;
+  }
+  if (!(y1 > y0)) {
+    y0 = std::isfinite(y0) ? y0 - 1 : 0;
+    y1 = y0 + 2;
+  }
   const double ystep = niceStep(y1 - y0, 6), xstep = niceStep(x1 - x0, 8);
   y0 = std::floor(y0 / ystep) * ystep;
   y1 = std::ceil(y1 / ystep) * ystep;
@@ -75,27 +89,21 @@ std::string SvgLinePlot::render(int width, int height) const {
   auto Y = [&](double y) { return top + (y1 - y) / (y1 - y0) * ph; };
 
   std::ostringstream svg;
-  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\""
-      << height << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << height
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
       << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      << "<text x=\"" << width / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">"
-      << escape(title_) << "</text>\n";
+      << "<text x=\"" << width / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << escape(title_) << "</text>\n";
   for (double y = y0; y <= y1 + 1e-9 * ystep; y += ystep) {
-    svg << "<line x1=\"" << left << "\" x2=\"" << left + pw << "\" y1=\"" << Y(y) << "\" y2=\""
-        << Y(y) << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(y) + 4
-        << "\" text-anchor=\"end\">" << fmt(y) << "</text>\n";
+    svg << "<line x1=\"" << left << "\" x2=\"" << left + pw << "\" y1=\"" << Y(y) << "\" y2=\"" << Y(y) << "\" stroke=\"#ddd\"/><text x=\""
+        << left - 6 << "\" y=\"" << Y(y) + 4 << "\" text-anchor=\"end\">" << fmt(y) << "</text>\n";
   }
   for (double x = x0; x <= x1 + 1e-9 * xstep; x += xstep) {
-    svg << "<line y1=\"" << top << "\" y2=\"" << top + ph << "\" x1=\"" << X(x) << "\" x2=\""
-        << X(x) << "\" stroke=\"#ddd\"/><text x=\"" << X(x) << "\" y=\"" << top + ph + 18
-        << "\" text-anchor=\"middle\">" << fmt(x) << "</text>\n";
+    svg << "<line y1=\"" << top << "\" y2=\"" << top + ph << "\" x1=\"" << X(x) << "\" x2=\"" << X(x) << "\" stroke=\"#ddd\"/><text x=\""
+        << X(x) << "\" y=\"" << top + ph + 18 << "\" text-anchor=\"middle\">" << fmt(x) << "</text>\n";
   }
-  svg << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
-      << "\" fill=\"none\" stroke=\"black\"/>\n"
-      << "<text x=\"" << left + pw / 2 << "\" y=\"" << height - 15
-      << "\" text-anchor=\"middle\">" << escape(x_label_) << "</text>\n"
-      << "<text transform=\"translate(18," << top + ph / 2
-      << ") rotate(-90)\" text-anchor=\"middle\">" << escape(y_label_) << "</text>\n";
+  svg << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph << "\" fill=\"none\" stroke=\"black\"/>\n"
+      << "<text x=\"" << left + pw / 2 << "\" y=\"" << height - 15 << "\" text-anchor=\"middle\">" << escape(x_label_) << "</text>\n"
+      << "<text transform=\"translate(18," << top + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">" << escape(y_label_) << "</text>\n";
   for (std::size_t k = 0; k < series_.size(); ++k) {
     const Series& s = series_[k];
     const char* colour = kColours[k % 8];
@@ -107,9 +115,8 @@ std::string SvgLinePlot::render(int width, int height) const {
     }
     svg << "\"/>\n";
     const double ly = top + 10 + 20.0 * static_cast<double>(k);
-    svg << "<line x1=\"" << left + pw + 12 << "\" x2=\"" << left + pw + 36 << "\" y1=\"" << ly
-        << "\" y2=\"" << ly << "\" stroke=\"" << colour << "\" stroke-width=\"2\"/><text x=\""
-        << left + pw + 42 << "\" y=\"" << ly + 4 << "\">" << escape(s.name) << "</text>\n";
+    svg << "<line x1=\"" << left + pw + 12 << "\" x2=\"" << left + pw + 36 << "\" y1=\"" << ly << "\" y2=\"" << ly << "\" stroke=\""
+        << colour << "\" stroke-width=\"2\"/><text x=\"" << left + pw + 42 << "\" y=\"" << ly + 4 << "\">" << escape(s.name) << "</text>\n";
   }
   svg << "</svg>\n";
   return svg.str();
@@ -135,15 +142,16 @@ std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const 
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h << "\" viewBox=\"0 0 " << w << " " << h
     << "\" font-family=\"sans-serif\" font-size=\"12\" class=\"heatmap\">";
   for (int a = 0; a < n; ++a) {
-    o << "<text x=\"" << left - 6 << "\" y=\"" << top + a * cell + cell / 2 + 4 << "\" text-anchor=\"end\">" << escape(labels[a]) << "</text>";
+    o << "<text x=\"" << left - 6 << "\" y=\"" << top + a * cell + cell / 2 + 4 << "\" text-anchor=\"end\">" << escape(labels[a])
+      << "</text>";
     const int x = left + a * cell + cell / 2, y = top + n * cell + 8;
     o << "<text x=\"" << x << "\" y=\"" << y << "\" transform=\"rotate(60 " << x << " " << y << ")\">" << escape(labels[a]) << "</text>";
     for (int b = 0; b < n; ++b) {
       const double c = static_cast<std::size_t>(a * n + b) < v.size() ? v[static_cast<std::size_t>(a * n + b)] : std::nan("");
       char val[16];
       std::snprintf(val, sizeof val, "%+.2f", c);
-      o << "<rect x=\"" << left + b * cell << "\" y=\"" << top + a * cell << "\" width=\"" << cell << "\" height=\"" << cell
-        << "\" fill=\"" << correlationColour(c) << "\" stroke=\"#fff\"><title>" << escape(labels[a]) << " ~ " << escape(labels[b]) << ": "
+      o << "<rect x=\"" << left + b * cell << "\" y=\"" << top + a * cell << "\" width=\"" << cell << "\" height=\"" << cell << "\" fill=\""
+        << correlationColour(c) << "\" stroke=\"#fff\"><title>" << escape(labels[a]) << " ~ " << escape(labels[b]) << ": "
         << (std::isfinite(c) ? val : "not estimated") << "</title></rect>";
       o << "<text x=\"" << left + b * cell + cell / 2 << "\" y=\"" << top + a * cell + cell / 2 + 4 << "\" text-anchor=\"middle\" fill=\""
         << (std::isfinite(c) && std::abs(c) > 0.6 ? "#fff" : "#000") << "\">" << (std::isfinite(c) ? val : "—") << "</text>";

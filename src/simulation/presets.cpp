@@ -60,8 +60,8 @@ void calibrationField(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   c->roi_radius_m = 12.0;
   const double L = 1400;
   c->lines = {
-      {"1", -L / 2, 0, deg2rad(90), L, 760, 60},     // E, 760 m
-      {"2", 0, -L / 2, deg2rad(0), L, 760, 60},      // N, 760 m
+      {"1", -L / 2, 0, deg2rad(90), L, 760, 60},               // E, 760 m
+      {"2", 0, -L / 2, deg2rad(0), L, 760, 60},                // N, 760 m
       {"3", L / 2, 60, deg2rad(270), L, 1310, 60, 70e3, 35},   // W, 1310 m, 70 kHz
       {"4", -60, L / 2, deg2rad(180), L, 1310, 60, 70e3, 35},  // S, 1310 m, 70 kHz
   };
@@ -100,11 +100,12 @@ void checkBlock(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   // calibration from four parallel strips, whose report names what such a block cannot fix.
   for (int k = 0; k < 3; ++k) {
     for (int j = 0; j < 2; ++j) {
-      s->addGroundTarget("tie_" + std::to_string(2 * k + j + 1), -2000 + 3500.0 * j + 150 * k, (k + 0.5) * spacing + (j ? 30 : -30), 8.0, deg2rad(20));
+      s->addGroundTarget("tie_" + std::to_string(2 * k + j + 1), -2000 + 3500.0 * j + 150 * k, (k + 0.5) * spacing + (j ? 30 : -30), 8.0,
+                         deg2rad(20));
     }
   }
-  s->addCheckPlane("plane_1", -300, 0.5 * spacing - 40, -200, 0.5 * spacing + 40);      // a road
-  s->addCheckPlane("plane_2", 600, 1.5 * spacing - 30, 660, 1.5 * spacing + 30);        // a field
+  s->addCheckPlane("plane_1", -300, 0.5 * spacing - 40, -200, 0.5 * spacing + 40);  // a road
+  s->addCheckPlane("plane_2", 600, 1.5 * spacing - 30, 660, 1.5 * spacing + 30);    // a field
   c->name = "paper-check-block";
   c->sensor = SensorType::kLine;
   c->true_mounting = presetTruth();
@@ -137,7 +138,10 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   s->addCheckPlane("plane_1", 35, 150, 45, 160);
   // Low houses with gable roofs (eaves 3 m, ridge 6 m); their eave corners are check points of
   // the absolute check, not ties (a corner cannot be picked on a plane).
-  const struct { const char* id; double x, y, heading_deg; } houses[] = {{"house_a", 5, 215, 20}, {"house_b", 45, 215, 100}};
+  const struct {
+    const char* id;
+    double x, y, heading_deg;
+  } houses[] = {{"house_a", 5, 215, 20}, {"house_b", 45, 215, 100}};
   for (const auto& h : houses) {
     s->addGableHouse(h.id, h.x, h.y, 12, 8, 3, 6, deg2rad(h.heading_deg));
     const Vec3 u(std::sin(deg2rad(h.heading_deg)) * 6, std::cos(deg2rad(h.heading_deg)) * 6, 0);
@@ -172,18 +176,19 @@ void uavVlp16(std::uint64_t seed, SurveyConfig* c, Scene* s) {
   c->trajectory_rate_hz = 200.0;
   c->line_gap_s = 30.0;
   c->lines = {
-      {"1", 0, -20, deg2rad(0), 260, 50, 5},     // north
-      {"2", 0, 240, deg2rad(180), 260, 50, 5},   // back (opposite direction, same line)
-      {"3", 50, -20, deg2rad(0), 260, 50, 5},    // same direction, 50 m to the right
-      {"4", 0, -20, deg2rad(0), 260, 80, 5},     // the centre line again at a second height
-      {"5", 0, 240, deg2rad(180), 260, 80, 5},   // and back
+      {"1", 0, -20, deg2rad(0), 260, 50, 5},    // north
+      {"2", 0, 240, deg2rad(180), 260, 50, 5},  // back (opposite direction, same line)
+      {"3", 50, -20, deg2rad(0), 260, 50, 5},   // same direction, 50 m to the right
+      {"4", 0, -20, deg2rad(0), 260, 80, 5},    // the centre line again at a second height
+      {"5", 0, 240, deg2rad(180), 260, 80, 5},  // and back
   };
 }
 
 }  // namespace
 
 void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s, BlockLayout layout) {
-  if (strips < 4 || strips > 256 || strips % 2 != 0) throw InvalidInput("a block has an even number of strips from 4 to 256 (got " + std::to_string(strips) + ")");
+  if (strips < 4 || strips > 256 || strips % 2 != 0)
+    throw InvalidInput("a block has an even number of strips from 4 to 256 (got " + std::to_string(strips) + ")");
   *c = SurveyConfig{};
   *s = Scene{};
   const bool crossing = layout == BlockLayout::kCrossing;
@@ -203,8 +208,10 @@ void makeBlock(int strips, std::uint64_t seed, SurveyConfig* c, Scene* s, BlockL
     for (double x = -0.5 * spacing; x <= ext_x + 0.5 * spacing; x += grid, ++k) {
       const std::string id = std::to_string(k);
       const double heading = deg2rad(std::fmod(37.0 * k, 180.0));
-      if (k % 3 == 2) s->addFlatRoofBuilding("flat_" + id, x, y, 16, 11, 9, heading);
-      else s->addGableHouse("house_" + id, x, y, 13, 9, 4, 7.5, heading);
+      if (k % 3 == 2)
+        s->addFlatRoofBuilding("flat_" + id, x, y, 16, 11, 9, heading);
+      else
+        s->addGableHouse("house_" + id, x, y, 13, 9, 4, 7.5, heading);
       if (k % 4 == 0) s->addGroundTarget("target_" + id, x + 25, y + 20, 2.0, heading);
     }
   }
@@ -269,8 +276,9 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 void keepOneHeight(SurveyConfig* config) {
   if (config->lines.empty()) return;
   const double h = config->lines.front().height_m;
-  config->lines.erase(std::remove_if(config->lines.begin(), config->lines.end(), [&](const FlightLine& l) { return std::abs(l.height_m - h) > 1e-9; }),
-                      config->lines.end());
+  config->lines.erase(
+      std::remove_if(config->lines.begin(), config->lines.end(), [&](const FlightLine& l) { return std::abs(l.height_m - h) > 1e-9; }),
+      config->lines.end());
 }
 
 }  // namespace mountcal::simulation

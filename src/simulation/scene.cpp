@@ -29,8 +29,14 @@ struct Triangle {
 struct Box {
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 hi = -Vec3::Constant(std::numeric_limits<double>::infinity());
-  void grow(const Vec3& p) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
-  void grow(const Box& b) { lo = lo.cwiseMin(b.lo); hi = hi.cwiseMax(b.hi); }
+  void grow(const Vec3& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  void grow(const Box& b) {
+    lo = lo.cwiseMin(b.lo);
+    hi = hi.cwiseMax(b.hi);
+  }
   /// Slab test; true when the ray enters the box before `tmax`.
   bool hit(const Vec3& o, const Vec3& inv, double tmax) const {
     double t0 = 0.0, t1 = tmax;
@@ -201,8 +207,7 @@ struct Scene::Impl {
     face_props.emplace_back(intensity, kind);
     built = false;
   }
-  void addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, float intensity,
-               SurfaceKind kind) {
+  void addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, float intensity, SurfaceKind kind) {
     addTriangle(a, b, c, intensity, kind);
     addTriangle(a, c, d, intensity, kind);
   }
@@ -227,11 +232,10 @@ struct Scene::Impl {
     if (ext.y() > ext[axis]) axis = 1;
     if (ext.z() > ext[axis]) axis = 2;
     const int mid = first + count / 2;
-    std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count,
-                     [&](int a, int b) {
-                       const Triangle &ta = tris[a], &tb = tris[b];
-                       return (3 * ta.a + ta.e1 + ta.e2)[axis] < (3 * tb.a + tb.e1 + tb.e2)[axis];
-                     });
+    std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count, [&](int a, int b) {
+      const Triangle &ta = tris[a], &tb = tris[b];
+      return (3 * ta.a + ta.e1 + ta.e2)[axis] < (3 * tb.a + tb.e1 + tb.e2)[axis];
+    });
     const int l = buildNode(first, mid - first);
     const int r = buildNode(mid, first + count - mid);
     nodes[index].left = l;
@@ -325,8 +329,7 @@ double Scene::groundHeight(double x, double y) const { return impl_->z0 + impl_-
 
 std::size_t Scene::triangleCount() const { return impl_->mesh.n_faces(); }
 
-void Scene::addMarking(double cx, double cy, double length_m, double width_m, double heading_rad,
-                       float intensity) {
+void Scene::addMarking(double cx, double cy, double length_m, double width_m, double heading_rad, float intensity) {
   Marking m;
   m.centre = Vec3(cx, cy, groundHeight(cx, cy));
   m.half_len = 0.5 * length_m;
@@ -341,8 +344,7 @@ void Scene::addMarking(double cx, double cy, double length_m, double width_m, do
   impl_->built = false;
 }
 
-void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad,
-                             int stripes, double length_m) {
+void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad, int stripes, double length_m) {
   // Stripes are 0.5 m wide along the road, `length_m` long across it, 1 m apart.
   const Vec3 u = along(heading_rad), v = across(heading_rad);
   const double first = -0.5 * (stripes - 1);
@@ -355,13 +357,12 @@ void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double
   const double sgn[4][2] = {{-1, -1}, {-1, 1}, {1, -1}, {1, 1}};
   for (int k = 0; k < 4; ++k) {
     const Vec3 p = Vec3(cx, cy, 0) + sgn[k][0] * du * u + sgn[k][1] * dv * v;
-    addFeature({id + "_c" + std::to_string(k), Vec3(p.x(), p.y(), groundHeight(p.x(), p.y())),
-                SurfaceKind::kMarking, 3.0});
+    addFeature({id + "_c" + std::to_string(k), Vec3(p.x(), p.y(), groundHeight(p.x(), p.y())), SurfaceKind::kMarking, 3.0});
   }
 }
 
-void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m,
-                                double width_m, double height_m, double heading_rad) {
+void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m, double width_m, double height_m,
+                                double heading_rad) {
   const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
   const Vec3 c(cx, cy, 0);
   const Vec3 corners[4] = {c - u - v, c + u - v, c + u + v, c - u + v};
@@ -384,9 +385,8 @@ void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, dou
   plane_regions_.push_back(insetBox(id + "_roof", c, ui, 0.5 * length_m, vi, 0.5 * width_m, 1.0));
 }
 
-void Scene::addGableHouse(const std::string& id, double cx, double cy, double length_m,
-                          double width_m, double eave_height_m, double ridge_height_m,
-                          double heading_rad) {
+void Scene::addGableHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double eave_height_m,
+                          double ridge_height_m, double heading_rad) {
   const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
   const Vec3 c(cx, cy, 0);
   const double g = groundHeight(cx, cy);
@@ -415,29 +415,25 @@ void Scene::addGableHouse(const std::string& id, double cx, double cy, double le
   plane_regions_.push_back(insetBox(id + "_face1", m1, un, 0.5 * length_m, vn, 0.25 * width_m, 0.3));
 }
 
-void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad,
-                     double tilt_rad, float intensity) {
+void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad, double tilt_rad, float intensity) {
   const Vec3 u = along(heading_rad), v0 = across(heading_rad);
   const Vec3 v = std::cos(tilt_rad) * v0 + std::sin(tilt_rad) * Vec3::UnitZ();
   const double h = 0.5 * size_m;
   const Vec3& c = centre_m;
-  impl_->addQuad(c - h * u - h * v, c + h * u - h * v, c + h * u + h * v, c - h * u + h * v,
-                 intensity, SurfaceKind::kBoard);
+  impl_->addQuad(c - h * u - h * v, c + h * u - h * v, c + h * u + h * v, c - h * u + h * v, intensity, SurfaceKind::kBoard);
   addFeature({id, c, SurfaceKind::kBoard, 0.45 * size_m});
   const double r = h * (std::abs(u.x()) + std::abs(v.x())) + target_margin_m, s = h * (std::abs(u.y()) + std::abs(v.y())) + target_margin_m;
   addTargetRegion({id, c.x() - r, c.y() - s, c.x() + r, c.y() + s});
 }
 
-void Scene::addGroundTarget(const std::string& id, double cx, double cy, double size_m,
-                            double heading_rad, float intensity) {
+void Scene::addGroundTarget(const std::string& id, double cx, double cy, double size_m, double heading_rad, float intensity) {
   addMarking(cx, cy, size_m, size_m, heading_rad, intensity);
   addFeature({id, Vec3(cx, cy, groundHeight(cx, cy)), SurfaceKind::kMarking, 3.0});
   const double r = 0.5 * size_m * (std::abs(std::cos(heading_rad)) + std::abs(std::sin(heading_rad))) + target_margin_m;
   addTargetRegion({id, cx - r, cy - r, cx + r, cy + r});
 }
 
-void Scene::addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m,
-                    double density) {
+void Scene::addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m, double density) {
   const double g = groundHeight(cx, cy);
   impl_->trees.push_back({cx, cy, radius_m, g + crown_base_m, g + top_m, density});
   impl_->built = false;
@@ -449,8 +445,7 @@ void Scene::addCheckPlane(const std::string& id, double xmin, double ymin, doubl
 
 void Scene::build() { impl_->build(); }
 
-bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit,
-                 double max_range_m) const {
+bool Scene::cast(const Vec3& o, const Vec3& d, std::uint64_t pulse_id, Hit* hit, double max_range_m) const {
   if (!impl_->built) const_cast<Impl&>(*impl_).build();
   const Impl& s = *impl_;
   double best = max_range_m;

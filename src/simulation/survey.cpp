@@ -73,8 +73,7 @@ void validate(const SurveyConfig& c) {
   if (c.lines.empty()) throw InvalidInput("survey '" + c.name + "': no flight lines");
   for (const FlightLine& l : c.lines) {
     if (!(l.length_m > 0) || !(l.speed_mps > 0) || !(l.height_m > 0)) {
-      throw InvalidInput("survey '" + c.name + "': flight line '" + l.id +
-                         "' needs a positive length, speed and height");
+      throw InvalidInput("survey '" + c.name + "': flight line '" + l.id + "' needs a positive length, speed and height");
     }
   }
   if (c.sensor == SensorType::kLine) {
@@ -165,8 +164,14 @@ struct SurveyContext {
   double roi_extra = 0;  // check planes may be larger than the ROI radius
 
   SurveyContext(const SurveyConfig& c, const Scene& s, const SimulatedSurvey& out)
-      : config(c), scene(s), T_true(*out.true_trajectory), T_meas(*out.measured_trajectory), M_true(c.true_mounting),
-        M_nom(c.nominal_mounting), R_bs_true(M_true.R_bs()), R_bs_nom(M_nom.R_bs()),
+      : config(c),
+        scene(s),
+        T_true(*out.true_trajectory),
+        T_meas(*out.measured_trajectory),
+        M_true(c.true_mounting),
+        M_nom(c.nominal_mounting),
+        R_bs_true(M_true.R_bs()),
+        R_bs_nom(M_nom.R_bs()),
         check_ids(c.check_point_ids.begin(), c.check_point_ids.end()) {
     const std::set<std::string> ignored(c.ignored_feature_ids.begin(), c.ignored_feature_ids.end());
     for (const FeaturePoint& fp : scene.features())
@@ -184,10 +189,22 @@ struct SurveyContext {
 class LineSimulator {
  public:
   LineSimulator(const SurveyContext& context, std::size_t line_index, const LineFrame& frame)
-      : c_(context), config(context.config), noise(context.config.noise), scene(context.scene), T_true(context.T_true),
-        T_meas(context.T_meas), M_true(context.M_true), M_nom(context.M_nom), R_bs_true(context.R_bs_true), R_bs_nom(context.R_bs_nom),
-        roi(context.roi), li(line_index), line(context.config.lines[line_index]), f(frame),
-        prng(config.seed * 1000003ull + li * 7919ull + 11), noise_normals(&prng) {
+      : c_(context),
+        config(context.config),
+        noise(context.config.noise),
+        scene(context.scene),
+        T_true(context.T_true),
+        T_meas(context.T_meas),
+        M_true(context.M_true),
+        M_nom(context.M_nom),
+        R_bs_true(context.R_bs_true),
+        R_bs_nom(context.R_bs_nom),
+        roi(context.roi),
+        li(line_index),
+        line(context.config.lines[line_index]),
+        f(frame),
+        prng(config.seed * 1000003ull + li * 7919ull + 11),
+        noise_normals(&prng) {
     strip.id = line.id;
     makeWindows();
   }
@@ -195,8 +212,10 @@ class LineSimulator {
   SimulatedStrip& run() {
     reserve();
     for (const auto& span : spans) {
-      if (config.sensor == SensorType::kLine) fireLineScanner(span);
-      else fireMultiBeam(span);
+      if (config.sensor == SensorType::kLine)
+        fireLineScanner(span);
+      else
+        fireMultiBeam(span);
     }
     return strip;
   }
@@ -235,7 +254,12 @@ class LineSimulator {
       for (int it = 0; it < 80 && hi - lo > 1e-10; ++it) {
         const double mid = 0.5 * (lo + hi);
         const double g = vecAt(mid)[axis];
-        if ((g <= 0) == (glo <= 0)) { lo = mid; glo = g; } else { hi = mid; }
+        if ((g <= 0) == (glo <= 0)) {
+          lo = mid;
+          glo = g;
+        } else {
+          hi = mid;
+        }
       }
       const double t = 0.5 * (lo + hi);
       const Vec3 r_true = vecAt(t);
@@ -281,8 +305,10 @@ class LineSimulator {
     std::sort(spans.begin(), spans.end());
     std::vector<std::pair<double, double>> merged;
     for (const auto& s : spans) {
-      if (!merged.empty() && s.first <= merged.back().second) merged.back().second = std::max(merged.back().second, s.second);
-      else merged.push_back(s);
+      if (!merged.empty() && s.first <= merged.back().second)
+        merged.back().second = std::max(merged.back().second, s.second);
+      else
+        merged.push_back(s);
     }
     spans.swap(merged);
   }
@@ -322,9 +348,9 @@ class LineSimulator {
   /// the observed laser vector with the measured trajectory and the nominal mounting.
   /// A line scanner's pulse also brings sin θ and cos θ of its scan angle (`sc`, null otherwise).
   template <class Measured>
-  void emit(double t, const Vec3& origin, const Vec3& dir, std::uint64_t pulse_id, Measured&& measured, RawPulse raw,
-            double max_range, double range_offset, const double* sc) {
-      if (!roi.empty()) {
+  void emit(double t, const Vec3& origin, const Vec3& dir, std::uint64_t pulse_id, Measured&& measured, RawPulse raw, double max_range,
+            double range_offset, const double* sc) {
+    if (!roi.empty()) {
       const double ground = scene.groundHeight(origin.x(), origin.y());
       if (dir.z() > -1e-6) return;
       const Vec3 approx = origin + dir * ((origin.z() - ground) / -dir.z());
@@ -362,87 +388,87 @@ class LineSimulator {
 
   void fireLineScanner(const std::pair<double, double>& span) {
     const std::size_t li_ = li;
-        LineScannerConfig scanner = config.line;
-      if (line.prf_hz > 0) scanner.prf_hz = line.prf_hz;
-      if (line.scan_rate_hz > 0) scanner.scan_rate_hz = line.scan_rate_hz;
-      const double prf = scanner.prf_hz;
-      const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
-      const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
-      // Both trajectories' attitudes expanded once per interval (detail::IntervalExpansion,
-      // exact within 1e-11 m), not a slerp per pulse. Pulses go in blocks: the mirror angles
-      // and their sines and cosines for a whole block in one vectorised pass
-      // (detail::sinCosBatch, within 4e-16 of libm), then the pulses one by one.
-      constexpr long kBlock = 256;
-      double t_blk[kBlock], arg_blk[kBlock], theta_blk[kBlock], sin_blk[kBlock], cos_blk[kBlock];
-      for (long kb = k0; kb <= k1; kb += kBlock) {
-        const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
-        for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
-        if (scanner.pattern == MirrorPattern::kSinusoidal) {
-          // mirrorAngle(): half_fov · sin(2π frac), the sines of the block at once
-          for (std::size_t j = 0; j < nb; ++j) arg_blk[j] = 2.0 * kPi * mirrorFraction(scanner, t_blk[j] - f.t0);
-          detail::sinCosBatch(arg_blk, sin_blk, cos_blk, nb);
-          for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = scanner.half_fov_rad * sin_blk[j];
-        } else {
-          for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = mirrorAngle(scanner, t_blk[j] - f.t0);
-        }
-        detail::sinCosBatch(theta_blk, sin_blk, cos_blk, nb);
-        for (std::size_t j = 0; j < nb; ++j) {
-          const long k = kb + static_cast<long>(j);
-          const double t = t_blk[j];
-          RawPulse raw;
-          raw.angle_rad = theta_blk[j];
-          const double sc[2] = {sin_blk[j], cos_blk[j]};
-          const Vec3 dir_s(0.0, sc[0], sc[1]);
-          const std::size_t i = T_true.locate(t, &cur_true);
-          if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
-          Vec3 origin, dir;
-          if (e_true.exact) {
-            const Pose truth = T_true.interpolateInInterval(i, t);
-            origin = truth.p_m + truth.R_mb * M_true.a_b;
-            dir = truth.R_mb * (R_bs_true * dir_s);
-          } else {
-            origin = detail::originExpanded(e_true, t);
-            dir = detail::rotateExpandedYZ(e_true, t, sc[0], sc[1]);
-          }
-          auto measured = [&](const Vec3& r_s) {
-            // Both trajectories were sampled at the same times (above): one interval lookup.
-            const std::size_t jm = i;
-            if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
-            return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
-                                : detail::forwardExpandedYZ(e_meas, t, r_s.y(), r_s.z());  // r_s.x() = 0
-          };
-          emit(t, origin, dir, (static_cast<std::uint64_t>(li_) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0, sc);
-        }
+    LineScannerConfig scanner = config.line;
+    if (line.prf_hz > 0) scanner.prf_hz = line.prf_hz;
+    if (line.scan_rate_hz > 0) scanner.scan_rate_hz = line.scan_rate_hz;
+    const double prf = scanner.prf_hz;
+    const long k0 = static_cast<long>(std::ceil((span.first - f.t0) * prf));
+    const long k1 = static_cast<long>(std::floor((span.second - f.t0) * prf));
+    // Both trajectories' attitudes expanded once per interval (detail::IntervalExpansion,
+    // exact within 1e-11 m), not a slerp per pulse. Pulses go in blocks: the mirror angles
+    // and their sines and cosines for a whole block in one vectorised pass
+    // (detail::sinCosBatch, within 4e-16 of libm), then the pulses one by one.
+    constexpr long kBlock = 256;
+    double t_blk[kBlock], arg_blk[kBlock], theta_blk[kBlock], sin_blk[kBlock], cos_blk[kBlock];
+    for (long kb = k0; kb <= k1; kb += kBlock) {
+      const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
+      for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
+      if (scanner.pattern == MirrorPattern::kSinusoidal) {
+        // mirrorAngle(): half_fov · sin(2π frac), the sines of the block at once
+        for (std::size_t j = 0; j < nb; ++j) arg_blk[j] = 2.0 * kPi * mirrorFraction(scanner, t_blk[j] - f.t0);
+        detail::sinCosBatch(arg_blk, sin_blk, cos_blk, nb);
+        for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = scanner.half_fov_rad * sin_blk[j];
+      } else {
+        for (std::size_t j = 0; j < nb; ++j) theta_blk[j] = mirrorAngle(scanner, t_blk[j] - f.t0);
       }
+      detail::sinCosBatch(theta_blk, sin_blk, cos_blk, nb);
+      for (std::size_t j = 0; j < nb; ++j) {
+        const long k = kb + static_cast<long>(j);
+        const double t = t_blk[j];
+        RawPulse raw;
+        raw.angle_rad = theta_blk[j];
+        const double sc[2] = {sin_blk[j], cos_blk[j]};
+        const Vec3 dir_s(0.0, sc[0], sc[1]);
+        const std::size_t i = T_true.locate(t, &cur_true);
+        if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
+        Vec3 origin, dir;
+        if (e_true.exact) {
+          const Pose truth = T_true.interpolateInInterval(i, t);
+          origin = truth.p_m + truth.R_mb * M_true.a_b;
+          dir = truth.R_mb * (R_bs_true * dir_s);
+        } else {
+          origin = detail::originExpanded(e_true, t);
+          dir = detail::rotateExpandedYZ(e_true, t, sc[0], sc[1]);
+        }
+        auto measured = [&](const Vec3& r_s) {
+          // Both trajectories were sampled at the same times (above): one interval lookup.
+          const std::size_t jm = i;
+          if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
+          return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
+                              : detail::forwardExpandedYZ(e_meas, t, r_s.y(), r_s.z());  // r_s.x() = 0
+        };
+        emit(t, origin, dir, (static_cast<std::uint64_t>(li_) << 40) + static_cast<std::uint64_t>(k), measured, raw, 1e5, 0.0, sc);
+      }
+    }
   }
 
   void fireMultiBeam(const std::pair<double, double>& span) {
-        const MultiBeamModel& mb = config.multibeam.model;
-      const double period = mb.sequencePeriod();
-      const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
-      const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
-      for (long s = s0; s <= s1; ++s) {
-        for (int laser = 0; laser < mb.laserCount(); ++laser) {
-          const double t = f.t0 + mb.firingTime(laser, s);
-          if (t > f.t1) break;
-          const Pose truth = T_true.pose(t, &cur_true);
-          RawPulse raw;
-          raw.laser_id = laser;
-          double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
-          raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
-          const LaserSpec& spec = mb.laser(laser);
-          const double ce = std::cos(spec.elevation_rad);
-          const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
-          const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
-          const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
-          const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
-          const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
-          auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
-          emit(t, origin, dir,
-               (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser),
-               measured, raw, config.multibeam.max_range_m, spec.range_offset_m, nullptr);
-        }
+    const MultiBeamModel& mb = config.multibeam.model;
+    const double period = mb.sequencePeriod();
+    const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
+    const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
+    for (long s = s0; s <= s1; ++s) {
+      for (int laser = 0; laser < mb.laserCount(); ++laser) {
+        const double t = f.t0 + mb.firingTime(laser, s);
+        if (t > f.t1) break;
+        const Pose truth = T_true.pose(t, &cur_true);
+        RawPulse raw;
+        raw.laser_id = laser;
+        double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
+        raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
+        const LaserSpec& spec = mb.laser(laser);
+        const double ce = std::cos(spec.elevation_rad);
+        const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
+        const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
+        const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
+        const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
+        const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
+        auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
+        emit(t, origin, dir,
+             (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser), measured,
+             raw, config.multibeam.max_range_m, spec.range_offset_m, nullptr);
       }
+    }
   }
 
   struct Window {
@@ -544,9 +570,11 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
 }
 
 std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& s) {
-  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {
-      {"ring_1", {"1", "3"}}, {"ring_5", {"2", "4"}}, {"zebra_a_c0", {"1", "2"}},
-      {"ring_13", {"2", "3", "4"}}, {"bldg_a_r2", {"1", "3", "4"}}};
+  const std::vector<std::pair<std::string, std::vector<std::string>>> plan = {{"ring_1", {"1", "3"}},
+                                                                              {"ring_5", {"2", "4"}},
+                                                                              {"zebra_a_c0", {"1", "2"}},
+                                                                              {"ring_13", {"2", "3", "4"}},
+                                                                              {"bldg_a_r2", {"1", "3", "4"}}};
   std::vector<TieObservation> out;
   for (const auto& [tie, strips] : plan)
     for (const std::string& strip : strips)

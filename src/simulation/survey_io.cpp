@@ -11,10 +11,12 @@ namespace mountcal::simulation {
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
   const nlohmann::json j = detail::parseJsonFile(path, "scenario");
   if (!j.is_object()) throw FileError(path, "", "a scenario is a JSON object");
-  static const std::set<std::string> kKnown = {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m", "one_height"};
+  static const std::set<std::string> kKnown = {"preset", "seed",         "true_mounting", "nominal_mounting",
+                                               "noise",  "roi_radius_m", "one_height"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (!kKnown.count(it.key()))
-      throw FileError(path, "field '" + it.key() + "'", "unknown field (known: preset, seed, true_mounting, nominal_mounting, noise, roi_radius_m, one_height)");
+      throw FileError(path, "field '" + it.key() + "'",
+                      "unknown field (known: preset, seed, true_mounting, nominal_mounting, noise, roi_radius_m, one_height)");
   }
   if (!j.contains("preset") || !j["preset"].is_string()) throw FileError(path, "field 'preset'", "missing or not a string");
   try {
@@ -49,23 +51,34 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
     if (j.contains("noise")) {
       const auto& n = j["noise"];
       if (n.is_string()) {
-        if (n == "none") config->noise = NoiseModel::none();
-        else if (n == "realistic") config->noise = NoiseModel::realistic();
-        else throw FileError(path, "field 'noise'", "expected \"none\", \"realistic\" or an object");
+        if (n == "none")
+          config->noise = NoiseModel::none();
+        else if (n == "realistic")
+          config->noise = NoiseModel::realistic();
+        else
+          throw FileError(path, "field 'noise'", "expected \"none\", \"realistic\" or an object");
       } else if (n.is_object()) {
         NoiseModel& m = config->noise;
         for (auto it = n.begin(); it != n.end(); ++it) {
           const std::string& k = it.key();
           const double v = it.value().get<double>();
           if (!(v >= 0 && v <= 1e4)) throw FileError(path, "field 'noise." + k + "'", "expected a number in [0, 10000]");
-          if (k == "range_sigma_m") m.range_sigma_m = v;
-          else if (k == "scan_angle_sigma_deg") m.scan_angle_sigma_rad = deg2rad(v);
-          else if (k == "gnss_sigma_m") m.gnss_sigma_m = v;
-          else if (k == "gnss_correlation_s") m.gnss_correlation_s = v;
-          else if (k == "attitude_sigma_deg") m.attitude_sigma_rad = deg2rad(v);
-          else if (k == "attitude_correlation_s") m.attitude_correlation_s = v;
-          else if (k == "pick_sigma_m") m.pick_sigma_m = v;
-          else throw FileError(path, "field 'noise." + k + "'", "unknown noise field");
+          if (k == "range_sigma_m")
+            m.range_sigma_m = v;
+          else if (k == "scan_angle_sigma_deg")
+            m.scan_angle_sigma_rad = deg2rad(v);
+          else if (k == "gnss_sigma_m")
+            m.gnss_sigma_m = v;
+          else if (k == "gnss_correlation_s")
+            m.gnss_correlation_s = v;
+          else if (k == "attitude_sigma_deg")
+            m.attitude_sigma_rad = deg2rad(v);
+          else if (k == "attitude_correlation_s")
+            m.attitude_correlation_s = v;
+          else if (k == "pick_sigma_m")
+            m.pick_sigma_m = v;
+          else
+            throw FileError(path, "field 'noise." + k + "'", "unknown noise field");
         }
       } else {
         throw FileError(path, "field 'noise'", "expected a string or an object");

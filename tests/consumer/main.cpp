@@ -12,7 +12,7 @@ int main() {
   // level, heading 0: body z (down) → mapping −z; 1000 m range at nadir lands at z = 0.
   const Vec3 x_m = model.forward(0.5, LineScannerModel{}.vector(0.0, 1000.0));
   const bool ok = (x_m - Vec3(100, 200, 0)).norm() < 1e-9;
-  std::printf("mountcal %s consumer: x_m = (%.3f, %.3f, %.3f) %s\n", MOUNTCAL_VERSION_STRING,
-              x_m.x(), x_m.y(), x_m.z(), ok ? "OK" : "WRONG");
+  std::printf("mountcal %s consumer: x_m = (%.3f, %.3f, %.3f) %s\n", MOUNTCAL_VERSION_STRING, x_m.x(), x_m.y(), x_m.z(),
+              ok ? "OK" : "WRONG");
   return ok ? 0 : 1;
 }

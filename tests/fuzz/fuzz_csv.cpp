@@ -22,18 +22,32 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace mountcal;
   try {
     switch (data[0] % 8) {
-      case 0: (void)io::readTiesCsv(path); break;
+      case 0:
+        (void)io::readTiesCsv(path);
+        break;
       case 1: {
         const Trajectory t = io::readTrajectoryCsv(path);
         (void)t.pose(0.5 * (t.startTime() + t.endTime()));
         break;
       }
-      case 2: (void)io::readGcpCsv(path); break;
-      case 3: (void)io::readPlanesCsv(path); break;
-      case 4: (void)io::readRawCsv(path, SensorType::kLine); break;
-      case 5: (void)io::readRawCsv(path, SensorType::kMultiBeam); break;
-      case 6: (void)io::readRawCsv(path, SensorType::kVector); break;
-      default: (void)io::readGeodeticTrajectoryCsv(path); break;
+      case 2:
+        (void)io::readGcpCsv(path);
+        break;
+      case 3:
+        (void)io::readPlanesCsv(path);
+        break;
+      case 4:
+        (void)io::readRawCsv(path, SensorType::kLine);
+        break;
+      case 5:
+        (void)io::readRawCsv(path, SensorType::kMultiBeam);
+        break;
+      case 6:
+        (void)io::readRawCsv(path, SensorType::kVector);
+        break;
+      default:
+        (void)io::readGeodeticTrajectoryCsv(path);
+        break;
     }
   } catch (const Error&) {
   }

@@ -35,10 +35,10 @@ namespace mountcal {
 
 /// How an adjustment ended (after Ceres' TerminationType).
 enum class TerminationType {
-  kConvergence,     ///< a tolerance was met: the solution is usable
-  kNoConvergence,   ///< iteration or time limit reached first: not usable
-  kFailure,         ///< the solver failed (numerical trouble)
-  kInvalidInput,    ///< options or data invalid; see Summary::message
+  kConvergence,    ///< a tolerance was met: the solution is usable
+  kNoConvergence,  ///< iteration or time limit reached first: not usable
+  kFailure,        ///< the solver failed (numerical trouble)
+  kInvalidInput,   ///< options or data invalid; see Summary::message
 };
 const char* toString(TerminationType t);
 
@@ -80,11 +80,11 @@ struct MountingBlockOptions {
 /// correlation time, sampled at the observations' times and estimated with the mounting, so its
 /// uncertainty enters the mounting's covariance.
 struct PulseNoise {
-  double position_m = 0.0;     ///< trajectory position noise between pulses, per axis [m] (the slow part is the strip offset)
-  double roll_pitch_deg = 0.0; ///< attitude noise about the horizontal axes [deg]
-  double heading_deg = 0.0;    ///< attitude noise about the vertical [deg]
-  double range_m = 0.0;        ///< range noise [m]
-  double beam_deg = 0.0;       ///< pointing noise across the beam (scan-angle encoder, divergence) [deg]
+  double position_m = 0.0;      ///< trajectory position noise between pulses, per axis [m] (the slow part is the strip offset)
+  double roll_pitch_deg = 0.0;  ///< attitude noise about the horizontal axes [deg]
+  double heading_deg = 0.0;     ///< attitude noise about the vertical [deg]
+  double range_m = 0.0;         ///< range noise [m]
+  double beam_deg = 0.0;        ///< pointing noise across the beam (scan-angle encoder, divergence) [deg]
   /// Correlation time of the attitude noise [s]; > 0: a Gauss–Markov random effect per strip
   /// instead of a term of Σ_x (0: white, in Σ_x).
   double attitude_correlation_s = 0.0;
@@ -160,8 +160,8 @@ struct AnalysisOptions {
 /// What a method sees while it adds its observations. Everything added is owned here.
 class AdjustmentProblem {
  public:
-  AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss,
-                    double loss_scale_m, double numeric_diff_relative_step);
+  AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss, double loss_scale_m,
+                    double numeric_diff_relative_step);
   ~AdjustmentProblem();
   AdjustmentProblem(const AdjustmentProblem&) = delete;
   AdjustmentProblem& operator=(const AdjustmentProblem&) = delete;
@@ -175,8 +175,7 @@ class AdjustmentProblem {
   /// A nuisance parameter block of `size` values starting at `initial`: estimated with the
   /// mounting, eliminated in the observability analysis. `manifold` (owned; may be null) for
   /// blocks such as unit normals. `schur_eliminable`: no residual block holds two such blocks.
-  double* addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold = nullptr,
-                           bool schur_eliminable = true);
+  double* addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold = nullptr, bool schur_eliminable = true);
   /// Adds a residual block over `blocks` (the mounting, strip offsets and nuisance blocks of
   /// this problem) and takes ownership of `cost`. `loss_sigma_m` > 0 is the standard
   /// deviation [m] the residuals were divided by: the robust loss applies with scale
@@ -266,8 +265,8 @@ class ObservationSource {
   virtual void solved(const AdjustmentProblem& problem) { (void)problem; }
   /// After the last solve, while `problem` holds the estimates: compute the kind's residual
   /// section (before at `mounting_used`, after at `mounting`).
-  virtual void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-                      const AdjustmentProblem& problem, const AnalysisOptions& analysis) {
+  virtual void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+                      const AnalysisOptions& analysis) {
     (void)mounting_used, (void)mounting, (void)problem, (void)analysis;
   }
 };
@@ -278,18 +277,18 @@ struct AdjustmentSummary {
   TerminationType termination = TerminationType::kInvalidInput;
   std::string message;
   int iterations = 0;
-  int rematch_rounds = 0;       ///< solves of the last estimation (1 when nothing re-matches)
-  double initial_cost = 0.0;    ///< ½ Σ r², r normalised by σ [-]
+  int rematch_rounds = 0;     ///< solves of the last estimation (1 when nothing re-matches)
+  double initial_cost = 0.0;  ///< ½ Σ r², r normalised by σ [-]
   double final_cost = 0.0;
-  double time_s = 0.0;          ///< wall time of the whole calibration [s]
+  double time_s = 0.0;               ///< wall time of the whole calibration [s]
   double construction_time_s = 0.0;  ///< of which: building the observations [s]
   double solve_time_s = 0.0;         ///< of which: Levenberg–Marquardt (all solves, matching included) [s]
   double analysis_time_s = 0.0;      ///< of which: observability and covariance [s]
 
   MountingParameters mounting_used;
-  MountingParameters mounting;  ///< the complete mounting to use from now on
-  std::array<bool, 6> estimated{};       ///< estimated (not fixed, not unobservable)
-  std::array<double, 6> sigma{};         ///< std. deviation [m, rad]; NaN if not estimated
+  MountingParameters mounting;      ///< the complete mounting to use from now on
+  std::array<bool, 6> estimated{};  ///< estimated (not fixed, not unobservable)
+  std::array<double, 6> sigma{};    ///< std. deviation [m, rad]; NaN if not estimated
   Mat6 correlation = Mat6::Constant(std::nan(""));
   Mat6 covariance = Mat6::Constant(std::nan(""));  ///< of the estimated parameters [m, rad]
   /// "ceres::Covariance", or "reduced normal matrix" when Ceres could not compute it.
@@ -297,7 +296,7 @@ struct AdjustmentSummary {
   /// Normal matrix of the full mounting block once every nuisance block (tie positions,
   /// planes, strip offsets) is eliminated (Schur complement), at the estimate; unscaled.
   Mat6 reduced_normal_matrix = Mat6::Zero();
-  double variance_factor = 1.0;          ///< σ₀² = 2·final_cost / degrees_of_freedom
+  double variance_factor = 1.0;  ///< σ₀² = 2·final_cost / degrees_of_freedom
   int degrees_of_freedom = 0;
 
   /// Parameters that were asked for but that the data cannot determine, and why.

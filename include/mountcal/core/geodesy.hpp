@@ -26,7 +26,7 @@ class LocalTangentFrame {
  public:
   explicit LocalTangentFrame(const Geodetic& origin);
   const Geodetic& origin() const { return origin_; }
-  Vec3 toLocal(const Geodetic& g) const;   ///< ENU coordinates [m]
+  Vec3 toLocal(const Geodetic& g) const;  ///< ENU coordinates [m]
   Geodetic toGeodetic(const Vec3& x_m) const;
   /// Navigation (NED at (lat, lon)) → this frame.
   Mat3 R_mn(double lat, double lon) const;

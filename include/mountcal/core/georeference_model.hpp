@@ -22,8 +22,7 @@ inline Vec3 georeference(const Pose& pose, const Mat3& R_bs, const Vec3& a_b, co
   return pose.p_m + pose.R_mb * (R_bs * r_s + a_b);
 }
 /// Inverse of georeference(): r_s = R_bsᵀ (R_mbᵀ (x_m − p_m) − a_b).
-inline Vec3 inverseGeoreference(const Pose& pose, const Mat3& R_bs, const Vec3& a_b,
-                                const Vec3& x_m) {
+inline Vec3 inverseGeoreference(const Pose& pose, const Mat3& R_bs, const Vec3& a_b, const Vec3& x_m) {
   return R_bs.transpose() * (pose.R_mb.transpose() * (x_m - pose.p_m) - a_b);
 }
 
@@ -54,9 +53,8 @@ class GeoreferenceModel {
   /// Batch inverse: `x_m` and `r_s` hold n interleaved xyz triples [m].
   void inverse(const double* time_s, const double* x_m, double* r_s, std::size_t n) const;
   /// Batch forward of line-scanner pulses straight from (θ [rad], ρ [m]).
-  void forwardLineScan(const LineScannerModel& scanner, const double* time_s,
-                       const double* scan_angle_rad, const double* range_m, double* x_m,
-                       std::size_t n) const;
+  void forwardLineScan(const LineScannerModel& scanner, const double* time_s, const double* scan_angle_rad, const double* range_m,
+                       double* x_m, std::size_t n) const;
 
  private:
   std::shared_ptr<const Trajectory> trajectory_;

@@ -39,9 +39,7 @@ struct MountingParameters {
   Mat3 R_bs() const { return R_bore() * R_nom; }
 
   /// The 6-vector (a_x, a_y, a_z [m], ω, φ, κ [rad]) in MountingIndex order.
-  std::array<double, 6> toArray() const {
-    return {a_b.x(), a_b.y(), a_b.z(), boresight.x(), boresight.y(), boresight.z()};
-  }
+  std::array<double, 6> toArray() const { return {a_b.x(), a_b.y(), a_b.z(), boresight.x(), boresight.y(), boresight.z()}; }
   /// Sets lever arm and boresight from a 6-vector in MountingIndex order; R_nom is unchanged.
   void setFromArray(const double* p) {
     a_b = Vec3(p[0], p[1], p[2]);

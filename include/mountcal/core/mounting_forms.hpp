@@ -30,11 +30,11 @@ const char* toString(BodyAxes axes);  ///< "forward-right-down" / "forward-left-
 /// One mounting in one body frame's axes.
 struct MountingForm {
   BodyAxes axes = BodyAxes::kForwardRightDown;
-  Vec3 lever_arm_m = Vec3::Zero();     ///< IMU → scanner, in these axes [m]
-  Vec3 boresight_rad = Vec3::Zero();   ///< (roll, pitch, heading) of R_bore = Rz·Ry·Rx in these axes [rad]
-  Mat3 R_bore = Mat3::Identity();      ///< the boresight rotation in these axes [-]
+  Vec3 lever_arm_m = Vec3::Zero();                             ///< IMU → scanner, in these axes [m]
+  Vec3 boresight_rad = Vec3::Zero();                           ///< (roll, pitch, heading) of R_bore = Rz·Ry·Rx in these axes [rad]
+  Mat3 R_bore = Mat3::Identity();                              ///< the boresight rotation in these axes [-]
   Eigen::Quaterniond q_bore = Eigen::Quaterniond::Identity();  ///< of R_bore, w ≥ 0 [-]
-  Mat3 R_bs = Mat3::Identity();        ///< scanner → body: R_bore·R_nom, body axes as above, scanner axes as the sensor model's [-]
+  Mat3 R_bs = Mat3::Identity();  ///< scanner → body: R_bore·R_nom, body axes as above, scanner axes as the sensor model's [-]
   Eigen::Quaterniond q_bs = Eigen::Quaterniond::Identity();  ///< of R_bs, w ≥ 0 [-]
 };
 

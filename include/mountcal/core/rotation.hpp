@@ -45,9 +45,7 @@ inline Mat3 Rz(double a) {
 
 /// Body-to-navigation attitude, aerospace 3-2-1 sequence (SPEC §2):
 /// `R_nb = Rz(heading) · Ry(pitch) · Rx(roll)`, heading clockwise from North [rad].
-inline Mat3 R_nb(double roll, double pitch, double heading) {
-  return Rz(heading) * Ry(pitch) * Rx(roll);
-}
+inline Mat3 R_nb(double roll, double pitch, double heading) { return Rz(heading) * Ry(pitch) * Rx(roll); }
 
 /// Roll, pitch, heading [rad] of a body-to-navigation matrix (inverse of R_nb()).
 /// Heading is returned in (-π, π]; pitch in [-π/2, π/2].
@@ -95,8 +93,6 @@ inline Quat quatExp(const Vec3& rotvec) {
 }
 
 /// Spherical linear interpolation from q0 (s = 0) to q1 (s = 1) along the shorter arc.
-inline Quat slerp(const Quat& q0, const Quat& q1, double s) {
-  return (q0 * quatExp(s * quatLog(q0.conjugate() * q1))).normalized();
-}
+inline Quat slerp(const Quat& q0, const Quat& q1, double s) { return (q0 * quatExp(s * quatLog(q0.conjugate() * q1))).normalized(); }
 
 }  // namespace mountcal

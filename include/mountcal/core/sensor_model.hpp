@@ -19,7 +19,7 @@ struct RawPulse {
   int laser_id = 0;         ///< multi-beam laser index (0-based); unused otherwise
   float intensity = 0.0f;   ///< return intensity (sensor units)
   Vec3 r_s = Vec3::Zero();  ///< vector sensors: the Cartesian laser vector [m]
-};  // 56 bytes: the simulator keeps one per return
+};                          // 56 bytes: the simulator keeps one per return
 
 /// Line scanner with an oscillating or rotating mirror (e.g. Leica ALS50-II):
 /// `r_s = ρ' · (0, sin θ', cos θ')` with θ positive to starboard and θ = 0 at nadir, where
@@ -37,11 +37,11 @@ struct LineScannerModel {
 
 /// One laser of a multi-beam scanner.
 struct LaserSpec {
-  double elevation_rad = 0.0;      ///< vertical angle ω_i [rad], positive up
-  double vertical_offset_m = 0.0;  ///< added to the z component of r_s [m]
-  double azimuth_offset_rad = 0.0; ///< added to the encoder azimuth [rad]
-  double range_offset_m = 0.0;     ///< added to the measured range [m]
-  double firing_offset_s = 0.0;    ///< firing time after the start of its sequence [s]
+  double elevation_rad = 0.0;       ///< vertical angle ω_i [rad], positive up
+  double vertical_offset_m = 0.0;   ///< added to the z component of r_s [m]
+  double azimuth_offset_rad = 0.0;  ///< added to the encoder azimuth [rad]
+  double range_offset_m = 0.0;      ///< added to the measured range [m]
+  double firing_offset_s = 0.0;     ///< firing time after the start of its sequence [s]
 };
 
 /// ∂r/∂ω of a multi-beam laser vector r = ρ(cos ω sin α, cos ω cos α, sin ω) (SPEC §2):

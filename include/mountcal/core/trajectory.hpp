@@ -13,12 +13,12 @@ namespace mountcal {
 
 /// One trajectory record as a navigation system delivers it.
 struct TrajectorySample {
-  double time_s = 0.0;            ///< time [s] (GPS week seconds or any monotonic scale)
-  Vec3 p_m = Vec3::Zero();        ///< IMU position in the mapping frame [m]
-  double roll = 0.0;              ///< [rad]
-  double pitch = 0.0;             ///< [rad]
-  double heading = 0.0;           ///< clockwise from North [rad]
-  Mat3 R_mn = R_mn_local();       ///< navigation → mapping frame at this sample (SPEC §2)
+  double time_s = 0.0;       ///< time [s] (GPS week seconds or any monotonic scale)
+  Vec3 p_m = Vec3::Zero();   ///< IMU position in the mapping frame [m]
+  double roll = 0.0;         ///< [rad]
+  double pitch = 0.0;        ///< [rad]
+  double heading = 0.0;      ///< clockwise from North [rad]
+  Mat3 R_mn = R_mn_local();  ///< navigation → mapping frame at this sample (SPEC §2)
 };
 
 /// How positions are interpolated between samples.
@@ -29,8 +29,8 @@ enum class PositionInterpolation {
 
 /// The interpolated pose of the body frame in the mapping frame at one time.
 struct Pose {
-  Vec3 p_m = Vec3::Zero();         ///< IMU position in the mapping frame [m]
-  Mat3 R_mb = Mat3::Identity();    ///< body → mapping rotation, `R_mn · R_nb`
+  Vec3 p_m = Vec3::Zero();       ///< IMU position in the mapping frame [m]
+  Mat3 R_mb = Mat3::Identity();  ///< body → mapping rotation, `R_mn · R_nb`
 };
 
 /// Time-sorted trajectory with O(1) amortised interpolation for sorted query times.
@@ -44,8 +44,7 @@ class Trajectory {
   /// Validates and stores the samples. Throws InvalidInput (naming the sample index) when there
   /// are fewer than two samples, when times are not strictly increasing, or when any value is
   /// non-finite.
-  explicit Trajectory(std::vector<TrajectorySample> samples,
-                      PositionInterpolation interpolation = PositionInterpolation::kLinear);
+  explicit Trajectory(std::vector<TrajectorySample> samples, PositionInterpolation interpolation = PositionInterpolation::kLinear);
 
   std::size_t size() const { return samples_.size(); }
   bool empty() const { return samples_.empty(); }
@@ -80,12 +79,11 @@ class Trajectory {
   const std::vector<double>& times() const { return time_s_; }
 
  private:
-
   std::vector<TrajectorySample> samples_;
-  std::vector<double> time_s_;     // copy of sample times, contiguous for the search
-  std::vector<Quat> q_mb_;         // sign-aligned with the previous sample
-  std::vector<Vec3> dq_;           // rotation vector of q_i⁻¹ q_{i+1} (slerp increment)
-  std::vector<Vec3> v_m_;          // velocity estimate per sample (cubic only) [m/s]
+  std::vector<double> time_s_;  // copy of sample times, contiguous for the search
+  std::vector<Quat> q_mb_;      // sign-aligned with the previous sample
+  std::vector<Vec3> dq_;        // rotation vector of q_i⁻¹ q_{i+1} (slerp increment)
+  std::vector<Vec3> v_m_;       // velocity estimate per sample (cubic only) [m/s]
   PositionInterpolation interpolation_ = PositionInterpolation::kLinear;
 };
 

@@ -22,9 +22,9 @@ namespace mountcal::io {
 
 /// A variable-length record (VLR) or extended VLR, kept byte for byte.
 struct LasVlr {
-  std::string user_id;        ///< up to 16 characters
+  std::string user_id;  ///< up to 16 characters
   std::uint16_t record_id = 0;
-  std::string description;    ///< up to 32 characters
+  std::string description;  ///< up to 32 characters
   std::vector<std::uint8_t> data;
 };
 
@@ -57,9 +57,7 @@ struct LasHeader {
   static std::uint16_t standardRecordLength(std::uint8_t point_format);
   bool hasGpsTime() const { return point_format == 1 || point_format >= 3; }
   bool hasRgb() const { return point_format == 2 || point_format == 3 || point_format >= 7; }
-  std::uint16_t extraBytesPerPoint() const {
-    return static_cast<std::uint16_t>(point_record_length - standardRecordLength(point_format));
-  }
+  std::uint16_t extraBytesPerPoint() const { return static_cast<std::uint16_t>(point_record_length - standardRecordLength(point_format)); }
 };
 
 /// One point record. Coordinates are the stored integers (x = X · scale + offset).
@@ -72,11 +70,11 @@ struct LasPoint {
   std::uint8_t scanner_channel = 0;       ///< formats 6+
   bool scan_direction = false;
   bool edge_of_flight_line = false;
-  std::uint8_t classification = 0;        ///< formats 0–5: low 5 bits class + 3 flag bits
-  std::int16_t scan_angle = 0;  ///< formats 0–5: rank [deg]; 6+: [0.006 deg]; + to the right
+  std::uint8_t classification = 0;  ///< formats 0–5: low 5 bits class + 3 flag bits
+  std::int16_t scan_angle = 0;      ///< formats 0–5: rank [deg]; 6+: [0.006 deg]; + to the right
   std::uint8_t user_data = 0;
   std::uint16_t point_source_id = 0;
-  double gps_time = 0.0;        ///< formats 1, 3, 6+ [s]
+  double gps_time = 0.0;  ///< formats 1, 3, 6+ [s]
   std::uint16_t red = 0, green = 0, blue = 0, nir = 0;
   std::vector<std::uint8_t> extra;  ///< extra bytes, kept as they are
 };
@@ -193,9 +191,10 @@ class LasWriter {
 /// One attribute of the Extra Bytes VLR (user "LASF_Spec", record 4; or its EVLR): a named,
 /// typed field stored in every point's extra bytes (ASPRS LAS 1.4 R15, §2.5.4.2).
 struct ExtraBytesAttribute {
-  std::string name;             ///< e.g. "SensorX"
+  std::string name;  ///< e.g. "SensorX"
   std::string description;
-  std::uint8_t data_type = 0;   ///< 1–10: uchar, char, ushort, short, ulong, long, ulonglong, longlong, float, double; 0: undocumented bytes; 11–30 (deprecated): 2 or 3 of those
+  std::uint8_t data_type = 0;   ///< 1–10: uchar, char, ushort, short, ulong, long, ulonglong, longlong, float, double; 0: undocumented
+                                ///< bytes; 11–30 (deprecated): 2 or 3 of those
   std::uint8_t options = 0;     ///< bits: 0 no_data, 1 min, 2 max, 3 scale, 4 offset valid
   std::size_t byte_offset = 0;  ///< position in the point's extra bytes [bytes]
   std::size_t size = 0;         ///< bytes of all its elements [bytes]
@@ -211,8 +210,7 @@ struct ExtraBytesAttribute {
 std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, const std::string& path);
 
 /// The attribute named `name`, or null.
-const ExtraBytesAttribute* findExtraBytesAttribute(const std::vector<ExtraBytesAttribute>& attributes,
-                                                   const std::string& name);
+const ExtraBytesAttribute* findExtraBytesAttribute(const std::vector<ExtraBytesAttribute>& attributes, const std::string& name);
 
 /// Element `element` of attribute `a` of point `p`, with the attribute's scale and offset
 /// applied (value · scale + offset). Throws InvalidInput for an undocumented (type 0)
@@ -222,7 +220,6 @@ double extraBytesValue(const LasPoint& p, const ExtraBytesAttribute& a, int elem
 /// Reads a whole LAS file (header and all points).
 void readLas(const std::string& path, LasHeader* header, std::vector<LasPoint>* points);
 /// Writes a whole LAS file atomically.
-void writeLas(const std::string& path, const LasHeader& header,
-              const std::vector<LasPoint>& points);
+void writeLas(const std::string& path, const LasHeader& header, const std::vector<LasPoint>& points);
 
 }  // namespace mountcal::io

@@ -25,7 +25,14 @@ namespace mountcal::io {
 /// One item of the LASzip VLR's item list.
 struct LazItem {
   enum Type : std::uint16_t {
-    kByte = 0, kPoint10 = 6, kGpsTime11 = 7, kRgb12 = 8, kPoint14 = 10, kRgb14 = 11, kRgbNir14 = 12, kByte14 = 14
+    kByte = 0,
+    kPoint10 = 6,
+    kGpsTime11 = 7,
+    kRgb12 = 8,
+    kPoint14 = 10,
+    kRgb14 = 11,
+    kRgbNir14 = 12,
+    kByte14 = 14
   };
   std::uint16_t type = 0;
   std::uint16_t size = 0;     ///< bytes of the item in a point record
@@ -39,7 +46,7 @@ struct LazVlr {
   std::uint16_t coder = 0;       ///< 0: arithmetic (the only one defined)
   std::uint8_t version_major = 3, version_minor = 4;
   std::uint16_t version_revision = 3;
-  std::uint32_t options = 0;     ///< bit 0: written in LAS 1.4 compatibility mode
+  std::uint32_t options = 0;         ///< bit 0: written in LAS 1.4 compatibility mode
   std::uint32_t chunk_size = 50000;  ///< points per chunk; kVariableChunks: sizes in the table
   std::int64_t special_evlr_count = -1, special_evlr_offset = -1;
   std::vector<LazItem> items;
@@ -59,8 +66,7 @@ std::string lazItemName(std::uint16_t type);
 /// length. Throws FileError naming `path` and the VLR for anything malformed or unsupported:
 /// an unknown compressor, coder, item type or version, items that do not add up to the record
 /// length, compressor 3 for a pre-1.4 point format, a zero chunk size.
-LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_format,
-                   std::uint16_t record_length, const std::string& path);
+LazVlr parseLazVlr(const std::vector<std::uint8_t>& data, std::uint8_t point_format, std::uint16_t record_length, const std::string& path);
 
 /// The payload of a LASzip VLR.
 std::vector<std::uint8_t> serializeLazVlr(const LazVlr& vlr);
@@ -68,8 +74,7 @@ std::vector<std::uint8_t> serializeLazVlr(const LazVlr& vlr);
 /// The LASzip VLR mountcal writes for a point format and record length: compressor 2 with
 /// version 2 items for formats 0–3, compressor 3 with version 3 items for formats 6–8; extra
 /// bytes become one BYTE / BYTE14 item. Throws InvalidInput for any other format.
-LazVlr lazVlrFor(std::uint8_t point_format, std::uint16_t record_length,
-                 std::uint32_t chunk_size = 50000);
+LazVlr lazVlrFor(std::uint8_t point_format, std::uint16_t record_length, std::uint32_t chunk_size = 50000);
 
 /// One entry of the chunk table (or the single stream of compressor 1).
 struct LazChunk {
@@ -81,8 +86,7 @@ struct LazChunk {
 /// Decodes the compressed chunk table found at `table` (the bytes after the chunk table's
 /// 8-byte header: version and count are passed in) into chunk sizes, and for variable chunks
 /// point counts. Throws FileError naming `path` when the table is malformed.
-std::vector<LazChunk> decodeLazChunkTable(const std::uint8_t* table, std::size_t size,
-                                          std::uint32_t chunk_count, bool variable_chunks,
+std::vector<LazChunk> decodeLazChunkTable(const std::uint8_t* table, std::size_t size, std::uint32_t chunk_count, bool variable_chunks,
                                           const std::string& path);
 
 /// Encodes chunk sizes (and point counts when `variable_chunks`) into a chunk table body.
@@ -91,8 +95,8 @@ std::vector<std::uint8_t> encodeLazChunkTable(const std::vector<LazChunk>& chunk
 /// Decodes one chunk (`data`, `size` bytes) of `points` records into `records`
 /// (points · vlr.recordLength() bytes). Throws FileError naming `path` and `where` (e.g.
 /// "chunk 3") when the chunk is truncated or corrupt; never reads outside `data`.
-void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t size, std::uint64_t points,
-                    std::uint8_t* records, const std::string& path, const std::string& where);
+void decodeLazChunk(const LazVlr& vlr, const std::uint8_t* data, std::size_t size, std::uint64_t points, std::uint8_t* records,
+                    const std::string& path, const std::string& where);
 
 /// Encodes `points` records (points · vlr.recordLength() bytes) into one chunk.
 std::vector<std::uint8_t> encodeLazChunk(const LazVlr& vlr, const std::uint8_t* records, std::size_t points);

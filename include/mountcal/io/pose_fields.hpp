@@ -34,9 +34,9 @@ Mat3 bodyToMapping(AttitudeConvention c, double roll, double pitch, double yaw);
 
 /// The extra-bytes attributes that hold each point's sensor pose.
 struct PoseFields {
-  std::array<std::string, 3> position{"SensorX", "SensorY", "SensorZ"};  ///< in the strips' coordinates [m]
+  std::array<std::string, 3> position{"SensorX", "SensorY", "SensorZ"};                       ///< in the strips' coordinates [m]
   std::array<std::string, 3> attitude{"SensorRollRads", "SensorPitchRads", "SensorYawRads"};  ///< roll, pitch, yaw/heading
-  bool degrees = false;  ///< attitude unit: radians unless set
+  bool degrees = false;                                                                       ///< attitude unit: radians unless set
   AttitudeConvention convention = AttitudeConvention::kEnuFlu;
 };
 

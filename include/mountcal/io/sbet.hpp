@@ -12,15 +12,15 @@ namespace mountcal::io {
 
 /// One SBET record, in the file's units.
 struct SbetRecord {
-  double time_s;              ///< GPS seconds of week [s]
-  double lat_rad, lon_rad;    ///< [rad]
-  double h_m;                 ///< ellipsoidal height [m]
-  double vx, vy, vz;          ///< velocity, wander frame [m/s]
-  double roll_rad, pitch_rad; ///< [rad]
-  double platform_heading_rad;///< heading in the wander frame [rad]
-  double wander_rad;          ///< wander angle [rad]
-  double ax, ay, az;          ///< body acceleration [m/s²]
-  double wx, wy, wz;          ///< body angular rate [rad/s]
+  double time_s;                ///< GPS seconds of week [s]
+  double lat_rad, lon_rad;      ///< [rad]
+  double h_m;                   ///< ellipsoidal height [m]
+  double vx, vy, vz;            ///< velocity, wander frame [m/s]
+  double roll_rad, pitch_rad;   ///< [rad]
+  double platform_heading_rad;  ///< heading in the wander frame [rad]
+  double wander_rad;            ///< wander angle [rad]
+  double ax, ay, az;            ///< body acceleration [m/s²]
+  double wx, wy, wz;            ///< body angular rate [rad/s]
   /// True heading = platform heading − wander angle (SPEC §4).
   double trueHeading() const { return platform_heading_rad - wander_rad; }
 };
@@ -40,8 +40,7 @@ std::vector<SbetRecord> readGeodeticTrajectoryCsv(const std::string& path);
 
 /// The SBET as a trajectory in the ENU tangent frame `frame` (R_mn per sample, true heading).
 /// `time_offset_s` is added to every time. Throws FileError for unsorted or duplicate times.
-Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecord>& records,
-                            const LocalTangentFrame& frame, double time_offset_s = 0.0,
-                            PositionInterpolation interpolation = PositionInterpolation::kLinear);
+Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecord>& records, const LocalTangentFrame& frame,
+                            double time_offset_s = 0.0, PositionInterpolation interpolation = PositionInterpolation::kLinear);
 
 }  // namespace mountcal::io

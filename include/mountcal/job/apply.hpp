@@ -11,7 +11,7 @@ namespace mountcal {
 
 /// Statistics of an apply run.
 struct ApplyStats {
-  std::size_t strips = 0;      ///< input files rewritten (several strips may share one file)
+  std::size_t strips = 0;  ///< input files rewritten (several strips may share one file)
   std::uint64_t points = 0;
   double max_shift_m = 0.0;  ///< largest point displacement [m]
 };

@@ -27,8 +27,8 @@ class JobFrame {
   JobFrame(const std::string& crs, const Geodetic& origin);
   bool isLocal() const { return !crs_; }
   const LocalTangentFrame* tangentFrame() const { return tangent_.get(); }
-  Vec3 toLocal(const Vec3& x_crs) const;    ///< CRS coordinates → computation frame [m]
-  Vec3 fromLocal(const Vec3& x_m) const;    ///< computation frame → CRS coordinates [m]
+  Vec3 toLocal(const Vec3& x_crs) const;  ///< CRS coordinates → computation frame [m]
+  Vec3 fromLocal(const Vec3& x_m) const;  ///< computation frame → CRS coordinates [m]
   /// The same frame with its own PROJ transformation: a PROJ object must not be used by two
   /// threads at once, so each thread converting coordinates takes its own copy.
   JobFrame forAnotherThread() const { return crs_ ? JobFrame(crs_name_, tangent_->origin()) : *this; }

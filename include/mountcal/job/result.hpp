@@ -24,8 +24,8 @@ struct ResultEvaluation {
 /// Check points and check planes named by the job, at `mounting_used` and at `mounting`; with
 /// `discrepancy` (or in a job with per-point poses, whose strips are passes over one object)
 /// also the pass-to-pass discrepancy of every strip pair. `any()` is false when there is none.
-ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting,
-                             bool discrepancy = false, const std::vector<double>& laser_elevation_rad = {});
+ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy = false,
+                             const std::vector<double>& laser_elevation_rad = {});
 
 /// The result file of SPEC §4 as JSON text: the keys of SPEC §4 for every method (`ties` and
 /// `residuals` hold the tie section, empty without VTPM), `methods`, `kinds`, and one section

@@ -17,7 +17,7 @@ namespace mountcal {
 /// Which records of a file a strip takes (`"split"`, SPEC §4 "Per-point poses"): one file
 /// may hold several passes, told apart by a field such as `frameNo`.
 struct StripSplit {
-  std::string field;           ///< empty: every record of the file
+  std::string field;                 ///< empty: every record of the file
   double min = -1e308, max = 1e308;  ///< `"range": [min, max]`, inclusive
   /// `"part": k, "gap": g`: the k-th (1-based) run of records in file order, a new run starting
   /// where the field jumps by more than g between consecutive records; 0: no part selection.
@@ -29,9 +29,9 @@ struct StripSplit {
 /// One strip entry of a job.
 struct JobStrip {
   std::string id;
-  std::string path;             ///< absolute (resolved against the job file)
-  std::string format = "las";   ///< "las" or "raw_csv"
-  StripSplit split;             ///< LAS only
+  std::string path;            ///< absolute (resolved against the job file)
+  std::string format = "las";  ///< "las" or "raw_csv"
+  StripSplit split;            ///< LAS only
 };
 
 /// How the job's frame is given.
@@ -41,10 +41,10 @@ enum class TrajectoryFormat { kCsv, kSbet };
 
 /// A parsed job file (SPEC §4).
 struct Job {
-  std::string path;              ///< the job file itself
+  std::string path;  ///< the job file itself
   JobFrameType frame_type = JobFrameType::kLocal;
-  std::string crs;               ///< for JobFrameType::kCrs
-  std::string trajectory_path;   ///< empty when the job takes per-point poses
+  std::string crs;              ///< for JobFrameType::kCrs
+  std::string trajectory_path;  ///< empty when the job takes per-point poses
   /// `"poses"`: each point's sensor pose from LAS extra bytes instead of a trajectory (a
   /// local-frame job: the strips' coordinates, e.g. UTM, are the computation frame).
   bool per_point_poses = false;
@@ -52,7 +52,7 @@ struct Job {
   TrajectoryFormat trajectory_format = TrajectoryFormat::kCsv;
   double time_offset_s = 0.0;
   SensorModel sensor;
-  std::string sensor_model;          ///< "VLP-16", "HDL-32E", "custom" (a lasers table) or empty
+  std::string sensor_model;  ///< "VLP-16", "HDL-32E", "custom" (a lasers table) or empty
   /// Multi-beam: the LAS field holding each point's laser id (`sensor.laser_field`, e.g.
   /// "user_data" in the Gravity files); empty: not read.
   std::string laser_field;  ///< read for LAS strips, with a trajectory or per-point poses

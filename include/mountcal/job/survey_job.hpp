@@ -27,8 +27,8 @@ struct SurveyWriteOptions {
 /// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
 /// trajectory.sbet (a local job's ENU frame placed under UTM 11 N's (500000, 4000000)),
 /// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,
-/// check_points.csv, check_planes.csv, planes.csv (the roof faces, for the plane method), gcps.csv. Creates `dir` if needed. Throws FileError,
-/// or InvalidInput for an unknown CRS.
+/// check_points.csv, check_planes.csv, planes.csv (the roof faces, for the plane method), gcps.csv. Creates `dir` if needed. Throws
+/// FileError, or InvalidInput for an unknown CRS.
 void writeSurvey(const simulation::SimulatedSurvey& survey, const std::string& dir, const SurveyWriteOptions& options = {});
 
 }  // namespace mountcal

@@ -34,12 +34,12 @@ namespace mountcal {
 /// One option of a method, as the job file names it.
 struct OptionSpec {
   enum class Type { kNumber, kInteger, kBoolean };
-  std::string key;           ///< job key inside the method's object, e.g. "radius_m"
+  std::string key;  ///< job key inside the method's object, e.g. "radius_m"
   Type type = Type::kNumber;
-  std::string unit;          ///< "m", "deg", "-" …
-  double min = 0, max = 0;   ///< accepted range, inclusive (numbers and integers)
-  double default_value = 0;  ///< of a default-constructed options object
-  std::string doc;           ///< one line
+  std::string unit;                            ///< "m", "deg", "-" …
+  double min = 0, max = 0;                     ///< accepted range, inclusive (numbers and integers)
+  double default_value = 0;                    ///< of a default-constructed options object
+  std::string doc;                             ///< one line
   std::function<double(const std::any&)> get;  ///< value of this option in an options object
   std::function<void(std::any&, double)> set;  ///< sets it (booleans: 0 / 1)
 };
@@ -129,8 +129,8 @@ class MethodOptionsMap {
 /// A residual drawn as an arrow in the report's plan view (and its histograms): at a plan
 /// position, the residual before and after the calibration.
 struct PlanResidual {
-  std::string label;                 ///< e.g. "tie 7 on strip 2"
-  double x_m = 0, y_m = 0;           ///< where it is drawn [m]
+  std::string label;                                     ///< e.g. "tie 7 on strip 2"
+  double x_m = 0, y_m = 0;                               ///< where it is drawn [m]
   Vec3 before_m = Vec3::Zero(), after_m = Vec3::Zero();  ///< [m]
 };
 /// A place marked in the report's plan view (a patch centre, a target).
@@ -174,18 +174,18 @@ class MethodSection {
 /// The job's inputs that a method reads (top-level job keys, SPEC §4), already loaded into
 /// CalibrationData by the job layer.
 struct MethodInput {
-  std::string job_key;     ///< e.g. "ties", "planes", "targets"; empty: the method needs none
+  std::string job_key;  ///< e.g. "ties", "planes", "targets"; empty: the method needs none
   /// A word that may stand for the file (e.g. "auto" for "planes"); empty: none.
   std::string keyword;
-  std::string doc;         ///< one line for `mountcal methods`
-  bool required = true;    ///< a job naming the method without it is bad input
+  std::string doc;       ///< one line for `mountcal methods`
+  bool required = true;  ///< a job naming the method without it is bad input
 };
 
 /// The noise a planner assumes, for a method to set its observation σ from it.
 struct NoiseHint {
-  double point_sigma_m = 0.0;   ///< σ of a point along the surface normal [m]
-  double pick_sigma_xy_m = 0.0; ///< σ of a hand-picked plan position [m]
-  double pick_sigma_z_m = 0.0;  ///< σ of a pick's interpolated height [m]
+  double point_sigma_m = 0.0;    ///< σ of a point along the surface normal [m]
+  double pick_sigma_xy_m = 0.0;  ///< σ of a hand-picked plan position [m]
+  double pick_sigma_z_m = 0.0;   ///< σ of a pick's interpolated height [m]
 };
 
 struct MethodContext;
@@ -208,9 +208,9 @@ class MethodRun {
 /// What a method sees when it runs.
 struct MethodContext {
   const CalibrationData& data;
-  const std::any& options;        ///< the method's own options struct
+  const std::any& options;                        ///< the method's own options struct
   const MountingAdjustment::Options& adjustment;  ///< the shared stochastic model, solver and analysis
-  int threads = 0;                ///< for building observations (0: every core)
+  int threads = 0;                                ///< for building observations (0: every core)
   /// Ground control points not claimed by another method of the run (Method::claimedGcps).
   const std::vector<GroundControlPoint>& unclaimed_gcps;
 };
@@ -234,9 +234,7 @@ class Method {
   virtual std::any defaultOptions() const = 0;
   virtual const std::vector<OptionSpec>& options() const = 0;
   /// The job input's value was given (e.g. "auto" for planes): set what it implies.
-  virtual void adoptInput(const std::string& value, std::any* options) const {
-    (void)value, (void)options;
-  }
+  virtual void adoptInput(const std::string& value, std::any* options) const { (void)value, (void)options; }
   /// Checks relations between options beyond their declared ranges (ranges are checked by
   /// the registry). False with a message naming the option.
   virtual bool validate(const std::any& options, std::string* error) const {

@@ -81,15 +81,15 @@ Plan readPlan(const std::string& path);
 
 /// What a plan determines.
 struct Prediction {
-  std::array<bool, 6> determined{};        ///< estimated (not undeterminable)
-  std::array<double, 6> sigma{};           ///< predicted σ [m, rad]; NaN if not determined
+  std::array<bool, 6> determined{};  ///< estimated (not undeterminable)
+  std::array<double, 6> sigma{};     ///< predicted σ [m, rad]; NaN if not determined
   Eigen::Matrix<double, 6, 6> correlation = Eigen::Matrix<double, 6, 6>::Constant(std::nan(""));
-  double condition_number = 0.0;           ///< of the reduced normal matrix of the determined block
-  std::vector<std::string> undeterminable; ///< parameter names, with the reasons in `observability`
+  double condition_number = 0.0;            ///< of the reduced normal matrix of the determined block
+  std::vector<std::string> undeterminable;  ///< parameter names, with the reasons in `observability`
   std::string observability;
-  int strips = 0;                          ///< strips simulated
-  int observations = 0;                    ///< residual blocks in the adjustment
-  double seconds = 0.0;                    ///< wall time of the prediction [s]
+  int strips = 0;        ///< strips simulated
+  int observations = 0;  ///< residual blocks in the adjustment
+  double seconds = 0.0;  ///< wall time of the prediction [s]
   /// The parameter that most needs help: the first undeterminable one, else the one whose σ
   /// moves the ground most (lever arm σ [m], boresight σ × mean flying height [m]). -1: none.
   int weakest = -1;

@@ -12,10 +12,10 @@ namespace mountcal {
 
 /// One point of the error curves; errors in body axes (x forward, y right, z down) [m].
 struct ErrorCurveSample {
-  double scan_angle_rad = 0.0;          ///< θ, positive to starboard [rad]
-  double range_m = 0.0;                 ///< ρ [m]
-  Vec3 exact_b = Vec3::Zero();          ///< error from the library's exact georeferencing [m]
-  Vec3 first_order_b = Vec3::Zero();    ///< first-order form of SPEC §2 [m]
+  double scan_angle_rad = 0.0;        ///< θ, positive to starboard [rad]
+  double range_m = 0.0;               ///< ρ [m]
+  Vec3 exact_b = Vec3::Zero();        ///< error from the library's exact georeferencing [m]
+  Vec3 first_order_b = Vec3::Zero();  ///< first-order form of SPEC §2 [m]
 };
 
 /// First-order boresight error of a line scanner (SPEC §2):
@@ -25,8 +25,7 @@ Vec3 boresightErrorFirstOrder(const Vec3& boresight, double scan_angle_rad, doub
 /// Computes the curves with the library's GeoreferenceModel: a level flight (heading 0, zero
 /// lever arm, local frame) georeferenced once with `boresight` and once with none; the
 /// difference is rotated back into body axes. One sample per (range, angle) pair, ranges outer.
-std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight,
-                                                   const std::vector<double>& scan_angles_rad,
+std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight, const std::vector<double>& scan_angles_rad,
                                                    const std::vector<double>& ranges_m);
 
 /// CSV table: `range_m,scan_angle_deg,exact_x_m,exact_y_m,exact_z_m,first_x_m,first_y_m,first_z_m`.
@@ -34,8 +33,7 @@ std::string errorCurvesCsv(const std::vector<ErrorCurveSample>& samples);
 
 /// SVG plot of one body axis (0 = along-track x, 1 = cross-track y, 2 = vertical z) against
 /// scan angle, one curve per range.
-std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis,
-                          const std::string& title);
+std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis, const std::string& title);
 
 /// Writes `dir`/fig_errors.csv and the three plots fig1_x.svg, fig2_y.svg, fig3_z.svg, each
 /// through a temporary file. `boresight_deg` labels the titles. Throws FileError.

@@ -25,8 +25,7 @@ struct CheckPointReport {
 
 /// Builds the virtual tie points of `data.ties` (the check points) at `data.mounting_used` and
 /// evaluates them at `mounting` (Rule 2).
-CheckPointReport evaluateCheckPoints(const CalibrationData& data, const MountingParameters& mounting,
-                                     const VtpOptions& options = {});
+CheckPointReport evaluateCheckPoints(const CalibrationData& data, const MountingParameters& mounting, const VtpOptions& options = {});
 
 struct CheckPlaneResult {
   std::string plane_id;
@@ -37,8 +36,7 @@ struct CheckPlaneResult {
 /// For each region, the points of every strip inside it, georeferenced with `mounting`, are
 /// fitted by one plane; the RMS of their distances (seed eq. 13) measures how well the strips
 /// agree. A region with fewer than 4 points gets rms NaN.
-std::vector<CheckPlaneResult> evaluateCheckPlanes(const CalibrationData& data,
-                                                  const std::vector<PlaneRegion>& regions,
+std::vector<CheckPlaneResult> evaluateCheckPlanes(const CalibrationData& data, const std::vector<PlaneRegion>& regions,
                                                   const MountingParameters& mounting);
 
 /// The pass-to-pass discrepancy (issue "Real UAV data"): each point of the smaller strip of a
@@ -58,8 +56,8 @@ struct DiscrepancyOptions {
 };
 
 struct DiscrepancyStats {
-  std::size_t queries = 0;  ///< points of the smaller strip examined
-  std::size_t used = 0;     ///< points that passed the gates
+  std::size_t queries = 0;                                        ///< points of the smaller strip examined
+  std::size_t used = 0;                                           ///< points that passed the gates
   double median_m = NAN, rms_m = NAN, p90_m = NAN, mean_m = NAN;  ///< of |distance| [m]
 };
 
@@ -80,7 +78,6 @@ std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, cons
                                                const DiscrepancyOptions& options = {});
 
 /// The statistics over every pair's used points together (a pair's points are weighted by count).
-DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& mounting,
-                                   const DiscrepancyOptions& options = {});
+DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& mounting, const DiscrepancyOptions& options = {});
 
 }  // namespace mountcal

@@ -12,8 +12,7 @@ namespace mountcal {
 /// The report as one HTML document: solver outcome, parameters with sigmas, observability,
 /// correlations, per-observation residuals before/after (table and plot), rejected ties, and
 /// check-data evaluation when given.
-std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultEvaluation* evaluation,
-                       const std::string& title);
+std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultEvaluation* evaluation, const std::string& title);
 
 /// What the visual report draws and where (issue 11). Lengths [m].
 struct ReportOptions {
@@ -28,9 +27,9 @@ struct ReportOptions {
   int automatic_profiles = 2;         ///< at the places where the strips disagreed most before
   double profile_length_m = 30.0;
   double profile_width_m = 1.0;
-  double overlay_size_m = 30.0;       ///< side of the intensity overlay's window
-  int overlay_px = 180;               ///< its pixels per side
-  int map_px = 720;                   ///< width of the plan-view map
+  double overlay_size_m = 30.0;             ///< side of the intensity overlay's window
+  int overlay_px = 180;                     ///< its pixels per side
+  int map_px = 720;                         ///< width of the plan-view map
   std::size_t max_points_per_panel = 6000;  ///< larger point sets are thinned evenly for drawing
 };
 
@@ -41,8 +40,8 @@ struct ReportOptions {
 /// after (Fig. 11), the error curves (Figs 1–3) at the estimated boresight, and warnings. One
 /// self-contained HTML file: inline SVG and PNG, no scripts, no network. `data` is what was
 /// calibrated (the "after" points are its points moved by the estimated mounting, SPEC §2 eq. 1).
-std::string visualReport(const MountingCalibrator::Summary& summary, const CalibrationData& data,
-                         const ResultEvaluation* evaluation, const ReportOptions& options = {});
+std::string visualReport(const MountingCalibrator::Summary& summary, const CalibrationData& data, const ResultEvaluation* evaluation,
+                         const ReportOptions& options = {});
 
 /// An 8-bit RGB image as a PNG file (stored deflate blocks, CRC-32 and Adler-32 written here).
 std::string encodePng(int width, int height, const std::vector<unsigned char>& rgb);

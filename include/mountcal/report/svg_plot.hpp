@@ -31,8 +31,7 @@ class SvgLinePlot {
 /// A correlation matrix as a heat map: n × n cells coloured from blue (−1) through white (0) to
 /// red (+1), the value written in each cell, `labels` on both axes; NaN cells grey with "—".
 /// Returns an SVG element (inline in HTML).
-std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const std::vector<double>& values_row_major,
-                                  int cell_px = 64);
+std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const std::vector<double>& values_row_major, int cell_px = 64);
 
 /// The colour of a correlation in the heat map ("#rrggbb").
 std::string correlationColour(double c);

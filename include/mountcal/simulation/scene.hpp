@@ -20,10 +20,10 @@ enum class SurfaceKind : std::uint8_t { kGround, kMarking, kRoof, kWall, kBoard,
 
 /// A ray hit.
 struct Hit {
-  double range_m = 0.0;          ///< distance from the ray origin [m]
-  Vec3 point_m = Vec3::Zero();   ///< hit point, mapping frame [m]
-  Vec3 normal_m = Vec3::UnitZ(); ///< unit surface normal (facing the ray) [-]
-  float intensity = 0.0f;        ///< reflectance of the surface [0–255]
+  double range_m = 0.0;           ///< distance from the ray origin [m]
+  Vec3 point_m = Vec3::Zero();    ///< hit point, mapping frame [m]
+  Vec3 normal_m = Vec3::UnitZ();  ///< unit surface normal (facing the ray) [-]
+  float intensity = 0.0f;         ///< reflectance of the surface [0–255]
   SurfaceKind kind = SurfaceKind::kGround;
 };
 
@@ -54,31 +54,25 @@ class Scene {
   double groundHeight(double x_m, double y_m) const;
 
   /// A painted rectangle on the ground (length along `heading`, clockwise from North).
-  void addMarking(double cx, double cy, double length_m, double width_m, double heading_rad,
-                  float intensity = 220.0f);
+  void addMarking(double cx, double cy, double length_m, double width_m, double heading_rad, float intensity = 220.0f);
   /// A zebra crossing: `stripes` stripes 0.5 m wide, 1 m apart, `length_m` long, across a road
   /// running along `heading`; its outer corners become feature points.
-  void addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad,
-                        int stripes = 6, double length_m = 4.0);
+  void addZebraCrossing(const std::string& id, double cx, double cy, double heading_rad, int stripes = 6, double length_m = 4.0);
   /// A flat-roof building; roof corners inset by 2 m become feature points.
-  void addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m,
-                           double width_m, double height_m, double heading_rad);
+  void addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m, double width_m, double height_m,
+                           double heading_rad);
   /// A gable-roof house (ridge along `heading`); one point in the middle of each roof plane
   /// becomes a feature point.
-  void addGableHouse(const std::string& id, double cx, double cy, double length_m,
-                     double width_m, double eave_height_m, double ridge_height_m,
-                     double heading_rad);
+  void addGableHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double eave_height_m,
+                     double ridge_height_m, double heading_rad);
   /// A raised (and possibly tilted) square target board of side `size_m` whose centre is a
   /// feature point; `tilt_rad` rotates it about its own x axis.
-  void addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad,
-                double tilt_rad, float intensity = 230.0f);
+  void addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad, double tilt_rad, float intensity = 230.0f);
   /// A ground target (square marking) whose centre and corners are feature points.
-  void addGroundTarget(const std::string& id, double cx, double cy, double size_m,
-                       double heading_rad, float intensity = 230.0f);
+  void addGroundTarget(const std::string& id, double cx, double cy, double size_m, double heading_rad, float intensity = 230.0f);
   /// A tree: a vertical cylinder of crown from `crown_base_m` to `top_m` above the ground that
   /// returns a scattered point with probability `density` per ray crossing it.
-  void addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m,
-               double density = 0.5);
+  void addTree(double cx, double cy, double radius_m, double crown_base_m, double top_m, double density = 0.5);
   /// A check plane: bare ground patch.
   void addCheckPlane(const std::string& id, double xmin, double ymin, double xmax, double ymax);
   void addFeature(const FeaturePoint& f) { features_.push_back(f); }
@@ -101,8 +95,7 @@ class Scene {
 
   /// Casts the ray origin + s·dir (dir unit), s > 0. `pulse_id` seeds the clutter decision so
   /// the result is deterministic. Returns false when nothing is hit within `max_range_m`.
-  bool cast(const Vec3& origin_m, const Vec3& dir_m, std::uint64_t pulse_id, Hit* hit,
-            double max_range_m = 1e5) const;
+  bool cast(const Vec3& origin_m, const Vec3& dir_m, std::uint64_t pulse_id, Hit* hit, double max_range_m = 1e5) const;
 
   /// Writes the building and board triangles as a Wavefront OBJ (via OpenMesh) — for looking
   /// at the scene in any mesh viewer. Throws FileError.

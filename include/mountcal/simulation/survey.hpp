@@ -29,9 +29,9 @@ enum class MirrorPattern {
 };
 
 struct LineScannerConfig {
-  double prf_hz = 150e3;                 ///< pulse repetition frequency [Hz]
-  double scan_rate_hz = 60.0;            ///< full mirror periods per second [Hz]
-  double half_fov_rad = deg2rad(20.0);   ///< maximum |θ| [rad]
+  double prf_hz = 150e3;                ///< pulse repetition frequency [Hz]
+  double scan_rate_hz = 60.0;           ///< full mirror periods per second [Hz]
+  double half_fov_rad = deg2rad(20.0);  ///< maximum |θ| [rad]
   MirrorPattern pattern = MirrorPattern::kSinusoidal;
 };
 
@@ -43,14 +43,14 @@ struct MultiBeamConfig {
 
 /// A straight flight line at constant height and speed.
 struct FlightLine {
-  std::string id;                ///< strip id in the outputs
-  double x0_m = 0, y0_m = 0;     ///< start of the line [m]
-  double heading_rad = 0;        ///< direction of flight, clockwise from North [rad]
-  double length_m = 1000;        ///< [m]
-  double height_m = 760;         ///< flying height above the ground datum z = 0 [m]
-  double speed_mps = 60;         ///< ground speed [m/s]
-  double prf_hz = 0;             ///< line scanner PRF for this line [Hz] (0: the scanner's)
-  double scan_rate_hz = 0;       ///< line scanner mirror rate for this line [Hz] (0: the scanner's)
+  std::string id;             ///< strip id in the outputs
+  double x0_m = 0, y0_m = 0;  ///< start of the line [m]
+  double heading_rad = 0;     ///< direction of flight, clockwise from North [rad]
+  double length_m = 1000;     ///< [m]
+  double height_m = 760;      ///< flying height above the ground datum z = 0 [m]
+  double speed_mps = 60;      ///< ground speed [m/s]
+  double prf_hz = 0;          ///< line scanner PRF for this line [Hz] (0: the scanner's)
+  double scan_rate_hz = 0;    ///< line scanner mirror rate for this line [Hz] (0: the scanner's)
 };
 
 /// Attitude dynamics of the platform: slow sinusoidal oscillation of a few tenths of a degree.
@@ -64,13 +64,13 @@ struct AttitudeDynamics {
 /// Measurement errors. Position and attitude errors are first-order Gauss–Markov processes
 /// (smooth, correlated in time); range, scan-angle and picking noise are white.
 struct NoiseModel {
-  double range_sigma_m = 0.0;            ///< [m]
-  double scan_angle_sigma_rad = 0.0;     ///< [rad]
-  double gnss_sigma_m = 0.0;             ///< per axis [m]
-  double gnss_correlation_s = 100.0;     ///< [s]
-  double attitude_sigma_rad = 0.0;       ///< roll and pitch [rad]; heading gets twice this
-  double attitude_correlation_s = 1.0;   ///< [s]
-  double pick_sigma_m = 0.0;             ///< tie picking, per horizontal axis [m]
+  double range_sigma_m = 0.0;           ///< [m]
+  double scan_angle_sigma_rad = 0.0;    ///< [rad]
+  double gnss_sigma_m = 0.0;            ///< per axis [m]
+  double gnss_correlation_s = 100.0;    ///< [s]
+  double attitude_sigma_rad = 0.0;      ///< roll and pitch [rad]; heading gets twice this
+  double attitude_correlation_s = 1.0;  ///< [s]
+  double pick_sigma_m = 0.0;            ///< tie picking, per horizontal axis [m]
 
   static NoiseModel none() { return {}; }
   /// A post-processed airborne survey: 2 cm range, 0.001° scan-angle encoder, 1.5 cm
@@ -108,20 +108,20 @@ struct SurveyConfig {
 /// One simulated strip.
 struct SimulatedStrip {
   std::string id;
-  std::vector<RawPulse> pulses;      ///< raw observations (with noise), one per return
-  std::vector<Vec3> points_m;        ///< georeferenced with the nominal mounting [m]
-  std::vector<Vec3> true_points_m;   ///< where the ray really hit [m]
-  std::vector<SurfaceKind> kinds;    ///< what it hit
+  std::vector<RawPulse> pulses;     ///< raw observations (with noise), one per return
+  std::vector<Vec3> points_m;       ///< georeferenced with the nominal mounting [m]
+  std::vector<Vec3> true_points_m;  ///< where the ray really hit [m]
+  std::vector<SurfaceKind> kinds;   ///< what it hit
 };
 
 /// The plan position of a feature as picked on one strip (SPEC §4 Ties CSV).
 struct TiePick {
   std::string tie_id;
   std::string strip_id;
-  double x_m = 0, y_m = 0;             ///< picked plan position in the strip [m]
-  Vec3 apparent_m = Vec3::Zero();      ///< the feature as the strip shows it, no picking noise
-  Vec3 true_m = Vec3::Zero();          ///< the feature's true position [m]
-  double time_s = 0;                   ///< when the scanner saw it [s]
+  double x_m = 0, y_m = 0;         ///< picked plan position in the strip [m]
+  Vec3 apparent_m = Vec3::Zero();  ///< the feature as the strip shows it, no picking noise
+  Vec3 true_m = Vec3::Zero();      ///< the feature's true position [m]
+  double time_s = 0;               ///< when the scanner saw it [s]
 };
 
 struct SimulatedSurvey {
@@ -132,9 +132,9 @@ struct SimulatedSurvey {
   std::vector<TiePick> ties;
   std::vector<TiePick> check_points;
   std::vector<PlanePatch> check_planes;
-  std::vector<PlanePatch> plane_regions;  ///< calibration patches (roof faces) for the plane method
-  std::vector<PlanePatch> target_regions; ///< regions around the high-intensity targets for the feature method
-  std::vector<FeaturePoint> gcps;  ///< true positions of the tie features (for GCP tests)
+  std::vector<PlanePatch> plane_regions;   ///< calibration patches (roof faces) for the plane method
+  std::vector<PlanePatch> target_regions;  ///< regions around the high-intensity targets for the feature method
+  std::vector<FeaturePoint> gcps;          ///< true positions of the tie features (for GCP tests)
 };
 
 /// Keeps only the lines flown at the first line's height (scenario key `"one_height"`).
@@ -182,6 +182,5 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 ///   "roi_radius_m": R}`. Throws FileError naming the file and the field for anything unknown
 /// or malformed.
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
-
 
 }  // namespace mountcal::simulation

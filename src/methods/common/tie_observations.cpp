@@ -41,6 +41,7 @@ class GcpPrior final : public ceres::SizedCostFunction<3, 3> {
     }
     return true;
   }
+
  private:
   Vec3 x_, w_;
 };
@@ -126,8 +127,8 @@ Vec3 triangleNormal(const VirtualTiePoint& v) {
 TieObservations::~TieObservations() = default;
 
 TieObservations::TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
-                                 const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
-                                 const VtpOptions& vtp, std::string kind, int threads)
+                                 const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options, const VtpOptions& vtp,
+                                 std::string kind, int threads)
     : kind_(std::move(kind)), options_(options), gcps_(gcps), data_(&data), picks_(picks), vtp_(vtp) {
   threads_ = threads;
   data.requirePoses();
@@ -146,13 +147,14 @@ void TieObservations::build(const MountingParameters& reference) {
   // ---- virtual tie points (SPEC §3 steps 1–3) -------------------------------------------
   std::map<std::string, std::size_t> strip_index;
   for (std::size_t i = 0; i < data.strips.size(); ++i) {
-    if (!strip_index.emplace(data.strips[i].id, i).second) throw InvalidInput("calibrate: strip id '" + data.strips[i].id + "' appears twice");
+    if (!strip_index.emplace(data.strips[i].id, i).second)
+      throw InvalidInput("calibrate: strip id '" + data.strips[i].id + "' appears twice");
   }
   std::set<std::string> needed;
   for (const TieObservation& t : picks) {
     if (!strip_index.count(t.strip_id)) {
-      throw InvalidInput("tie '" + t.tie_id + "'" + (t.line ? " (line " + std::to_string(t.line) + ")" : std::string()) +
-                         " names strip '" + t.strip_id + "', which is not in the job");
+      throw InvalidInput("tie '" + t.tie_id + "'" + (t.line ? " (line " + std::to_string(t.line) + ")" : std::string()) + " names strip '" +
+                         t.strip_id + "', which is not in the job");
     }
     needed.insert(t.strip_id);
   }
@@ -185,8 +187,10 @@ void TieObservations::build(const MountingParameters& reference) {
     const StripData& strip = data.strips[strip_index.at(ids[k])];
     if (control && !strip.x_m.empty() && strip.x_m.size() == strip.time_s.size()) {
       StripData sub = nearPicks(strip);  // georeferenced at the reference mounting by VtpStrip
-      if (sub.time_s.size() >= 3) built[k] = std::make_unique<VtpStrip>(std::move(sub), data.trajectory, reference);
-      else built[k] = std::make_unique<VtpStrip>(strip, data.trajectory, data.mounting_used);
+      if (sub.time_s.size() >= 3)
+        built[k] = std::make_unique<VtpStrip>(std::move(sub), data.trajectory, reference);
+      else
+        built[k] = std::make_unique<VtpStrip>(strip, data.trajectory, data.mounting_used);
     } else if (reference.toArray() == data.mounting_used.toArray()) {
       built[k] = std::make_unique<VtpStrip>(strip, data.trajectory, data.mounting_used);
     } else {
@@ -238,7 +242,8 @@ void TieObservations::build(const MountingParameters& reference) {
           near.push_back(k);
         } else {
           char buf[160];
-          std::snprintf(buf, sizeof buf, "another surface: the strip's surface is %.2f m from the control point (more than %.1f m)", d, kControlGate_m);
+          std::snprintf(buf, sizeof buf, "another surface: the strip's surface is %.2f m from the control point (more than %.1f m)", d,
+                        kControlGate_m);
           section_.rejected.push_back({id, v.stripId(), buf});
         }
       }
@@ -246,7 +251,9 @@ void TieObservations::build(const MountingParameters& reference) {
       if (tie.obs.empty()) continue;
     }
     if (obs.size() < 2 && !tie.gcp) {
-      for (int k : obs) section_.rejected.push_back({id, vtps_[static_cast<std::size_t>(k)].stripId(), "the tie has a usable observation on only one strip"});
+      for (int k : obs)
+        section_.rejected.push_back(
+            {id, vtps_[static_cast<std::size_t>(k)].stripId(), "the tie has a usable observation on only one strip"});
       continue;
     }
     // seed eq. (7): the tie's mean at M_used, its initial position.
@@ -260,8 +267,7 @@ void TieObservations::build(const MountingParameters& reference) {
   section_.observations_used = n_obs;
 }
 
-std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData& data,
-                                                          const std::vector<GroundControlPoint>& gcps,
+std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData& data, const std::vector<GroundControlPoint>& gcps,
                                                           const TieObservationOptions& options, const VtpOptions& vtp, int threads) {
   std::vector<TieObservation> picks;
   for (const GroundControlPoint& g : gcps)
@@ -305,8 +311,8 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
           blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId()), dpsi}));
           continue;
         }
-        auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(
-            new ControlResidual(residual), ceres::TAKE_OWNERSHIP, 1, nd);
+        auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(new ControlResidual(residual),
+                                                                                                  ceres::TAKE_OWNERSHIP, 1, nd);
         blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId())}));
       }
     }
@@ -417,7 +423,8 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
   section_.rms_before_m = (ss_before / n).cwiseSqrt();
   section_.rms_after_m = (ss_after / n).cwiseSqrt();
   const double robust_sigma = robustScaleFromNorms(norms, kind_ == "control" ? 1 : 3);  // per axis, from the median norm
-  const double threshold = std::max(analysis.outlier_factor * robust_sigma, 3.0 * std::min(options_.tie_sigma_xy_m, options_.tie_sigma_z_m));
+  const double threshold =
+      std::max(analysis.outlier_factor * robust_sigma, 3.0 * std::min(options_.tie_sigma_xy_m, options_.tie_sigma_z_m));
   for (std::size_t i = 0; i < section_.residuals.size(); ++i) section_.residuals[i].outlier = norms[i] > threshold;
 }
 

@@ -12,18 +12,23 @@ namespace mountcal::detail {
 template <class T>
 OptionTable<T> tieOptionTable() {
   OptionTable<T> t;
-  t.number("radius_m", [](T& o) -> double& { return o.vtp.radius_m; }, "m", 0.01, 100.0,
-           "search radius around a pick (grown to 2.5 x the point spacing, up to max_radius_m)");
-  t.number("max_radius_m", [](T& o) -> double& { return o.vtp.max_radius_m; }, "m", 0.01, 100.0,
-           "the grown radius never exceeds this (nor shrinks below radius_m)");
-  t.number("ransac_threshold_m", [](T& o) -> double& { return o.vtp.ransac_threshold_m; }, "m", 1e-4, 10.0,
-           "largest point-to-plane distance of a RANSAC inlier");
-  t.number("tie_sigma_xy_m", [](T& o) -> double& { return o.tie_sigma_xy_m; }, "m", 1e-4, 100.0,
-           "a-priori sigma of a pick, horizontal");
-  t.number("tie_sigma_z_m", [](T& o) -> double& { return o.tie_sigma_z_m; }, "m", 1e-4, 100.0,
-           "a-priori sigma of a pick's height (Rule 1 interpolation)");
-  t.boolean("estimate_tie_sigma", [](T& o) -> bool& { return o.estimate_tie_sigma; },
-            "estimate the two sigma above from the residuals (variance components)");
+  t.number(
+      "radius_m", [](T& o) -> double& { return o.vtp.radius_m; }, "m", 0.01, 100.0,
+      "search radius around a pick (grown to 2.5 x the point spacing, up to max_radius_m)");
+  t.number(
+      "max_radius_m", [](T& o) -> double& { return o.vtp.max_radius_m; }, "m", 0.01, 100.0,
+      "the grown radius never exceeds this (nor shrinks below radius_m)");
+  t.number(
+      "ransac_threshold_m", [](T& o) -> double& { return o.vtp.ransac_threshold_m; }, "m", 1e-4, 10.0,
+      "largest point-to-plane distance of a RANSAC inlier");
+  t.number(
+      "tie_sigma_xy_m", [](T& o) -> double& { return o.tie_sigma_xy_m; }, "m", 1e-4, 100.0, "a-priori sigma of a pick, horizontal");
+  t.number(
+      "tie_sigma_z_m", [](T& o) -> double& { return o.tie_sigma_z_m; }, "m", 1e-4, 100.0,
+      "a-priori sigma of a pick's height (Rule 1 interpolation)");
+  t.boolean(
+      "estimate_tie_sigma", [](T& o) -> bool& { return o.estimate_tie_sigma; },
+      "estimate the two sigma above from the residuals (variance components)");
   return t;
 }
 

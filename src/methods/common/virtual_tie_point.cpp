@@ -40,11 +40,14 @@ void fitRigidTransform(const Vec3* p, const Vec3* q, int n, Mat3* R, Vec3* t) {
 }
 
 // ------------------------------------------------------------------------------------------
-VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m,
-                                 double pick_y_m, const std::array<LaserFootprint, 3>& vertices,
-                                 const MountingParameters& reference)
-    : tie_id_(std::move(tie_id)), strip_id_(std::move(strip_id)), vertices_(vertices),
-      R_nom_(reference.R_nom), R_bs0_(reference.R_bs()), a0_b_(reference.a_b) {
+VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m,
+                                 const std::array<LaserFootprint, 3>& vertices, const MountingParameters& reference)
+    : tie_id_(std::move(tie_id)),
+      strip_id_(std::move(strip_id)),
+      vertices_(vertices),
+      R_nom_(reference.R_nom),
+      R_bs0_(reference.R_bs()),
+      a0_b_(reference.a_b) {
   // Rule 1 (seed eq. 5): height of the pick on the triangle's plane.
   const double z = interpolateHeight(vertices_[0].x0_m, vertices_[1].x0_m, vertices_[2].x0_m, pick_x_m, pick_y_m);
   P0_m_ = Vec3(pick_x_m, pick_y_m, z);
@@ -79,10 +82,8 @@ struct VtpStrip::Index {
   std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree;
 };
 
-VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,
-                   const MountingParameters& reference)
-    : strip_(std::move(strip)), trajectory_(std::move(trajectory)), reference_(reference),
-      index_(std::make_unique<Index>()) {
+VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory, const MountingParameters& reference)
+    : strip_(std::move(strip)), trajectory_(std::move(trajectory)), reference_(reference), index_(std::make_unique<Index>()) {
   const std::size_t n = strip_.time_s.size();
   if (strip_.r_s.size() != n || (!strip_.x_m.empty() && strip_.x_m.size() != n)) {
     throw InvalidInput("strip '" + strip_.id + "': time, r_s and x_m must have the same length");
@@ -217,14 +218,13 @@ using TinMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
 }  // namespace
 
-bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTiePoint* vtp,
-                     std::string* reason) const {
+bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTiePoint* vtp, std::string* reason) const {
   const double spacing = localSpacing(pick.x_m, pick.y_m);
   const double radius = std::max(o.radius_m, std::min(o.max_radius_m, o.radius_spacing_factor * spacing));
   std::vector<std::size_t> idx = radiusSearch(pick.x_m, pick.y_m, radius);
   if (static_cast<int>(idx.size()) < std::max(o.min_points, 3)) {
-    *reason = "too few points: " + std::to_string(idx.size()) + " within " + std::to_string(radius).substr(0, 4) +
-              " m of the pick (need " + std::to_string(std::max(o.min_points, 3)) + "); is the pick on this strip?";
+    *reason = "too few points: " + std::to_string(idx.size()) + " within " + std::to_string(radius).substr(0, 4) + " m of the pick (need " +
+              std::to_string(std::max(o.min_points, 3)) + "); is the pick on this strip?";
     return false;
   }
   // RANSAC plane (deterministic: seeded by the pick).
@@ -257,9 +257,9 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   }
   if (static_cast<int>(best.size()) < std::max(o.min_points, 3) ||
       static_cast<double>(best_near) < o.min_inlier_fraction * static_cast<double>(n_near)) {
-    *reason = "no plane: " + std::to_string(best_near) + " of the " + std::to_string(n_near) +
-              " points nearest the pick (" + std::to_string(best.size()) + " of " + std::to_string(idx.size()) +
-              " in all) within " + std::to_string(o.ransac_threshold_m).substr(0, 5) + " m of one plane";
+    *reason = "no plane: " + std::to_string(best_near) + " of the " + std::to_string(n_near) + " points nearest the pick (" +
+              std::to_string(best.size()) + " of " + std::to_string(idx.size()) + " in all) within " +
+              std::to_string(o.ransac_threshold_m).substr(0, 5) + " m of one plane";
     return false;
   }
   // Least-squares plane of the inliers, then re-select inliers against it.
@@ -272,7 +272,8 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   Vec3 n = eig.eigenvectors().col(0);
   if (n.z() < 0) n = -n;
   if (n.z() < std::cos(deg2rad(o.max_plane_tilt_deg))) {
-    *reason = "no plane: the local surface is too steep (" + std::to_string(rad2deg(std::acos(n.z()))).substr(0, 4) + "°) to hold a plan pick";
+    *reason =
+        "no plane: the local surface is too steep (" + std::to_string(rad2deg(std::acos(n.z()))).substr(0, 4) + "°) to hold a plan pick";
     return false;
   }
   std::vector<std::size_t> inliers;
@@ -294,12 +295,16 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   // Delaunay triangulation held in an OpenMesh TriMesh; find the enclosing face.
   TinMesh tin;
   std::vector<TinMesh::VertexHandle> vh;
-  for (std::size_t i : inliers) vh.push_back(tin.add_vertex(TinMesh::Point(static_cast<float>(X[i].x() - c.x()), static_cast<float>(X[i].y() - c.y()), static_cast<float>(X[i].z() - c.z()))));
+  for (std::size_t i : inliers)
+    vh.push_back(tin.add_vertex(
+        TinMesh::Point(static_cast<float>(X[i].x() - c.x()), static_cast<float>(X[i].y() - c.y()), static_cast<float>(X[i].z() - c.z()))));
   for (const auto& t : delaunay(uv)) {
     // Orient counter-clockwise in (u, v) so that OpenMesh sees a consistent manifold.
     const Eigen::Vector2d e1 = uv[t[1]] - uv[t[0]], e2 = uv[t[2]] - uv[t[0]];
-    if (e1.x() * e2.y() - e1.y() * e2.x() > 0) tin.add_face(vh[t[0]], vh[t[1]], vh[t[2]]);
-    else tin.add_face(vh[t[0]], vh[t[2]], vh[t[1]]);
+    if (e1.x() * e2.y() - e1.y() * e2.x() > 0)
+      tin.add_face(vh[t[0]], vh[t[1]], vh[t[2]]);
+    else
+      tin.add_face(vh[t[0]], vh[t[2]], vh[t[1]]);
   }
   int found[3] = {-1, -1, -1};
   for (auto fh : tin.faces()) {
@@ -317,7 +322,8 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
     }
   }
   if (found[0] < 0) {
-    *reason = "outside the hull: the pick is not inside the triangulation of the " + std::to_string(inliers.size()) + " coplanar points around it";
+    *reason = "outside the hull: the pick is not inside the triangulation of the " + std::to_string(inliers.size()) +
+              " coplanar points around it";
     return false;
   }
   // Degenerate (sliver) triangle check: smallest angle.

@@ -34,8 +34,7 @@ struct VtpResidual {
 inline ceres::CostFunction* makeVtpCostFunction(const VirtualTiePoint* vtp, const Mat3& W, double relative_step = 1e-6) {
   ceres::NumericDiffOptions nd;
   nd.relative_step_size = relative_step;
-  return new ceres::NumericDiffCostFunction<VtpResidual, ceres::CENTRAL, 3, 6, 3, 3>(new VtpResidual{vtp, W}, ceres::TAKE_OWNERSHIP,
-                                                                                     3, nd);
+  return new ceres::NumericDiffCostFunction<VtpResidual, ceres::CENTRAL, 3, 6, 3, 3>(new VtpResidual{vtp, W}, ceres::TAKE_OWNERSHIP, 3, nd);
 }
 /// A tie observation with the strip's attitude error δψ at its time (a random effect of the
 /// stochastic model): r = W (P_ki(M) + o_i + δψ × u − X_k), blocks (mounting, X_k, o_i, δψ),

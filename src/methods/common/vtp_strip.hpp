@@ -19,8 +19,7 @@ class VtpStrip {
   /// (which may then be null), when `strip.x_m` is empty.
   /// Throws InvalidInput for inconsistent sizes, TimeOutOfRange for a point outside the
   /// trajectory.
-  VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory,
-           const MountingParameters& reference);
+  VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory, const MountingParameters& reference);
   ~VtpStrip();
   VtpStrip(VtpStrip&&) noexcept;
   VtpStrip& operator=(VtpStrip&&) noexcept;
@@ -32,8 +31,7 @@ class VtpStrip {
   double localSpacing(double x_m, double y_m) const;
 
   /// Builds the VTP of a pick; on failure returns false and sets `reason`.
-  bool build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp,
-             std::string* reason) const;
+  bool build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp, std::string* reason) const;
 
  private:
   struct Index;

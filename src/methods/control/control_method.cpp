@@ -41,7 +41,8 @@ const std::vector<OptionSpec>& controlOptionSpecs() {
 
 std::string ControlMethod::name() const { return ControlOptions::kMethod; }
 std::string ControlMethod::description() const {
-  return "ground control with any method: each GCP (not a tie of \"vtpm\") picked on every strip that covers it; runs whenever the job has such GCPs";
+  return "ground control with any method: each GCP (not a tie of \"vtpm\") picked on every strip that covers it; runs whenever the job has "
+         "such GCPs";
 }
 MethodInput ControlMethod::input() const { return {"gcps", "", "the GCP CSV (gcp_id,x,y,z,sigma_xy_m,sigma_z_m)", false}; }
 std::any ControlMethod::defaultOptions() const { return ControlOptions{}; }
@@ -71,7 +72,8 @@ std::string ControlSection::text(const AdjustmentSummary&) const {
   std::ostringstream r;
   r << detail::printfString("\nGround control: %d points, %d observations; RMS after (%.4f, %.4f, %.4f) m\n", ties_used, observations_used,
                             rms_after_m.x(), rms_after_m.y(), rms_after_m.z());
-  for (const RejectedTie& t : rejected) r << "rejected control point " << t.tie_id << " on strip " << t.strip_id << ": " << t.reason << "\n";
+  for (const RejectedTie& t : rejected)
+    r << "rejected control point " << t.tie_id << " on strip " << t.strip_id << ": " << t.reason << "\n";
   return r.str();
 }
 
@@ -81,12 +83,19 @@ std::string ControlSection::resultJson(const AdjustmentSummary&) const {
   for (const RejectedTie& r : rejected) rej.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
   json res = json::array();
   for (const TieResidual& r : residuals) {
-    res.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", detail::vec3Json(r.before_m)},
-                   {"after_m", detail::vec3Json(r.after_m)}, {"outlier", r.outlier}});
+    res.push_back({{"gcp_id", r.tie_id},
+                   {"strip_id", r.strip_id},
+                   {"before_m", detail::vec3Json(r.before_m)},
+                   {"after_m", detail::vec3Json(r.after_m)},
+                   {"outlier", r.outlier}});
   }
   json j;
-  j["control"] = {{"points", ties_used}, {"observations", observations_used}, {"rms_before_m", detail::vec3Json(rms_before_m)},
-                  {"rms_after_m", detail::vec3Json(rms_after_m)}, {"residuals", res}, {"rejected", rej}};
+  j["control"] = {{"points", ties_used},
+                  {"observations", observations_used},
+                  {"rms_before_m", detail::vec3Json(rms_before_m)},
+                  {"rms_after_m", detail::vec3Json(rms_after_m)},
+                  {"residuals", res},
+                  {"rejected", rej}};
   return j.dump();
 }
 

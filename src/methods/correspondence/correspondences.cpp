@@ -31,7 +31,8 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
   if (max_neighbours < min_neighbours || max_neighbours > 1000) return fail("max_neighbours must be in [min_neighbours, 1000]");
   if (!(max_roughness_relative >= 1) || !std::isfinite(max_roughness_relative)) return fail("max_roughness_relative must be at least 1");
-  if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0)) return fail("roughness, distance and MAD factors must be positive");
+  if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0))
+    return fail("roughness, distance and MAD factors must be positive");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
   if (!(min_spread_ratio >= 0 && min_spread_ratio < 1)) return fail("min_spread_ratio must be in [0, 1)");
   if (!(coarse_radius_m > 0 && coarse_radius_m <= 100)) return fail("coarse_radius_m must be in (0, 100]");
@@ -89,7 +90,8 @@ std::unordered_set<std::int64_t> dilatedHull(const std::vector<Vec3>& x, double 
   std::unordered_set<std::int64_t> occupied, hull;
   for (const Vec3& p : x) {
     if (!occupied.insert(cellKey(p, voxel)).second) continue;
-    const Vec3 c((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel, (std::floor(p.z() / voxel) + 0.5) * voxel);
+    const Vec3 c((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel,
+                 (std::floor(p.z() / voxel) + 0.5) * voxel);
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) hull.insert(cellKey(c + Vec3(dx, dy, dz) * voxel, voxel));
@@ -148,7 +150,8 @@ class PointTree {
 };
 
 /// The candidate neighbourhoods of strips a and b (see PairCandidates).
-PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const StripRef& A, const StripRef& B, const CorrespondenceOptions& o) {
+PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const StripRef& A, const StripRef& B,
+                           const CorrespondenceOptions& o) {
   const StripData& SA = data.strips[static_cast<std::size_t>(ia)];
   const StripData& SB = data.strips[static_cast<std::size_t>(ib)];
   PairCandidates pc;
@@ -276,7 +279,8 @@ class Matcher {
     r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing_);
   }
 
-  static std::vector<std::pair<int, int>> pairsOf(const CalibrationData& data, const std::vector<StripRef>& refs, const CorrespondenceOptions& o) {
+  static std::vector<std::pair<int, int>> pairsOf(const CalibrationData& data, const std::vector<StripRef>& refs,
+                                                  const CorrespondenceOptions& o) {
     std::vector<std::pair<int, int>> out;
     for (std::size_t a = 0; a < refs.size(); ++a)
       for (std::size_t b = a + 1; b < refs.size(); ++b)
@@ -326,7 +330,8 @@ class Matcher {
       PointTree& tree = *trees_[pi];
       std::vector<std::size_t> found;
       std::vector<Vec3> xb(pr.points_b.size());
-      for (std::size_t k = 0; k < xb.size(); ++k) xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
+      for (std::size_t k = 0; k < xb.size(); ++k)
+        xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
       const auto K = static_cast<std::size_t>(o_.max_neighbours);
       std::vector<std::uint32_t> nb;
       for (std::size_t k = 0; k < pr.samples_a.size(); ++k) {
@@ -399,8 +404,10 @@ class Matcher {
       const double limit = std::max(o_.max_roughness_relative * rough[rough.size() / 2], 0.005);
       std::vector<Candidate> kept;
       for (auto& c : cand) {
-        if (c.c.roughness_m > limit) ++out.pairs[pairOf(c)].rejected_rough;
-        else kept.push_back(std::move(c));
+        if (c.c.roughness_m > limit)
+          ++out.pairs[pairOf(c)].rejected_rough;
+        else
+          kept.push_back(std::move(c));
       }
       cand.swap(kept);
       rough.clear();
@@ -445,14 +452,18 @@ class Matcher {
       medianAndLimit(all, &med_all, &lim_all);
       std::array<double, 3> med{}, lim{};
       for (std::size_t k = 0; k < 3; ++k) {
-        if (per[k].size() >= 10) medianAndLimit(per[k], &med[k], &lim[k]);
-        else med[k] = med_all, lim[k] = lim_all;
+        if (per[k].size() >= 10)
+          medianAndLimit(per[k], &med[k], &lim[k]);
+        else
+          med[k] = med_all, lim[k] = lim_all;
       }
       std::vector<Candidate> kept;
       for (auto& c : cand) {
         const auto k = static_cast<std::size_t>(tiltClass(c.c.normal));
-        if (std::abs(c.c.distance_m - med[k]) > lim[k]) ++out.pairs[pairOf(c)].rejected_mad;
-        else kept.push_back(std::move(c));
+        if (std::abs(c.c.distance_m - med[k]) > lim[k])
+          ++out.pairs[pairOf(c)].rejected_mad;
+        else
+          kept.push_back(std::move(c));
       }
       cand.swap(kept);
     }
@@ -520,7 +531,8 @@ class Matcher {
     std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
     for (std::size_t k = 1; k < order.size(); ++k)
       if (order[k].first == order[k - 1].first)
-        throw InvalidInput("correspondence candidates of strips '" + order[k].second->strip_a + "' and '" + order[k].second->strip_b + "' given twice");
+        throw InvalidInput("correspondence candidates of strips '" + order[k].second->strip_a + "' and '" + order[k].second->strip_b +
+                           "' given twice");
     for (const auto& e : order) {
       index_.push_back(e.first);
       pairs_.push_back(*e.second);
@@ -533,7 +545,7 @@ class Matcher {
   std::vector<std::pair<int, int>> index_;  // strip indices of each pair
   std::vector<PairCandidates> pairs_;
   std::vector<std::unique_ptr<PointTree>> trees_;
-  std::vector<Ref> refs_;                   // of the last matching's correspondences
+  std::vector<Ref> refs_;  // of the last matching's correspondences
   double spacing_ = 0, r_ = 0;
 };
 
@@ -563,7 +575,8 @@ PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, con
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
   const int n = static_cast<int>(data.strips.size());
-  if (a < 0 || b < 0 || a >= n || b >= n || a == b) throw InvalidInput("findPairCandidates: strips " + std::to_string(a) + " and " + std::to_string(b) + " are not two strips of the data");
+  if (a < 0 || b < 0 || a >= n || b >= n || a == b)
+    throw InvalidInput("findPairCandidates: strips " + std::to_string(a) + " and " + std::to_string(b) + " are not two strips of the data");
   data.requirePoses();
   const detail::StripRef A = detail::stripRef(data, data.strips[static_cast<std::size_t>(a)]);
   const detail::StripRef B = detail::stripRef(data, data.strips[static_cast<std::size_t>(b)]);
@@ -597,9 +610,9 @@ struct LaserPrior {
 /// r = (n·(x_A0 − x̄_B0) + g·vec(ΔR_bs) + h·Δa_b + n·(o_A − o_B))/σ — the same value, exactly
 /// (a test compares it with GeoreferenceModel), without a loop over the neighbours.
 struct CorrespondenceResidual {
-  double c0 = 0;                 // n·(x_A0 − x̄_B0) [m]
-  Eigen::Matrix<double, 9, 1> g; // (nᵀR_A)_k r_A,l − mean_j (nᵀR_j)_k r_j,l
-  Vec3 h;                        // nᵀR_A − mean_j nᵀR_j
+  double c0 = 0;                  // n·(x_A0 − x̄_B0) [m]
+  Eigen::Matrix<double, 9, 1> g;  // (nᵀR_A)_k r_A,l − mean_j (nᵀR_j)_k r_j,l
+  Vec3 h;                         // nᵀR_A − mean_j nᵀR_j
   Vec3 n;
   const MountingParameters* used;
   Mat3 R_bs_used;
@@ -642,8 +655,10 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   // Stage: coarse until the mounting stops moving (or for 15 rounds), then fine.
   if (coarse_ && section_.rounds > 0) {
     double change_m = 0, change_rad = 0;
-    for (int j = 0; j < 3; ++j) change_m = std::max(change_m, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
-    for (int j = 3; j < 6; ++j) change_rad = std::max(change_rad, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
+    for (int j = 0; j < 3; ++j)
+      change_m = std::max(change_m, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
+    for (int j = 3; j < 6; ++j)
+      change_rad = std::max(change_rad, std::abs(mounting[static_cast<std::size_t>(j)] - last_[static_cast<std::size_t>(j)]));
     constexpr int kMaxCoarseMatchings = 6;
     if ((change_m < 1e-3 && change_rad < 1e-4) || section_.rounds >= kMaxCoarseMatchings) {
       coarse_ = false;
@@ -707,7 +722,8 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     std::vector<double*> blocks = {P->mounting(), P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
                                    P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)};
     if (L > 0) blocks.push_back(laser_block_);
-    blocks_.push_back(loss_scale > 0 ? P->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale) : P->addResidualBlock(cost, set_.sigma_m, blocks));
+    blocks_.push_back(loss_scale > 0 ? P->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
+                                     : P->addResidualBlock(cost, set_.sigma_m, blocks));
   }
 }
 
@@ -819,8 +835,8 @@ void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const s
   stats(all_a, &section_.median_after_m, &section_.rms_after_m);
 }
 
-void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
-                                             const AnalysisOptions& /*analysis*/) {
+void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/,
+                                             const AdjustmentProblem& P, const AnalysisOptions& /*analysis*/) {
   // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
   dense_->place(m0, {});
   std::vector<double> before;

@@ -25,24 +25,51 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
   using T = CorrespondenceOptions;
   static const std::vector<OptionSpec> specs =
       OptionTable<T>()
-          .number("apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000, "largest strip-to-strip discrepancy expected before calibration")
-          .number("radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
-          .number("sample_spacing_m", [](T& o) -> double& { return o.sample_spacing_m; }, "m", 0, 10000, "spacing of the samples; 0: 2 r")
-          .integer("min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
-          .integer("max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
-          .number("max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6, "plane sigma above this x r: rough")
-          .number("max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6, "plane sigma above this x the median: rough")
-          .number("max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6, "|distance| above this x r: far")
-          .number("max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999, "largest angle between the two strips' normals")
-          .number("mad_factor", [](T& o) -> double& { return o.mad_factor; }, "-", 1e-9, 1e6, "beyond this x sigma_MAD of the distances: rejected")
-          .integer("budget", [](T& o) -> int& { return o.budget; }, 1, 10000000, "correspondences kept over all pairs")
-          .number("voxel_size_m", [](T& o) -> double& { return o.voxel_size_m; }, "m", 0, 10000, "coarse hull voxel; 0: 4 r, at least 2 m")
-          .number("sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a distance; 0: from the plane fits")
-          .number("min_spread_ratio", [](T& o) -> double& { return o.min_spread_ratio; }, "-", 0, 0.999999, "neighbourhoods along a line (one scan line) have no plane")
-          .boolean("dense", [](T& o) -> bool& { return o.dense; }, "dense matching of passes of a multi-beam scanner over one object")
-          .number("coarse_radius_m", [](T& o) -> double& { return o.coarse_radius_m; }, "m", 1e-6, 100, "dense mode's coarse stage radius")
-          .number("thin_cell_m", [](T& o) -> double& { return o.thin_cell_m; }, "m", 0, 10, "dense mode: one point per cube of this size; 0: every point")
-          .number("laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10, "dense mode: prior sigma of per-laser elevation offsets; 0: not estimated")
+          .number(
+              "apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000,
+              "largest strip-to-strip discrepancy expected before calibration")
+          .number(
+              "radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
+          .number(
+              "sample_spacing_m", [](T& o) -> double& { return o.sample_spacing_m; }, "m", 0, 10000, "spacing of the samples; 0: 2 r")
+          .integer(
+              "min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
+          .integer(
+              "max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
+          .number(
+              "max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6,
+              "plane sigma above this x r: rough")
+          .number(
+              "max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6,
+              "plane sigma above this x the median: rough")
+          .number(
+              "max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6,
+              "|distance| above this x r: far")
+          .number(
+              "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
+              "largest angle between the two strips' normals")
+          .number(
+              "mad_factor", [](T& o) -> double& { return o.mad_factor; }, "-", 1e-9, 1e6,
+              "beyond this x sigma_MAD of the distances: rejected")
+          .integer(
+              "budget", [](T& o) -> int& { return o.budget; }, 1, 10000000, "correspondences kept over all pairs")
+          .number(
+              "voxel_size_m", [](T& o) -> double& { return o.voxel_size_m; }, "m", 0, 10000, "coarse hull voxel; 0: 4 r, at least 2 m")
+          .number(
+              "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a distance; 0: from the plane fits")
+          .number(
+              "min_spread_ratio", [](T& o) -> double& { return o.min_spread_ratio; }, "-", 0, 0.999999,
+              "neighbourhoods along a line (one scan line) have no plane")
+          .boolean(
+              "dense", [](T& o) -> bool& { return o.dense; }, "dense matching of passes of a multi-beam scanner over one object")
+          .number(
+              "coarse_radius_m", [](T& o) -> double& { return o.coarse_radius_m; }, "m", 1e-6, 100, "dense mode's coarse stage radius")
+          .number(
+              "thin_cell_m", [](T& o) -> double& { return o.thin_cell_m; }, "m", 0, 10,
+              "dense mode: one point per cube of this size; 0: every point")
+          .number(
+              "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
+              "dense mode: prior sigma of per-laser elevation offsets; 0: not estimated")
           .specs();
   return specs;
 }
@@ -94,17 +121,35 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
   using nlohmann::json;
   json list = json::array();
   for (const CorrespondencePairStats& p : pairs) {
-    list.push_back({{"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"samples", p.samples}, {"kept", p.kept},
-                    {"rejected", {{"sparse", p.rejected_sparse}, {"rough", p.rejected_rough}, {"far", p.rejected_far},
-                                  {"normal", p.rejected_normal}, {"mad", p.rejected_mad}, {"budget", p.rejected_budget}}},
-                    {"median_before_m", p.median_before_m}, {"rms_before_m", p.rms_before_m},
-                    {"median_after_m", p.median_after_m}, {"rms_after_m", p.rms_after_m}});
+    list.push_back({{"strip_a", p.strip_a},
+                    {"strip_b", p.strip_b},
+                    {"samples", p.samples},
+                    {"kept", p.kept},
+                    {"rejected",
+                     {{"sparse", p.rejected_sparse},
+                      {"rough", p.rejected_rough},
+                      {"far", p.rejected_far},
+                      {"normal", p.rejected_normal},
+                      {"mad", p.rejected_mad},
+                      {"budget", p.rejected_budget}}},
+                    {"median_before_m", p.median_before_m},
+                    {"rms_before_m", p.rms_before_m},
+                    {"median_after_m", p.median_after_m},
+                    {"rms_after_m", p.rms_after_m}});
   }
   json j;
-  j["correspondences"] = {{"used", used}, {"matchings", rounds}, {"radius_m", radius_m}, {"spacing_m", spacing_m},
-                          {"sigma_m", sigma_m}, {"median_before_m", median_before_m}, {"rms_before_m", rms_before_m},
-                          {"median_after_m", median_after_m}, {"rms_after_m", rms_after_m},
-                          {"search_time_s", search_time_s}, {"points_searched", points_searched}, {"pairs", list}};
+  j["correspondences"] = {{"used", used},
+                          {"matchings", rounds},
+                          {"radius_m", radius_m},
+                          {"spacing_m", spacing_m},
+                          {"sigma_m", sigma_m},
+                          {"median_before_m", median_before_m},
+                          {"rms_before_m", rms_before_m},
+                          {"median_after_m", median_after_m},
+                          {"rms_after_m", rms_after_m},
+                          {"search_time_s", search_time_s},
+                          {"points_searched", points_searched},
+                          {"pairs", list}};
   if (!laser_elevation_deg.empty()) {
     json off = json::array(), sig = json::array(), cor = json::array(), pts = json::array();
     for (std::size_t i = 0; i < laser_elevation_deg.size(); ++i) {
@@ -114,8 +159,10 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
       pts.push_back(laser_points[i]);
     }
     // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
-    j["intrinsics"] = {{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig},
-                       {"laser_boresight_correlation", cor}, {"laser_points", pts}};
+    j["intrinsics"] = {{"laser_elevation_offset_deg", off},
+                       {"laser_elevation_sigma_deg", sig},
+                       {"laser_boresight_correlation", cor},
+                       {"laser_points", pts}};
   }
   return j.dump();
 }

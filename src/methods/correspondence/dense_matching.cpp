@@ -42,7 +42,8 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
   for (std::size_t s = 0; s < n; ++s) {
     const StripData& st = data.strips[s];
     if (st.r_s.size() != st.time_s.size()) throw InvalidInput("strip '" + st.id + "': time and r_s must have the same length");
-    if (!st.laser.empty() && st.laser.size() != st.r_s.size()) throw InvalidInput("strip '" + st.id + "': laser ids and points differ in number");
+    if (!st.laser.empty() && st.laser.size() != st.r_s.size())
+      throw InvalidInput("strip '" + st.id + "': laser ids and points differ in number");
     any_laser |= !st.laser.empty();
     all_laser &= !st.laser.empty();
     for (std::uint16_t l : st.laser) lasers_ = std::max(lasers_, static_cast<int>(l) + 1);
@@ -228,8 +229,10 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
     const double limit = std::max(o_.mad_factor * 1.4826 * v[v.size() / 2], 3.0 * sigma);
     std::vector<Candidate> kept;
     for (auto& c : cand) {
-      if (std::abs(c.c.distance_m - med) > limit) ++out.pairs[c.pair].rejected_mad;
-      else kept.push_back(std::move(c));
+      if (std::abs(c.c.distance_m - med) > limit)
+        ++out.pairs[c.pair].rejected_mad;
+      else
+        kept.push_back(std::move(c));
     }
     cand.swap(kept);
   }

@@ -47,7 +47,8 @@ class DenseMatcher {
   double spacing_ = 0.0;  // the strips' largest plan spacing at the mounting used [m]
   std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<float>>>> tree_;
   std::vector<std::vector<float>> ref_;
-  std::vector<std::vector<std::size_t>> keep_;  // each strip's points after thinning  // the trees' points (this round's positions − origin_)
+  std::vector<std::vector<std::size_t>>
+      keep_;  // each strip's points after thinning  // the trees' points (this round's positions − origin_)
 };
 
 /// r = n · [(x_A + o_A) − mean_j (x_Bj + o_B)] / σ with x = p_m + R_mb (R_zyx(b) R_nom r(δ) + a),

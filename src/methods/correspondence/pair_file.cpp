@@ -34,7 +34,6 @@ namespace {
 constexpr char kMagic[9] = "MCPAIRS2";
 constexpr char kEnd[9] = "MCPAIREN";
 
-
 class Out {
  public:
   void bytes(const void* p, std::size_t n) { s_.append(static_cast<const char*>(p), n); }
@@ -63,9 +62,7 @@ class Out {
 class In {
  public:
   In(const std::string& name, const std::uint8_t* p, std::size_t n) : name_(name), p_(p), n_(n) {}
-  [[noreturn]] void fail(const std::string& what) const {
-    throw FileError(name_, "byte " + std::to_string(at_), what);
-  }
+  [[noreturn]] void fail(const std::string& what) const { throw FileError(name_, "byte " + std::to_string(at_), what); }
   void need(std::size_t k, const char* what) const {
     if (k > n_ - at_) fail(std::string("the file ends inside ") + what + " (a truncated pair file: rerun mountcal match)");
   }
@@ -105,7 +102,9 @@ class In {
   }
   /// A count of records of `each` bytes that must fit in the rest of the file.
   std::size_t count(std::uint64_t n, std::size_t each, const char* what) {
-    if (n > (n_ - at_) / each) fail(std::string(what) + ": " + std::to_string(n) + " records do not fit in the rest of the file (a truncated or corrupt pair file: rerun mountcal match)");
+    if (n > (n_ - at_) / each)
+      fail(std::string(what) + ": " + std::to_string(n) +
+           " records do not fit in the rest of the file (a truncated or corrupt pair file: rerun mountcal match)");
     return static_cast<std::size_t>(n);
   }
   std::size_t at() const { return at_; }
@@ -139,7 +138,8 @@ PairPoint readPoint(In* in, bool attitude, const char* what) {
   if (attitude) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) q.R_mb(r, c) = in->f64("an attitude matrix element");
-    if (!((q.R_mb.transpose() * q.R_mb - Mat3::Identity()).cwiseAbs().maxCoeff() < 1e-6)) in->fail(std::string(what) + ": an attitude matrix that is not a rotation");
+    if (!((q.R_mb.transpose() * q.R_mb - Mat3::Identity()).cwiseAbs().maxCoeff() < 1e-6))
+      in->fail(std::string(what) + ": an attitude matrix that is not a rotation");
   }
   return q;
 }

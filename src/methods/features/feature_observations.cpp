@@ -23,9 +23,11 @@ bool FeatureOptions::IsValid(std::string* error) const {
     return false;
   };
   auto finiteNonNeg = [](double v) { return std::isfinite(v) && v >= 0; };
-  if (!finiteNonNeg(intensity_threshold) || intensity_threshold > 1e6) return fail("intensity_threshold must be in [0, 1e6] (0: from each region's histogram)");
+  if (!finiteNonNeg(intensity_threshold) || intensity_threshold > 1e6)
+    return fail("intensity_threshold must be in [0, 1e6] (0: from each region's histogram)");
   if (!(min_contrast >= 1) || min_contrast > 1e3) return fail("min_contrast must be in [1, 1000]");
-  if (!finiteNonNeg(growing_distance_m) || growing_distance_m > 100) return fail("growing_distance_m must be in [0, 100] (0: from the point spacing)");
+  if (!finiteNonNeg(growing_distance_m) || growing_distance_m > 100)
+    return fail("growing_distance_m must be in [0, 100] (0: from the point spacing)");
   if (!(second_group_fraction > 0 && second_group_fraction <= 1)) return fail("second_group_fraction must be in (0, 1]");
   if (!(ransac_threshold_m > 0) || ransac_threshold_m > 10) return fail("ransac_threshold_m must be in (0, 10]");
   if (ransac_iterations < 1 || ransac_iterations > 100000) return fail("ransac_iterations must be in [1, 100000]");
@@ -77,10 +79,12 @@ double otsuThreshold(const std::vector<float>& values) {
 std::vector<std::vector<std::uint32_t>> growRegions(const std::vector<Vec3>& X, const std::vector<std::uint32_t>& idx, double d) {
   std::unordered_map<std::int64_t, std::vector<std::size_t>> cells;
   auto cellOf = [&](const Vec3& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / d)), static_cast<int>(std::floor(p.y() / d)), static_cast<int>(std::floor(p.z() / d)));
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / d)), static_cast<int>(std::floor(p.y() / d)),
+                           static_cast<int>(std::floor(p.z() / d)));
   };
   auto key = [](const Eigen::Vector3i& c) {
-    return (static_cast<std::int64_t>(c.x()) * 73856093) ^ (static_cast<std::int64_t>(c.y()) * 19349663) ^ (static_cast<std::int64_t>(c.z()) * 83492791);
+    return (static_cast<std::int64_t>(c.x()) * 73856093) ^ (static_cast<std::int64_t>(c.y()) * 19349663) ^
+           (static_cast<std::int64_t>(c.z()) * 83492791);
   };
   for (std::size_t k = 0; k < idx.size(); ++k) cells[key(cellOf(X[idx[k]]))].push_back(k);
   std::vector<int> label(idx.size(), -1);
@@ -179,9 +183,8 @@ Clouds makeClouds(const CalibrationData& data) {
   return c;
 }
 
-std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& clouds, const PlaneRegion& region,
-                                     const FeatureOptions& o, std::vector<RejectedFeature>* rejected,
-                                     std::vector<std::vector<std::uint32_t>>* indices) {
+std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& clouds, const PlaneRegion& region, const FeatureOptions& o,
+                                     std::vector<RejectedFeature>* rejected, std::vector<std::vector<std::uint32_t>>* indices) {
   auto reject = [&](const std::string& strip, const std::string& why) {
     if (rejected) rejected->push_back({region.id, strip, why});
   };
@@ -202,8 +205,8 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     const double median = sorted[sorted.size() / 2];
     const double brightest = *std::max_element(values.begin(), values.end());
     if (!(brightest >= o.min_contrast * std::max(median, 1e-9)) || brightest <= 0) {
-      reject("", fmt("no high-intensity points: the brightest is %.0f, the median %.0f (a target needs %.1f times the median)", brightest, median,
-                     o.min_contrast));
+      reject("", fmt("no high-intensity points: the brightest is %.0f, the median %.0f (a target needs %.1f times the median)", brightest,
+                     median, o.min_contrast));
       return {};
     }
     threshold = otsuThreshold(values);
@@ -218,8 +221,8 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     for (std::uint32_t i : in_box[s])
       if (strip.intensity[i] >= threshold) bright.push_back(i);
     if (static_cast<int>(bright.size()) < o.min_points) {
-      reject(strip.id, fmt("%.0f high-intensity points (at least %.0f needed): the strip does not see the target", static_cast<double>(bright.size()),
-                           o.min_points));
+      reject(strip.id, fmt("%.0f high-intensity points (at least %.0f needed): the strip does not see the target",
+                           static_cast<double>(bright.size()), o.min_points));
       continue;
     }
     const double area = std::max((region.xmax - region.xmin) * (region.ymax - region.ymin), 1e-6);
@@ -232,8 +235,9 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
       if (rejected) {
         // Drop whatever this region already produced: the whole region goes.
         rejected->push_back({region.id, "",
-                             "the region holds more than one target: strip '" + strip.id + "' shows groups of " + std::to_string(groups[0].size()) +
-                                 " and " + std::to_string(groups[1].size()) + " high-intensity points " + fmt("more than %.2f m apart", d)});
+                             "the region holds more than one target: strip '" + strip.id + "' shows groups of " +
+                                 std::to_string(groups[0].size()) + " and " + std::to_string(groups[1].size()) + " high-intensity points " +
+                                 fmt("more than %.2f m apart", d)});
       }
       if (indices) indices->clear();
       return {};
@@ -251,17 +255,18 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
       edge = std::min({edge, X[i].x() - region.xmin, region.xmax - X[i].x(), X[i].y() - region.ymin, region.ymax - X[i].y()});
     }
     if (edge < 0.25) {
-      reject(strip.id, fmt("its high-intensity points run to the region's edge (%.2f m from it): a marking or surface larger than the region, "
-                           "not a target inside it",
-                           edge));
+      reject(strip.id,
+             fmt("its high-intensity points run to the region's edge (%.2f m from it): a marking or surface larger than the region, "
+                 "not a target inside it",
+                 edge));
       continue;
     }
     detail::PlaneFit fit;
     const std::vector<std::uint32_t> inl = ransacPlane(X, group, o.ransac_threshold_m, o.ransac_iterations, &fit);
     const double fraction = static_cast<double>(inl.size()) / static_cast<double>(group.size());
     if (static_cast<int>(inl.size()) < o.min_points || fraction < o.min_inlier_fraction) {
-      reject(strip.id, fmt("not planar: %.0f %% of its %.0f points lie within %.3f m of one plane", 100 * fraction, static_cast<double>(group.size()),
-                           o.ransac_threshold_m));
+      reject(strip.id, fmt("not planar: %.0f %% of its %.0f points lie within %.3f m of one plane", 100 * fraction,
+                           static_cast<double>(group.size()), o.ransac_threshold_m));
       continue;
     }
     // The feature is the whole group: the intensity (a property of the surface hit) chose its
@@ -435,7 +440,8 @@ IcpResult matchTranslation(const std::vector<Vec3>& a, const std::vector<Vec3>& 
   return R;
 }
 
-FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pairs, const MountingParameters& used, const FeatureOptions& o) {
+FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pairs, const MountingParameters& used,
+                                      const FeatureOptions& o) {
   FeatureClosedForm C;
   C.mounting = used;
   // Unknowns u = (ε_ω, ε_φ, ε_κ, η_x, η_y). SPEC §2 "Closed-form boresight" (seed 002 eqs. 8–10)
@@ -591,7 +597,8 @@ Mat3 sqrtInformation(const Mat3& cov) {
 
 FeatureObservations::~FeatureObservations() = default;
 
-FeatureObservations::FeatureObservations(const CalibrationData& data, const FeatureOptions& options) : options_(options), used_(data.mounting_used) {
+FeatureObservations::FeatureObservations(const CalibrationData& data, const FeatureOptions& options)
+    : options_(options), used_(data.mounting_used) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("features options: " + why);
   auto clock = [] { return std::chrono::steady_clock::now(); };

@@ -33,20 +33,44 @@ const std::vector<OptionSpec>& featureOptionSpecs() {
   using T = FeatureOptions;
   static const std::vector<OptionSpec> specs =
       OptionTable<T>()
-          .number("intensity_threshold", [](T& o) -> double& { return o.intensity_threshold; }, "intensity", 0, 1e6, "target points at or above; 0: Otsu's threshold per region")
-          .number("min_contrast", [](T& o) -> double& { return o.min_contrast; }, "-", 1, 1000, "target to background intensity ratio")
-          .number("growing_distance_m", [](T& o) -> double& { return o.growing_distance_m; }, "m", 0, 100, "region growing distance; 0: from the point spacing")
-          .number("second_group_fraction", [](T& o) -> double& { return o.second_group_fraction; }, "-", 1e-6, 1, "a second bright group this large makes the target ambiguous")
-          .number("ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-4, 10, "RANSAC inlier distance of the target's plane")
-          .integer("ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
-          .integer("min_points", [](T& o) -> int& { return o.min_points; }, 3, 1000000, "a strip's target with fewer inliers is not seen")
-          .number("min_inlier_fraction", [](T& o) -> double& { return o.min_inlier_fraction; }, "-", 1e-6, 1, "fewer of the group's points on its plane: not planar")
-          .number("sigma_in_plane_m", [](T& o) -> double& { return o.sigma_in_plane_m; }, "m", 0, 10, "sigma of a centre in the target's plane; 0: estimated")
-          .integer("edge_points", [](T& o) -> int& { return o.edge_points; }, 0, 1000, "outline points averaged per side for the centre; 0: the mean")
-          .integer("icp_max_iterations", [](T& o) -> int& { return o.icp_max_iterations; }, 1, 10000, "ICP iterations")
-          .number("icp_tolerance_m", [](T& o) -> double& { return o.icp_tolerance_m; }, "m", 1e-12, 1, "ICP stops when the translation changes less")
-          .number("direction_tolerance_deg", [](T& o) -> double& { return o.direction_tolerance_deg; }, "deg", 1e-3, 89.999, "strips within this of each other are one direction")
-          .number("min_height_spread", [](T& o) -> double& { return o.min_height_spread; }, "-", 1e-6, 10, "relative height spread needed for the lever arm from two heights")
+          .number(
+              "intensity_threshold", [](T& o) -> double& { return o.intensity_threshold; }, "intensity", 0, 1e6,
+              "target points at or above; 0: Otsu's threshold per region")
+          .number(
+              "min_contrast", [](T& o) -> double& { return o.min_contrast; }, "-", 1, 1000, "target to background intensity ratio")
+          .number(
+              "growing_distance_m", [](T& o) -> double& { return o.growing_distance_m; }, "m", 0, 100,
+              "region growing distance; 0: from the point spacing")
+          .number(
+              "second_group_fraction", [](T& o) -> double& { return o.second_group_fraction; }, "-", 1e-6, 1,
+              "a second bright group this large makes the target ambiguous")
+          .number(
+              "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-4, 10,
+              "RANSAC inlier distance of the target's plane")
+          .integer(
+              "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
+          .integer(
+              "min_points", [](T& o) -> int& { return o.min_points; }, 3, 1000000, "a strip's target with fewer inliers is not seen")
+          .number(
+              "min_inlier_fraction", [](T& o) -> double& { return o.min_inlier_fraction; }, "-", 1e-6, 1,
+              "fewer of the group's points on its plane: not planar")
+          .number(
+              "sigma_in_plane_m", [](T& o) -> double& { return o.sigma_in_plane_m; }, "m", 0, 10,
+              "sigma of a centre in the target's plane; 0: estimated")
+          .integer(
+              "edge_points", [](T& o) -> int& { return o.edge_points; }, 0, 1000,
+              "outline points averaged per side for the centre; 0: the mean")
+          .integer(
+              "icp_max_iterations", [](T& o) -> int& { return o.icp_max_iterations; }, 1, 10000, "ICP iterations")
+          .number(
+              "icp_tolerance_m", [](T& o) -> double& { return o.icp_tolerance_m; }, "m", 1e-12, 1,
+              "ICP stops when the translation changes less")
+          .number(
+              "direction_tolerance_deg", [](T& o) -> double& { return o.direction_tolerance_deg; }, "deg", 1e-3, 89.999,
+              "strips within this of each other are one direction")
+          .number(
+              "min_height_spread", [](T& o) -> double& { return o.min_height_spread; }, "-", 1e-6, 10,
+              "relative height spread needed for the lever arm from two heights")
           .specs();
   return specs;
 }
@@ -71,7 +95,8 @@ std::unique_ptr<MethodRun> FeaturesMethod::run(const MethodContext& context) con
 // ---- the section ------------------------------------------------------------------------------
 
 std::string FeatureSection::brief() const {
-  return detail::printfString("%d targets / %d views / %zu pairs (%zu rejected); ", targets_used, views_used, pairs.size(), rejected.size());
+  return detail::printfString("%d targets / %d views / %zu pairs (%zu rejected); ", targets_used, views_used, pairs.size(),
+                              rejected.size());
 }
 
 std::string FeatureSection::text(const AdjustmentSummary& summary) const {
@@ -80,7 +105,8 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
       "\nFeatures (seed 002): %d targets, %d views; centre RMS before (%.4f, %.4f, %.4f) m, after (%.4f, %.4f, %.4f) m; "
       "sigma %s: along the normal %.4f m, in the plane %.4f m; extraction %.3f s, matching %.3f s\n",
       targets_used, views_used, rms_before_m.x(), rms_before_m.y(), rms_before_m.z(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z(),
-      sigma_estimated ? "estimated (variance components)" : "as stated", sigma_normal_m, sigma_in_plane_m, extraction_time_s, matching_time_s);
+      sigma_estimated ? "estimated (variance components)" : "as stated", sigma_normal_m, sigma_in_plane_m, extraction_time_s,
+      matching_time_s);
   r << "  target        A     B     relation   H [m]   y_A [m]   D [m]   offset along/cross/down [m]      ICP it  RMS [m]\n";
   for (const FeaturePairOffset& p : pairs) {
     r << detail::printfString("  %-12s %-5s %-5s %-9s %7.2f %8.2f %7.2f   %+8.4f %+8.4f %+8.4f   %6d %8.4f\n", p.target_id.c_str(),
@@ -98,8 +124,8 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
                                 rad2deg(C.boresight_spread_rad(a)), C.pairs_used[a], rb(a));
     }
     if (C.lever_arm_estimated) {
-      r << detail::printfString("  lever arm x, y (two heights): %+.4f, %+.4f m (sigma %.4f, %.4f m)\n", C.mounting.a_b.x(), C.mounting.a_b.y(),
-                                C.lever_arm_sigma_m.x(), C.lever_arm_sigma_m.y());
+      r << detail::printfString("  lever arm x, y (two heights): %+.4f, %+.4f m (sigma %.4f, %.4f m)\n", C.mounting.a_b.x(),
+                                C.mounting.a_b.y(), C.lever_arm_sigma_m.x(), C.lever_arm_sigma_m.y());
     }
   }
   if (!C.message.empty()) r << "  closed form: " << C.message << "\n";
@@ -116,25 +142,38 @@ std::string FeatureSection::resultJson(const AdjustmentSummary&) const {
   for (std::size_t k = 0; k < target_ids.size(); ++k) {
     json list = json::array();
     for (const FeatureView& v : views[k]) {
-      list.push_back({{"strip_id", v.strip_id}, {"points", v.points}, {"centroid_m", vec3Json(v.centroid_m)}, {"normal", vec3Json(v.normal)},
-                      {"plane_sigma_m", v.plane_sigma_m}, {"sigma_normal_m", v.sigma_normal_m}, {"sigma_in_plane_m", v.sigma_in_plane_m},
+      list.push_back({{"strip_id", v.strip_id},
+                      {"points", v.points},
+                      {"centroid_m", vec3Json(v.centroid_m)},
+                      {"normal", vec3Json(v.normal)},
+                      {"plane_sigma_m", v.plane_sigma_m},
+                      {"sigma_normal_m", v.sigma_normal_m},
+                      {"sigma_in_plane_m", v.sigma_in_plane_m},
                       {"intensity_threshold", v.threshold}});
     }
     targets.push_back({{"target_id", target_ids[k]}, {"views", list}});
   }
   json pair_list = json::array();
   for (const FeaturePairOffset& p : pairs) {
-    pair_list.push_back({{"target_id", p.target_id}, {"strip_a", p.strip_a}, {"strip_b", p.strip_b}, {"relation", p.relation},
-                         {"offset_m", vec3Json(p.offset_m)}, {"offset_along_cross_down_m", vec3Json(p.offset_afd_m)},
-                         {"sigma_along_cross_down_m", vec3Json(p.covariance_afd.diagonal().cwiseSqrt())}, {"height_m", p.height_m},
-                         {"lateral_a_m", p.lateral_a_m}, {"line_offset_m", p.line_offset_m}, {"icp_iterations", p.icp_iterations},
+    pair_list.push_back({{"target_id", p.target_id},
+                         {"strip_a", p.strip_a},
+                         {"strip_b", p.strip_b},
+                         {"relation", p.relation},
+                         {"offset_m", vec3Json(p.offset_m)},
+                         {"offset_along_cross_down_m", vec3Json(p.offset_afd_m)},
+                         {"sigma_along_cross_down_m", vec3Json(p.covariance_afd.diagonal().cwiseSqrt())},
+                         {"height_m", p.height_m},
+                         {"lateral_a_m", p.lateral_a_m},
+                         {"line_offset_m", p.line_offset_m},
+                         {"icp_iterations", p.icp_iterations},
                          {"icp_rms_m", p.icp_rms_m}});
   }
   json rej = json::array();
   for (const RejectedFeature& r : rejected) rej.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
   json res = json::array();
   for (const Residual& r : residuals)
-    res.push_back({{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"before_m", vec3Json(r.before_m)}, {"after_m", vec3Json(r.after_m)}});
+    res.push_back(
+        {{"target_id", r.target_id}, {"strip_id", r.strip_id}, {"before_m", vec3Json(r.before_m)}, {"after_m", vec3Json(r.after_m)}});
   const FeatureClosedForm& C = closed_form;
   json cf = {{"valid", C.valid}, {"message", C.message}};
   if (C.valid) {
@@ -155,10 +194,20 @@ std::string FeatureSection::resultJson(const AdjustmentSummary&) const {
     cf["pitch_lever_arm_coupled"] = C.pitch_lever_arm_coupled;
   }
   json j;
-  j["features"] = {{"targets_used", targets_used}, {"views_used", views_used}, {"targets", targets}, {"pairs", pair_list},
-                   {"closed_form", cf}, {"rejected", rej}, {"residuals", res}, {"rms_before_m", vec3Json(rms_before_m)},
-                   {"rms_after_m", vec3Json(rms_after_m)}, {"sigma_normal_m", sigma_normal_m}, {"sigma_in_plane_m", sigma_in_plane_m},
-                   {"sigma_estimated", sigma_estimated}, {"extraction_time_s", extraction_time_s}, {"matching_time_s", matching_time_s}};
+  j["features"] = {{"targets_used", targets_used},
+                   {"views_used", views_used},
+                   {"targets", targets},
+                   {"pairs", pair_list},
+                   {"closed_form", cf},
+                   {"rejected", rej},
+                   {"residuals", res},
+                   {"rms_before_m", vec3Json(rms_before_m)},
+                   {"rms_after_m", vec3Json(rms_after_m)},
+                   {"sigma_normal_m", sigma_normal_m},
+                   {"sigma_in_plane_m", sigma_in_plane_m},
+                   {"sigma_estimated", sigma_estimated},
+                   {"extraction_time_s", extraction_time_s},
+                   {"matching_time_s", matching_time_s}};
   return j.dump();
 }
 
@@ -172,13 +221,15 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
   const FeatureClosedForm& C = closed_form;
   if (C.valid) {
     const Vec3 cb = C.mounting.boresightDeg(), rb = summary.mounting.boresightDeg();
-    h << "<table><tr><th>angle</th><th>closed form [°]</th><th>σ [°]</th><th>spread of the pairs [°]</th><th>pairs</th><th>rigorous [°]</th>"
+    h << "<table><tr><th>angle</th><th>closed form [°]</th><th>σ [°]</th><th>spread of the pairs [°]</th><th>pairs</th><th>rigorous "
+         "[°]</th>"
          "<th>rigorous σ [°]</th></tr>";
     const char* names[3] = {"roll", "pitch", "heading"};
     for (int a = 0; a < 3; ++a) {
-      h << "<tr><td class=l>" << names[a] << "</td><td>" << cell(cb(a), "%+.5f") << "</td><td>" << cell(rad2deg(C.boresight_sigma_rad(a)), "%.5f")
-        << "</td><td>" << cell(rad2deg(C.boresight_spread_rad(a)), "%.5f") << "</td><td>" << C.pairs_used[a] << "</td><td>" << cell(rb(a), "%+.5f")
-        << "</td><td>" << cell(rad2deg(summary.sigma[3 + a]), "%.5f") << "</td></tr>";
+      h << "<tr><td class=l>" << names[a] << "</td><td>" << cell(cb(a), "%+.5f") << "</td><td>"
+        << cell(rad2deg(C.boresight_sigma_rad(a)), "%.5f") << "</td><td>" << cell(rad2deg(C.boresight_spread_rad(a)), "%.5f") << "</td><td>"
+        << C.pairs_used[a] << "</td><td>" << cell(rb(a), "%+.5f") << "</td><td>" << cell(rad2deg(summary.sigma[3 + a]), "%.5f")
+        << "</td></tr>";
     }
     h << "</table>";
   }
@@ -187,9 +238,10 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
        "<th>Δ along [m]</th><th>Δ cross [m]</th><th>Δ down [m]</th><th>ICP RMS [m]</th></tr>";
   for (const FeaturePairOffset& p : pairs) {
     h << "<tr><td class=l>" << htmlEscape(p.target_id) << "</td><td class=l>" << htmlEscape(p.strip_a) << " / " << htmlEscape(p.strip_b)
-      << "</td><td class=l>" << htmlEscape(p.relation) << "</td><td>" << cell(p.height_m, "%.2f") << "</td><td>" << cell(p.lateral_a_m, "%.2f")
-      << "</td><td>" << cell(p.line_offset_m, "%.2f") << "</td><td>" << cell(p.offset_afd_m.x()) << "</td><td>" << cell(p.offset_afd_m.y())
-      << "</td><td>" << cell(p.offset_afd_m.z()) << "</td><td>" << cell(p.icp_rms_m) << "</td></tr>";
+      << "</td><td class=l>" << htmlEscape(p.relation) << "</td><td>" << cell(p.height_m, "%.2f") << "</td><td>"
+      << cell(p.lateral_a_m, "%.2f") << "</td><td>" << cell(p.line_offset_m, "%.2f") << "</td><td>" << cell(p.offset_afd_m.x())
+      << "</td><td>" << cell(p.offset_afd_m.y()) << "</td><td>" << cell(p.offset_afd_m.z()) << "</td><td>" << cell(p.icp_rms_m)
+      << "</td></tr>";
   }
   h << "</table>";
   if (!rejected.empty()) {

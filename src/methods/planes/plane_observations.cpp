@@ -71,8 +71,8 @@ int normalBin(const Vec3& n) {
 }
 
 /// RANSAC plane of a strip's points, refined by least squares; the inliers.
-std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::vector<std::uint32_t>& idx, double threshold,
-                                       int iterations, std::uint32_t seed, detail::PlaneFit* fit) {
+std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::vector<std::uint32_t>& idx, double threshold, int iterations,
+                                       std::uint32_t seed, detail::PlaneFit* fit) {
   std::vector<std::uint32_t> best;
   if (idx.size() < 3) return best;
   std::mt19937 rng(seed);
@@ -311,17 +311,18 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
       if (it == by_strip.end()) continue;  // the strip does not cover the region
       const std::vector<std::uint32_t>& idx = it->second;
       if (static_cast<int>(idx.size()) < options_.min_points_per_strip) {
-        section_.rejected.push_back({reg.id, sid, "too few points: " + std::to_string(idx.size()) + " in the region (need " +
-                                                      std::to_string(options_.min_points_per_strip) + ")"});
+        section_.rejected.push_back({reg.id, sid,
+                                     "too few points: " + std::to_string(idx.size()) + " in the region (need " +
+                                         std::to_string(options_.min_points_per_strip) + ")"});
         continue;
       }
       detail::PlaneFit fit;
       const auto seed = static_cast<std::uint32_t>(std::hash<std::string>{}(reg.id + "/" + sid));
       std::vector<std::uint32_t> in = ransacPlane(X, idx, options_.ransac_threshold_m, options_.ransac_iterations, seed, &fit);
       if (static_cast<int>(in.size()) < options_.min_points_per_strip) {
-        section_.rejected.push_back({reg.id, sid, "no plane: " + std::to_string(in.size()) + " of " + std::to_string(idx.size()) +
-                                                      " points within " + std::to_string(options_.ransac_threshold_m).substr(0, 5) +
-                                                      " m of one plane"});
+        section_.rejected.push_back({reg.id, sid,
+                                     "no plane: " + std::to_string(in.size()) + " of " + std::to_string(idx.size()) + " points within " +
+                                         std::to_string(options_.ransac_threshold_m).substr(0, 5) + " m of one plane"});
         continue;
       }
       seen.push_back({sid, std::move(in), fit});
@@ -339,7 +340,8 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
       const double apart = std::abs(n_ref.dot(sn.fit.centroid - c_ref));
       if (detail::angleDeg(sn.fit.normal, n_ref) > options_.max_normal_angle_deg) {
         char buf[160];
-        std::snprintf(buf, sizeof buf, "another surface: its plane differs by %.1f° from the patch's", detail::angleDeg(sn.fit.normal, n_ref));
+        std::snprintf(buf, sizeof buf, "another surface: its plane differs by %.1f° from the patch's",
+                      detail::angleDeg(sn.fit.normal, n_ref));
         section_.rejected.push_back({reg.id, sn.strip, buf});
       } else if (apart > options_.max_plane_offset_m) {
         char buf[160];

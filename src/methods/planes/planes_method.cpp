@@ -20,7 +20,8 @@ class PlanesRun final : public MethodRun {
   }
   std::shared_ptr<const MethodSection> section() const override { return std::make_shared<PlaneSection>(planes_->section()); }
   std::string nothingUsable() const override {
-    return "no usable plane patch: " + std::to_string(planes_->section().rejected.size()) + " patches or strip parts rejected (see rejected)";
+    return "no usable plane patch: " + std::to_string(planes_->section().rejected.size()) +
+           " patches or strip parts rejected (see rejected)";
   }
 
  private:
@@ -31,20 +32,47 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
   using T = PlaneOptions;
   static const std::vector<OptionSpec> specs =
       OptionTable<T>()
-          .number("sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a point-to-plane distance; 0: pooled from the patches' fits")
-          .number("ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-6, 1e3, "RANSAC inlier distance of a strip's plane in a region")
-          .integer("ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
-          .integer("min_points_per_strip", [](T& o) -> int& { return o.min_points_per_strip; }, 3, 1000000, "fewer inliers: the strip does not see the patch")
-          .integer("max_points_per_strip", [](T& o) -> int& { return o.max_points_per_strip; }, 3, 1000000, "inliers used per patch and strip, evenly thinned")
-          .number("max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999, "a strip's plane tilted more than this from the others' is another surface")
-          .number("max_plane_offset_m", [](T& o) -> double& { return o.max_plane_offset_m; }, "m", 1e-6, 1e4, "…or parallel but farther than this")
-          .number("cell_size_m", [](T& o) -> double& { return o.cell_size_m; }, "m", 0, 1000, "automatic patches: plan grid cell; 0: 5 x the point spacing, at least 1.5 m")
-          .number("max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3, "automatic patches: a cell is planar below this plane-fit sigma")
-          .number("growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999, "automatic patches: region growing joins cells whose normals differ less")
-          .number("edge_margin_m", [](T& o) -> double& { return o.edge_margin_m; }, "m", 0, 1000, "automatic patches: a patch's box shrinks by this on every side")
-          .number("max_patch_size_m", [](T& o) -> double& { return o.max_patch_size_m; }, "m", 1e-6, 10000, "automatic patches: largest plan extent")
-          .integer("max_patches", [](T& o) -> int& { return o.max_patches; }, 1, 100000, "automatic patches: kept, spread over normal directions")
-          .number("search_margin_m", [](T& o) -> double& { return o.search_margin_m; }, "m", 0, 100, "points this close to a region are re-selected at each mounting")
+          .number(
+              "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3,
+              "a-priori sigma of a point-to-plane distance; 0: pooled from the patches' fits")
+          .number(
+              "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-6, 1e3,
+              "RANSAC inlier distance of a strip's plane in a region")
+          .integer(
+              "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
+          .integer(
+              "min_points_per_strip", [](T& o) -> int& { return o.min_points_per_strip; }, 3, 1000000,
+              "fewer inliers: the strip does not see the patch")
+          .integer(
+              "max_points_per_strip", [](T& o) -> int& { return o.max_points_per_strip; }, 3, 1000000,
+              "inliers used per patch and strip, evenly thinned")
+          .number(
+              "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
+              "a strip's plane tilted more than this from the others' is another surface")
+          .number(
+              "max_plane_offset_m", [](T& o) -> double& { return o.max_plane_offset_m; }, "m", 1e-6, 1e4,
+              "…or parallel but farther than this")
+          .number(
+              "cell_size_m", [](T& o) -> double& { return o.cell_size_m; }, "m", 0, 1000,
+              "automatic patches: plan grid cell; 0: 5 x the point spacing, at least 1.5 m")
+          .number(
+              "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3,
+              "automatic patches: a cell is planar below this plane-fit sigma")
+          .number(
+              "growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999,
+              "automatic patches: region growing joins cells whose normals differ less")
+          .number(
+              "edge_margin_m", [](T& o) -> double& { return o.edge_margin_m; }, "m", 0, 1000,
+              "automatic patches: a patch's box shrinks by this on every side")
+          .number(
+              "max_patch_size_m", [](T& o) -> double& { return o.max_patch_size_m; }, "m", 1e-6, 10000,
+              "automatic patches: largest plan extent")
+          .integer(
+              "max_patches", [](T& o) -> int& { return o.max_patches; }, 1, 100000,
+              "automatic patches: kept, spread over normal directions")
+          .number(
+              "search_margin_m", [](T& o) -> double& { return o.search_margin_m; }, "m", 0, 100,
+              "points this close to a region are re-selected at each mounting")
           .specs();
   return specs;
 }
@@ -52,7 +80,8 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
 }  // namespace
 
 std::string PlanesMethod::description() const {
-  return "plane patches seen by two or more strips, one unknown plane per patch (Attune / Skaloud-Lichti); given regions or found automatically";
+  return "plane patches seen by two or more strips, one unknown plane per patch (Attune / Skaloud-Lichti); given regions or found "
+         "automatically";
 }
 MethodInput PlanesMethod::input() const {
   return {"planes", "auto", "a regions CSV (plane_id,xmin,ymin,xmax,ymax), or \"auto\" to find the patches in the overlaps", true};
@@ -81,7 +110,8 @@ std::string PlaneSection::brief() const { return detail::printfString("%d patche
 std::string PlaneSection::text(const AdjustmentSummary&) const {
   std::ostringstream r;
   r << detail::printfString("\nPlanes (%s): %d patches, %d points, sigma %.4f m; RMS before %.4f m, after %.4f m\n",
-                            automatic ? "found automatically" : "given regions", patches_used, points_used, sigma_m, rms_before_m, rms_after_m);
+                            automatic ? "found automatically" : "given regions", patches_used, points_used, sigma_m, rms_before_m,
+                            rms_after_m);
   r << "  patch                 strips points  tilt[deg] aspect[deg]  RMS before [m]  after [m]\n";
   for (const PatchResidual& p : patches) {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
@@ -96,15 +126,26 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
   using nlohmann::json;
   json list = json::array();
   for (const PatchResidual& r : patches) {
-    list.push_back({{"patch_id", r.patch_id}, {"centre_m", detail::vec3Json(r.centre_m)}, {"normal", detail::vec3Json(r.normal)},
-                    {"points", r.points}, {"strips", r.strips}, {"rms_before_m", r.rms_before_m}, {"rms_after_m", r.rms_after_m},
+    list.push_back({{"patch_id", r.patch_id},
+                    {"centre_m", detail::vec3Json(r.centre_m)},
+                    {"normal", detail::vec3Json(r.normal)},
+                    {"points", r.points},
+                    {"strips", r.strips},
+                    {"rms_before_m", r.rms_before_m},
+                    {"rms_after_m", r.rms_after_m},
                     {"outlier", r.outlier}});
   }
   json rej = json::array();
   for (const RejectedPatch& r : rejected) rej.push_back({{"patch_id", r.patch_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
   json j;
-  j["planes"] = {{"automatic", automatic}, {"patches_used", patches_used}, {"points_used", points_used}, {"sigma_m", sigma_m},
-                 {"rms_before_m", rms_before_m}, {"rms_after_m", rms_after_m}, {"patches", list}, {"rejected", rej}};
+  j["planes"] = {{"automatic", automatic},
+                 {"patches_used", patches_used},
+                 {"points_used", points_used},
+                 {"sigma_m", sigma_m},
+                 {"rms_before_m", rms_before_m},
+                 {"rms_after_m", rms_after_m},
+                 {"patches", list},
+                 {"rejected", rej}};
   return j.dump();
 }
 
@@ -113,8 +154,8 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
   using detail::htmlEscape;
   std::ostringstream h;
   h << "<h2>Plane patches (" << (automatic ? "found automatically" : "given regions") << ")</h2><p>" << patches_used << " patches, "
-    << points_used << " points, σ of a point-to-plane distance " << cell(sigma_m) << " m; RMS before " << cell(rms_before_m)
-    << " m, after " << cell(rms_after_m) << " m</p>";
+    << points_used << " points, σ of a point-to-plane distance " << cell(sigma_m) << " m; RMS before " << cell(rms_before_m) << " m, after "
+    << cell(rms_after_m) << " m</p>";
   std::vector<double> idx, b, a;
   for (std::size_t i = 0; i < patches.size(); ++i) {
     idx.push_back(static_cast<double>(i + 1));
@@ -131,8 +172,8 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
        "<th>RMS after [m]</th><th></th></tr>";
   for (const PatchResidual& r : patches) {
     h << "<tr><td class=l>" << htmlEscape(r.patch_id) << "</td><td>" << r.strips << "</td><td>" << r.points << "</td><td>"
-      << cell(tiltDeg(r.normal), "%.1f") << "</td><td>" << cell(aspectDeg(r.normal), "%.1f") << "</td><td>" << cell(r.rms_before_m) << "</td><td>"
-      << cell(r.rms_after_m) << "</td><td class=l>" << (r.outlier ? "<span class=bad>outlier</span>" : "") << "</td></tr>";
+      << cell(tiltDeg(r.normal), "%.1f") << "</td><td>" << cell(aspectDeg(r.normal), "%.1f") << "</td><td>" << cell(r.rms_before_m)
+      << "</td><td>" << cell(r.rms_after_m) << "</td><td class=l>" << (r.outlier ? "<span class=bad>outlier</span>" : "") << "</td></tr>";
   }
   h << "</table>";
   if (!rejected.empty()) {

@@ -71,8 +71,8 @@ std::unique_ptr<MethodRun> VtpmMethod::run(const MethodContext& context) const {
 // ---- the section ------------------------------------------------------------------------------
 
 std::string VtpmSection::brief() const {
-  return detail::printfString("%d ties / %d observations (%zu rejected), RMS after (%.3f, %.3f, %.3f) m; ", ties_used,
-                              observations_used, rejected.size(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z());
+  return detail::printfString("%d ties / %d observations (%zu rejected), RMS after (%.3f, %.3f, %.3f) m; ", ties_used, observations_used,
+                              rejected.size(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z());
 }
 
 std::string VtpmSection::text(const AdjustmentSummary&) const {
@@ -94,8 +94,11 @@ std::string VtpmSection::resultJson(const AdjustmentSummary&) const {
   for (const RejectedTie& r : rejected) rej.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
   json res = json::array();
   for (const TieResidual& r : residuals) {
-    res.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"before_m", detail::vec3Json(r.before_m)},
-                   {"after_m", detail::vec3Json(r.after_m)}, {"outlier", r.outlier}});
+    res.push_back({{"tie_id", r.tie_id},
+                   {"strip_id", r.strip_id},
+                   {"before_m", detail::vec3Json(r.before_m)},
+                   {"after_m", detail::vec3Json(r.after_m)},
+                   {"outlier", r.outlier}});
   }
   json j;
   j["ties"] = {{"used", ties_used}, {"observations", observations_used}, {"rejected", rej}};

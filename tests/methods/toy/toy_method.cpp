@@ -102,8 +102,10 @@ class ToyMethod final : public Method {
     using T = ToyOptions;
     static const std::vector<OptionSpec> specs =
         OptionTable<T>()
-            .number("lever_arm_z_m", [](T& o) -> double& { return o.lever_arm_z_m; }, "m", -100, 100, "the measured vertical lever arm")
-            .number("sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 1e-6, 10, "its standard deviation")
+            .number(
+                "lever_arm_z_m", [](T& o) -> double& { return o.lever_arm_z_m; }, "m", -100, 100, "the measured vertical lever arm")
+            .number(
+                "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 1e-6, 10, "its standard deviation")
             .specs();
     return specs;
   }

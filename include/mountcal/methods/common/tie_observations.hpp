@@ -52,8 +52,8 @@ struct TieObservationOptions {
 
 /// The residual section of the ties (or of the control points).
 struct TieSection {
-  int ties_used = 0;               ///< distinct ties in the adjustment
-  int observations_used = 0;       ///< tie observations in the adjustment
+  int ties_used = 0;          ///< distinct ties in the adjustment
+  int observations_used = 0;  ///< tie observations in the adjustment
   std::vector<RejectedTie> rejected;
   std::vector<TieResidual> residuals;
   Vec3 rms_before_m = Vec3::Zero();  ///< per axis [m]
@@ -73,13 +73,11 @@ class TieObservations final : public ObservationSource {
   /// that is not in `data`.
   /// `threads`: the strips' k-d trees and the virtual tie points are built on this many
   /// threads (0: every core); the result does not depend on it.
-  TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks,
-                  const std::vector<GroundControlPoint>& gcps, const TieObservationOptions& options,
-                  const VtpOptions& vtp, std::string kind = "ties", int threads = 0);
+  TieObservations(const CalibrationData& data, const std::vector<TieObservation>& picks, const std::vector<GroundControlPoint>& gcps,
+                  const TieObservationOptions& options, const VtpOptions& vtp, std::string kind = "ties", int threads = 0);
   /// Ground control with any method: each GCP picked at its plan position on every strip whose
   /// points cover it (strips that do not are skipped, not rejected).
-  static std::unique_ptr<TieObservations> control(const CalibrationData& data,
-                                                  const std::vector<GroundControlPoint>& gcps,
+  static std::unique_ptr<TieObservations> control(const CalibrationData& data, const std::vector<GroundControlPoint>& gcps,
                                                   const TieObservationOptions& options, const VtpOptions& vtp, int threads = 0);
   ~TieObservations() override;
 
@@ -90,8 +88,8 @@ class TieObservations final : public ObservationSource {
   bool settled() const override { return !estimatesSigma() || sigma_settled_; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void solved(const AdjustmentProblem& problem) override;
-  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+              const AnalysisOptions& analysis) override;
 
   /// Observations usable in the adjustment (0: nothing to add).
   int observationCount() const { return section_.observations_used; }
@@ -114,9 +112,9 @@ class TieObservations final : public ObservationSource {
   std::vector<GroundControlPoint> gcps_;
   std::vector<VirtualTiePoint> vtps_;
   std::vector<Tie> ties_;
-  std::vector<int> blocks_;  // residual block of each observation, in ties_ order
-  std::vector<Mat3> whitening_;  // W of each observation (WᵀW = Σ⁻¹), in ties_ order
-  std::vector<double> redundancy_;  // (k−1)/k of each observation, in ties_ order
+  std::vector<int> blocks_;                    // residual block of each observation, in ties_ order
+  std::vector<Mat3> whitening_;                // W of each observation (WᵀW = Σ⁻¹), in ties_ order
+  std::vector<double> redundancy_;             // (k−1)/k of each observation, in ties_ order
   double sigma_xy_m_ = 0.0, sigma_z_m_ = 0.0;  // σ of the current solve [m]
   bool sigma_settled_ = false;
   TieSection section_;

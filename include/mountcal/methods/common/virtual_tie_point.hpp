@@ -27,26 +27,26 @@ namespace mountcal {
 
 /// A real laser point with what Rule 2 needs to georeference it again.
 struct LaserFootprint {
-  Pose pose;                     ///< trajectory pose at the emission time
-  Vec3 r_s = Vec3::Zero();       ///< raw laser vector [m]
-  Vec3 x0_m = Vec3::Zero();      ///< position at the reference mounting [m]
-  std::size_t index = 0;         ///< index in its strip
+  Pose pose;                 ///< trajectory pose at the emission time
+  Vec3 r_s = Vec3::Zero();   ///< raw laser vector [m]
+  Vec3 x0_m = Vec3::Zero();  ///< position at the reference mounting [m]
+  std::size_t index = 0;     ///< index in its strip
 };
 
 /// Settings of the VTPM construction.
 struct VtpOptions {
-  double radius_m = 1.0;            ///< search radius around the pick [m] (seed: 1 m)
+  double radius_m = 1.0;  ///< search radius around the pick [m] (seed: 1 m)
   /// The radius grows to this multiple of the local point spacing when that is larger, so that
   /// sparse strips still give enough points [-].
   double radius_spacing_factor = 2.5;
-  double max_radius_m = 5.0;        ///< the grown radius never exceeds this [m]
-  double ransac_threshold_m = 0.05; ///< max point-to-plane distance of an inlier [m]
-  int ransac_iterations = 200;      ///< [-]
-  int min_points = 5;               ///< fewer coplanar points than this → rejected
+  double max_radius_m = 5.0;         ///< the grown radius never exceeds this [m]
+  double ransac_threshold_m = 0.05;  ///< max point-to-plane distance of an inlier [m]
+  int ransac_iterations = 200;       ///< [-]
+  int min_points = 5;                ///< fewer coplanar points than this → rejected
   /// The plane must hold at least this fraction of the pick's 6 nearest points, else "no plane".
   double min_inlier_fraction = 0.5;
   double min_triangle_angle_deg = 5.0;  ///< a sliver triangle is degenerate [deg]
-  double max_plane_tilt_deg = 75.0; ///< a plane steeper than this cannot hold a plan pick [deg]
+  double max_plane_tilt_deg = 75.0;     ///< a plane steeper than this cannot hold a plan pick [deg]
 };
 
 /// One virtual tie point: a pick on one strip and its three laser footprints.
@@ -54,8 +54,8 @@ class VirtualTiePoint {
  public:
   VirtualTiePoint() = default;
   /// `reference` is the mounting the vertices' x0_m were georeferenced with.
-  VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m,
-                  const std::array<LaserFootprint, 3>& vertices, const MountingParameters& reference);
+  VirtualTiePoint(std::string tie_id, std::string strip_id, double pick_x_m, double pick_y_m, const std::array<LaserFootprint, 3>& vertices,
+                  const MountingParameters& reference);
 
   const std::string& tieId() const { return tie_id_; }
   const std::string& stripId() const { return strip_id_; }
@@ -79,11 +79,11 @@ class VirtualTiePoint {
   std::array<LaserFootprint, 3> vertices_{};
   Vec3 P0_m_ = Vec3::Zero();
   Vec3 centroid0_m_ = Vec3::Zero();
-  std::array<Vec3, 3> d0_m_{};     // reference vertices relative to centroid0
-  Vec3 P0_rel_m_ = Vec3::Zero();    // P⁰ − centroid0
+  std::array<Vec3, 3> d0_m_{};    // reference vertices relative to centroid0
+  Vec3 P0_rel_m_ = Vec3::Zero();  // P⁰ − centroid0
   Mat3 R_nom_ = Mat3::Identity();
-  Mat3 R_bs0_ = Mat3::Identity();   // reference R_bore·R_nom
-  Vec3 a0_b_ = Vec3::Zero();        // reference lever arm
+  Mat3 R_bs0_ = Mat3::Identity();  // reference R_bore·R_nom
+  Vec3 a0_b_ = Vec3::Zero();       // reference lever arm
 };
 
 /// seed eq. (5): height at (x, y) on the plane through three points.

@@ -33,7 +33,7 @@ namespace mountcal {
 namespace detail {
 class Matcher;
 class DenseMatcher;
-}
+}  // namespace detail
 
 /// Settings of the correspondence search. Every length has a default derived from the point
 /// spacing and the a-priori misalignment when left at 0 [m, deg].
@@ -42,21 +42,21 @@ struct CorrespondenceOptions {
   /// The largest strip-to-strip discrepancy expected before calibration [m] (first-round
   /// distance gate: max(3 r, 2 × this)).
   double apriori_misalignment_m = 1.0;
-  double radius_m = 0.0;           ///< r, the plane-fit radius; 0: 2.5 × the point spacing [m]
-  double sample_spacing_m = 0.0;   ///< 0: 2 r [m]
-  int min_neighbours = 8;          ///< in radius r [-]
+  double radius_m = 0.0;              ///< r, the plane-fit radius; 0: 2.5 × the point spacing [m]
+  double sample_spacing_m = 0.0;      ///< 0: 2 r [m]
+  int min_neighbours = 8;             ///< in radius r [-]
   double max_roughness_factor = 0.2;  ///< plane σ > this × r: rough [-]
   /// …or plane σ > this × the median σ of all candidates (at least 5 mm): rough, as across a
   /// ridge, an eave or a wall edge [-].
   double max_roughness_relative = 4.0;
-  double max_distance_factor = 3.0;   ///< |distance| > this × r: far [-]
-  double max_normal_angle_deg = 10.0; ///< [deg]
-  double mad_factor = 3.0;            ///< beyond this × σ_MAD of the distances: rejected [-]
-  int budget = 3000;               ///< correspondences kept over all pairs [-]
-  double voxel_size_m = 0.0;       ///< coarse hull voxel; 0: 4 r, at least 2 m [m]
+  double max_distance_factor = 3.0;    ///< |distance| > this × r: far [-]
+  double max_normal_angle_deg = 10.0;  ///< [deg]
+  double mad_factor = 3.0;             ///< beyond this × σ_MAD of the distances: rejected [-]
+  int budget = 3000;                   ///< correspondences kept over all pairs [-]
+  double voxel_size_m = 0.0;           ///< coarse hull voxel; 0: 4 r, at least 2 m [m]
   /// A-priori σ of a correspondence distance [m]; 0: from the neighbourhoods' plane fits.
   double sigma_m = 0.0;
-  int max_neighbours = 16;         ///< neighbours used for B's plane [-]
+  int max_neighbours = 16;  ///< neighbours used for B's plane [-]
   /// A neighbourhood whose points lie along a line (√(λ_mid/λ_max) below this: one scan line of
   /// a multi-beam scanner) has no plane: rejected as rough [-].
   double min_spread_ratio = 0.1;
@@ -76,7 +76,7 @@ struct CorrespondenceOptions {
   /// The residual is exact (no linearisation about the mounting used), with analytic
   /// derivatives.
   bool dense = false;
-  double coarse_radius_m = 1.0;   ///< dense mode's coarse stage [m]
+  double coarse_radius_m = 1.0;  ///< dense mode's coarse stage [m]
   /// Dense mode: strips are thinned to one point per cube of this size before matching (the
   /// first in file order); 0: every point [m].
   double thin_cell_m = 0.0;
@@ -89,21 +89,20 @@ struct CorrespondenceOptions {
 
 /// One correspondence: a sample of strip A and the local plane of strip B.
 struct Correspondence {
-  int strip_a = 0, strip_b = 0;    ///< indices into CalibrationData::strips
-  std::size_t point_a = 0;         ///< the sample in A
+  int strip_a = 0, strip_b = 0;       ///< indices into CalibrationData::strips
+  std::size_t point_a = 0;            ///< the sample in A
   std::vector<std::size_t> points_b;  ///< B's neighbours (the plane)
-  Vec3 normal = Vec3::UnitZ();     ///< B's plane normal at the matching mounting [-]
-  double distance_m = 0.0;         ///< signed point-to-plane distance at the matching mounting [m]
-  double roughness_m = 0.0;        ///< σ of B's plane fit [m]
+  Vec3 normal = Vec3::UnitZ();        ///< B's plane normal at the matching mounting [-]
+  double distance_m = 0.0;            ///< signed point-to-plane distance at the matching mounting [m]
+  double roughness_m = 0.0;           ///< σ of B's plane fit [m]
 };
 
 /// Statistics of one strip pair.
 struct CorrespondencePairStats {
   std::string strip_a, strip_b;
-  int samples = 0;   ///< samples of A in the overlap
-  int kept = 0;      ///< after every rejection and the budget
-  int rejected_sparse = 0, rejected_rough = 0, rejected_far = 0, rejected_normal = 0, rejected_mad = 0,
-      rejected_budget = 0;
+  int samples = 0;  ///< samples of A in the overlap
+  int kept = 0;     ///< after every rejection and the budget
+  int rejected_sparse = 0, rejected_rough = 0, rejected_far = 0, rejected_normal = 0, rejected_mad = 0, rejected_budget = 0;
   double median_before_m = 0, rms_before_m = 0;  ///< |distance| at M_used [m]
   double median_after_m = 0, rms_after_m = 0;    ///< at M̂ with the strip offsets [m]
 };
@@ -112,12 +111,12 @@ struct CorrespondencePairStats {
 struct CorrespondenceSet {
   std::vector<Correspondence> correspondences;
   std::vector<CorrespondencePairStats> pairs;  ///< every pair whose hulls overlap
-  double radius_m = 0.0;        ///< r used: the largest over the pairs (each pair: 2.5 × its coarser spacing) [m]
-  double spacing_m = 0.0;       ///< point spacing measured [m]
-  double sigma_m = 0.0;         ///< σ of a distance [m]
-  double max_distance_m = 0.0;  ///< largest distance gate used [m]
-  double seconds = 0.0;         ///< wall time [s]
-  std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
+  double radius_m = 0.0;                       ///< r used: the largest over the pairs (each pair: 2.5 × its coarser spacing) [m]
+  double spacing_m = 0.0;                      ///< point spacing measured [m]
+  double sigma_m = 0.0;                        ///< σ of a distance [m]
+  double max_distance_m = 0.0;                 ///< largest distance gate used [m]
+  double seconds = 0.0;                        ///< wall time [s]
+  std::size_t points_searched = 0;             ///< strip points in overlap hulls (throughput) [-]
 };
 
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
@@ -132,11 +131,11 @@ CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::ar
 /// needs: its position at the mounting used, the IMU attitude that measured it and its laser
 /// vector (SPEC §2 eq. 1: x(M) = x0 + R_mb (ΔR_bs r_s + Δa_b)).
 struct PairPoint {
-  std::uint64_t index = 0;          ///< the point's index in its strip
-  double time_s = 0.0;              ///< its time [s]
-  Vec3 x0_m = Vec3::Zero();         ///< at the mounting used [m]
-  Mat3 R_mb = Mat3::Identity();     ///< body to mapping frame: the pose at time_s (or the point's own pose) [-]
-  Vec3 r_s_m = Vec3::Zero();        ///< laser vector in the scanner frame [m]
+  std::uint64_t index = 0;       ///< the point's index in its strip
+  double time_s = 0.0;           ///< its time [s]
+  Vec3 x0_m = Vec3::Zero();      ///< at the mounting used [m]
+  Mat3 R_mb = Mat3::Identity();  ///< body to mapping frame: the pose at time_s (or the point's own pose) [-]
+  Vec3 r_s_m = Vec3::Zero();     ///< laser vector in the scanner frame [m]
 };
 
 /// The candidate neighbourhoods of one strip pair (A, B), found from the two strips alone at
@@ -152,17 +151,17 @@ struct PairPoint {
 /// and both find the neighbours the full strips would give while A and B move against each
 /// other by less than the a-priori misalignment.
 struct PairCandidates {
-  std::string strip_a, strip_b;          ///< strip ids
-  bool overlap = false;                  ///< the pair's coarse voxel hulls meet
-  bool attitudes_stored = false;         ///< per-point poses: R_mb is data, not the trajectory's at time_s
-  double radius_m = 0.0;                 ///< r of the pair [m]
+  std::string strip_a, strip_b;                 ///< strip ids
+  bool overlap = false;                         ///< the pair's coarse voxel hulls meet
+  bool attitudes_stored = false;                ///< per-point poses: R_mb is data, not the trajectory's at time_s
+  double radius_m = 0.0;                        ///< r of the pair [m]
   double spacing_a_m = 0.0, spacing_b_m = 0.0;  ///< each strip's point spacing [m]
-  std::uint64_t overlap_points = 0;      ///< A's and B's points in the overlap hulls
-  int sparse_samples = 0;                ///< samples with fewer than min_neighbours points near them (rejected as sparse)
-  std::vector<PairPoint> samples_a;      ///< the samples of A
-  std::vector<Vec3> normal_a;            ///< A's plane normal at each sample [-]
-  std::vector<double> spread_a;          ///< √(λ_mid/λ_max) of A's plane at each sample [-]
-  std::vector<PairPoint> points_b;       ///< B's points near the samples, in strip order
+  std::uint64_t overlap_points = 0;             ///< A's and B's points in the overlap hulls
+  int sparse_samples = 0;                       ///< samples with fewer than min_neighbours points near them (rejected as sparse)
+  std::vector<PairPoint> samples_a;             ///< the samples of A
+  std::vector<Vec3> normal_a;                   ///< A's plane normal at each sample [-]
+  std::vector<double> spread_a;                 ///< √(λ_mid/λ_max) of A's plane at each sample [-]
+  std::vector<PairPoint> points_b;              ///< B's points near the samples, in strip order
   std::size_t samples() const { return samples_a.size() + static_cast<std::size_t>(sparse_samples); }
   /// R_mb of every point from `trajectory` at its time (pair files of trajectory jobs store the
   /// time, not the attitude).
@@ -206,7 +205,7 @@ struct CorrespondenceSection : MethodSection {
   double radius_m = 0.0, sigma_m = 0.0, spacing_m = 0.0;
   std::vector<CorrespondencePairStats> pairs;
   double median_before_m = 0, rms_before_m = 0, median_after_m = 0, rms_after_m = 0;  ///< |distance| [m]
-  double search_time_s = 0;  ///< all matchings [s]
+  double search_time_s = 0;                                                           ///< all matchings [s]
   std::size_t points_searched = 0;
   /// Dense mode with laser_elevation_sigma_deg > 0: per laser id, the estimated elevation
   /// offset and its σ [deg] (σ NaN for a laser no used correspondence saw), and the largest
@@ -225,8 +224,8 @@ class CorrespondenceObservations final : public ObservationSource {
   std::string kind() const override { return "correspondences"; }
   bool rematches() const override { return true; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
-  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+              const AnalysisOptions& analysis) override;
   bool settled() const override;
   void solved(const AdjustmentProblem& problem) override;
   const CorrespondenceSection& section() const { return section_; }
@@ -247,8 +246,8 @@ class CorrespondenceObservations final : public ObservationSource {
   double fine_gate_m_ = 0.0;
   int fine_rounds_ = 0;
   void addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem);
-  void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-                   const AdjustmentProblem& problem, const AnalysisOptions& analysis);
+  void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+                   const AnalysisOptions& analysis);
   // The section's distances: before as given (each correspondence's at the mounting used),
   // after from the residuals.
   void fillSection(const AdjustmentProblem& problem, const std::vector<double>& distance_before_m);

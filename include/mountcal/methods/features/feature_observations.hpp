@@ -63,7 +63,7 @@ struct FeatureOptions {
   /// points on either side (midrange: its error falls as 1/n with the sampling, the mean's as 1/√n) [-].
   int edge_points = 4;
   int icp_max_iterations = 50;
-  double icp_tolerance_m = 1e-6;     ///< ICP stops when the translation changes less [m]
+  double icp_tolerance_m = 1e-6;  ///< ICP stops when the translation changes less [m]
   /// Pairs whose headings differ by less than this are the same direction; by more than
   /// 180° minus this, opposite; others are crossing and not used by the closed form [deg].
   double direction_tolerance_deg = 20.0;
@@ -76,16 +76,16 @@ struct FeatureOptions {
 /// One strip's view of a target.
 struct FeatureView {
   std::string strip_id;
-  int points = 0;                    ///< inliers of the feature plane
-  Vec3 centroid_m = Vec3::Zero();    ///< at the mounting used [m]
-  Vec3 normal = Vec3::UnitZ();       ///< feature plane normal (upwards) [-]
-  double plane_sigma_m = 0.0;        ///< σ of the inliers about the plane [m]
-  double sigma_normal_m = 0.0;       ///< σ of the centroid along the normal [m]
-  double sigma_in_plane_m = 0.0;     ///< σ of the centroid across the plane [m]
-  double time_s = 0.0;               ///< mean time of the feature's points [s]
-  Vec3 platform_m = Vec3::Zero();    ///< mean IMU position while the strip saw it [m]
-  Vec3 forward = Vec3::UnitY();      ///< the body's forward axis, horizontal, unit (mean over the points) [-]
-  double threshold = 0.0;            ///< intensity threshold used [-]
+  int points = 0;                  ///< inliers of the feature plane
+  Vec3 centroid_m = Vec3::Zero();  ///< at the mounting used [m]
+  Vec3 normal = Vec3::UnitZ();     ///< feature plane normal (upwards) [-]
+  double plane_sigma_m = 0.0;      ///< σ of the inliers about the plane [m]
+  double sigma_normal_m = 0.0;     ///< σ of the centroid along the normal [m]
+  double sigma_in_plane_m = 0.0;   ///< σ of the centroid across the plane [m]
+  double time_s = 0.0;             ///< mean time of the feature's points [s]
+  Vec3 platform_m = Vec3::Zero();  ///< mean IMU position while the strip saw it [m]
+  Vec3 forward = Vec3::UnitY();    ///< the body's forward axis, horizontal, unit (mean over the points) [-]
+  double threshold = 0.0;          ///< intensity threshold used [-]
 };
 
 /// A target rejected (strip_id empty: the whole region), or one strip's view of it, and why.
@@ -99,33 +99,33 @@ struct FeaturePairOffset {
   std::string target_id, strip_a, strip_b;
   /// "opposite", "same" (same direction, B offset sideways) or "crossing".
   std::string relation;
-  Vec3 offset_m = Vec3::Zero();       ///< Δ = x_A − x_B in the mapping frame, by ICP [m]
-  Vec3 offset_afd_m = Vec3::Zero();   ///< Δ in A's along-track / cross-track (right) / down axes [m]
-  Mat3 covariance = Mat3::Zero();     ///< of offset_m [m²]
-  Mat3 covariance_afd = Mat3::Zero(); ///< of offset_afd_m [m²]
-  double height_m = 0.0;              ///< H_A: A above the target [m]
-  double height_b_m = 0.0;            ///< H_B: B above the target [m]
-  double lateral_a_m = 0.0;           ///< y_A: the target right of A's line [m]
-  double lateral_b_m = 0.0;           ///< y_B: the target right of B's line (B's own right) [m]
-  double line_offset_m = 0.0;         ///< D = y_A − y_B: B's line right of A's (same-direction pairs) [m]
+  Vec3 offset_m = Vec3::Zero();        ///< Δ = x_A − x_B in the mapping frame, by ICP [m]
+  Vec3 offset_afd_m = Vec3::Zero();    ///< Δ in A's along-track / cross-track (right) / down axes [m]
+  Mat3 covariance = Mat3::Zero();      ///< of offset_m [m²]
+  Mat3 covariance_afd = Mat3::Zero();  ///< of offset_afd_m [m²]
+  double height_m = 0.0;               ///< H_A: A above the target [m]
+  double height_b_m = 0.0;             ///< H_B: B above the target [m]
+  double lateral_a_m = 0.0;            ///< y_A: the target right of A's line [m]
+  double lateral_b_m = 0.0;            ///< y_B: the target right of B's line (B's own right) [m]
+  double line_offset_m = 0.0;          ///< D = y_A − y_B: B's line right of A's (same-direction pairs) [m]
   int icp_iterations = 0;
-  double icp_rms_m = 0.0;             ///< RMS distance of the matched points [m]
+  double icp_rms_m = 0.0;  ///< RMS distance of the matched points [m]
 };
 
 /// The paper's first-order answer (SPEC §2 "Closed-form boresight from strip offsets").
 struct FeatureClosedForm {
   bool valid = false;
-  std::string message;                   ///< why not, or what was held
-  Vec3 boresight_correction_rad = Vec3::Zero();  ///< ε = δ_used − δ (roll, pitch, heading) [rad]
-  Vec3 boresight_sigma_rad = Vec3::Constant(std::nan(""));  ///< NaN: not determined [rad]
+  std::string message;                                       ///< why not, or what was held
+  Vec3 boresight_correction_rad = Vec3::Zero();              ///< ε = δ_used − δ (roll, pitch, heading) [rad]
+  Vec3 boresight_sigma_rad = Vec3::Constant(std::nan(""));   ///< NaN: not determined [rad]
   Vec3 boresight_spread_rad = Vec3::Constant(std::nan(""));  ///< std. dev. of the single-pair estimates [rad]
-  std::array<int, 3> pairs_used{};       ///< pairs contributing to each angle
-  bool lever_arm_estimated = false;      ///< two heights: η_x, η_y estimated beside the angles
-  Vec3 lever_arm_correction_m = Vec3::Zero();  ///< η = a_used − a (x, y; z never) [m]
+  std::array<int, 3> pairs_used{};                           ///< pairs contributing to each angle
+  bool lever_arm_estimated = false;                          ///< two heights: η_x, η_y estimated beside the angles
+  Vec3 lever_arm_correction_m = Vec3::Zero();                ///< η = a_used − a (x, y; z never) [m]
   Vec3 lever_arm_sigma_m = Vec3::Constant(std::nan(""));
   /// Named when one flight height leaves pitch and the along-track lever arm coupled.
   bool pitch_lever_arm_coupled = false;
-  MountingParameters mounting;           ///< mounting_used corrected by ε (and η) [m, rad]
+  MountingParameters mounting;  ///< mounting_used corrected by ε (and η) [m, rad]
 };
 
 /// The section of the result file (SPEC §4 `"features"`).
@@ -137,7 +137,7 @@ struct FeatureSection : MethodSection {
   std::string html(const AdjustmentSummary& summary) const override;
   std::vector<std::string> warnings() const override;
   int targets_used = 0;
-  int views_used = 0;                    ///< (target, strip) observations in the adjustment
+  int views_used = 0;  ///< (target, strip) observations in the adjustment
   std::vector<std::string> target_ids;
   std::vector<std::vector<FeatureView>> views;  ///< per used target
   std::vector<RejectedFeature> rejected;
@@ -160,9 +160,8 @@ struct FeatureSection : MethodSection {
 
 /// Step 1 for one region: every strip's feature (the rest rejected with reasons, appended to
 /// `rejected`). Pulse indices into each strip are returned in `indices` (same order as the views).
-std::vector<FeatureView> extractFeature(const CalibrationData& data, const PlaneRegion& region,
-                                        const FeatureOptions& options, std::vector<RejectedFeature>* rejected,
-                                        std::vector<std::vector<std::uint32_t>>* indices = nullptr);
+std::vector<FeatureView> extractFeature(const CalibrationData& data, const PlaneRegion& region, const FeatureOptions& options,
+                                        std::vector<RejectedFeature>* rejected, std::vector<std::vector<std::uint32_t>>* indices = nullptr);
 
 /// The centre of a target's outline from one strip's points of it: along the target's two axes in
 /// its plane (the minimum-area bounding rectangle) the midpoint of the `edge_points` most extreme
@@ -170,7 +169,7 @@ std::vector<FeatureView> extractFeature(const CalibrationData& data, const Plane
 struct OutlineCentre {
   Vec3 centre_m = Vec3::Zero();
   Vec3 u = Vec3::UnitX(), v = Vec3::UnitY(), n = Vec3::UnitZ();  ///< target axes and normal [-]
-  std::vector<std::pair<std::size_t, Mat3>> weights;  ///< (index into the points, W_j)
+  std::vector<std::pair<std::size_t, Mat3>> weights;             ///< (index into the points, W_j)
 };
 OutlineCentre outlineCentre(const std::vector<Vec3>& points, const Vec3& normal, int edge_points = 4);
 
@@ -183,9 +182,8 @@ struct IcpResult {
   double rms_m = 0.0;
   bool converged = false;
 };
-IcpResult matchTranslation(const std::vector<Vec3>& a, const std::vector<Vec3>& b, const Vec3& normal,
-                           double sigma_normal_m, double sigma_in_plane_m, int max_iterations = 50,
-                           double tolerance_m = 1e-6, const Vec3* initial = nullptr);
+IcpResult matchTranslation(const std::vector<Vec3>& a, const std::vector<Vec3>& b, const Vec3& normal, double sigma_normal_m,
+                           double sigma_in_plane_m, int max_iterations = 50, double tolerance_m = 1e-6, const Vec3* initial = nullptr);
 
 class FeatureObservations final : public ObservationSource {
  public:
@@ -201,8 +199,8 @@ class FeatureObservations final : public ObservationSource {
   bool settled() const override { return settled_; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void solved(const AdjustmentProblem& problem) override;
-  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+              const AnalysisOptions& analysis) override;
 
   int observationCount() const { return section_.views_used; }
   const FeatureSection& section() const { return section_; }
@@ -212,7 +210,7 @@ class FeatureObservations final : public ObservationSource {
     std::string strip_id;
     Vec3 c0_rel = Vec3::Zero();  ///< centroid at M_used minus the target's reference point [m]
     Eigen::Matrix<double, 3, 9> K = Eigen::Matrix<double, 3, 9>::Zero();
-    Mat3 R_bar = Mat3::Zero();   ///< mean R_mb of the points [-]
+    Mat3 R_bar = Mat3::Zero();          ///< mean R_mb of the points [-]
     Mat3 sqrt_info = Mat3::Identity();  ///< W^½ [1/m]
   };
   struct Target {

@@ -34,8 +34,8 @@ struct PlaneOptions {
   /// RANSAC inlier distance when a strip's points in a region are fitted by a plane [m].
   double ransac_threshold_m = 0.10;
   int ransac_iterations = 200;
-  int min_points_per_strip = 10;   ///< fewer inliers: the strip does not see the patch
-  int max_points_per_strip = 24;   ///< inliers used per patch and strip, evenly thinned
+  int min_points_per_strip = 10;  ///< fewer inliers: the strip does not see the patch
+  int max_points_per_strip = 24;  ///< inliers used per patch and strip, evenly thinned
   /// A strip's plane that differs from the other strips' by more than this is another surface.
   double max_normal_angle_deg = 10.0;
   /// …or parallel to it but farther than this (a flat roof and the ground beside it) [m].
@@ -60,13 +60,13 @@ struct PlaneOptions {
 /// One patch in the adjustment: its plane and how well the strips agree on it.
 struct PatchResidual {
   std::string patch_id;
-  Vec3 centre_m = Vec3::Zero();   ///< [m]
-  Vec3 normal = Vec3::UnitZ();    ///< unit normal, upwards [-]
-  int points = 0;                 ///< point-to-plane residuals
-  int strips = 0;                 ///< strips that see it
-  double rms_before_m = 0.0;      ///< all strips' points at M_used about their best-fit plane, seed eq. (13) [m]
-  double rms_after_m = 0.0;       ///< residual distances to the estimated plane at M̂ [m]
-  bool outlier = false;           ///< RMS after far beyond the other patches'
+  Vec3 centre_m = Vec3::Zero();  ///< [m]
+  Vec3 normal = Vec3::UnitZ();   ///< unit normal, upwards [-]
+  int points = 0;                ///< point-to-plane residuals
+  int strips = 0;                ///< strips that see it
+  double rms_before_m = 0.0;     ///< all strips' points at M_used about their best-fit plane, seed eq. (13) [m]
+  double rms_after_m = 0.0;      ///< residual distances to the estimated plane at M̂ [m]
+  bool outlier = false;          ///< RMS after far beyond the other patches'
 };
 
 /// A patch (or one strip's part of it) left out, and why.
@@ -96,9 +96,9 @@ struct PlaneSection : MethodSection {
 
 /// A planar patch found in the overlaps (findPlanarPatches).
 struct PlanarPatch {
-  PlaneRegion region;            ///< plan bounding box of the patch [m]
-  Vec3 normal = Vec3::UnitZ();   ///< [-]
-  int cells = 0;                 ///< grid cells grown into it
+  PlaneRegion region;           ///< plan bounding box of the patch [m]
+  Vec3 normal = Vec3::UnitZ();  ///< [-]
+  int cells = 0;                ///< grid cells grown into it
 };
 
 /// Finds planar patches seen by two or more strips (region growing over a plan grid of
@@ -117,8 +117,8 @@ class PlaneObservations final : public ObservationSource {
   /// The points in each region are selected again at each new mounting.
   bool rematches() const override { return true; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
-  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting,
-              const AdjustmentProblem& problem, const AnalysisOptions& analysis) override;
+  void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
+              const AnalysisOptions& analysis) override;
 
   int observationCount() const { return section_.points_used; }
   const PlaneSection& section() const { return section_; }
