@@ -408,24 +408,10 @@ Job readJob(const std::string& path) {
   return job;
 }
 
-std::string jobJson(const Job& job) {
-  auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
-  const MountingCalibrator::Options& o = job.options;
-  const MountingCalibrator::Options def;
-  json j;
-  j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
-  if (job.per_point_poses) {
-    const io::PoseFields& f = job.pose_fields;
-    j["poses"] = {{"from", "extra_bytes"},
-                  {"position", {f.position[0], f.position[1], f.position[2]}},
-                  {"attitude", {f.attitude[0], f.attitude[1], f.attitude[2]}},
-                  {"attitude_unit", f.degrees ? "deg" : "rad"},
-                  {"convention", io::toString(f.convention)}};
-  } else {
-    j["trajectory"] = {{"path", rel(job.trajectory_path)},
-                       {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
-                       {"time_offset_s", job.time_offset_s}};
-  }
+namespace {
+
+/// The job's "sensor" object.
+json sensorJson(const Job& job) {
   const Vec3& nom = job.nominal_rotation_deg;
   json sensor = {{"nominal_rotation_deg", {nom.x(), nom.y(), nom.z()}}};
   switch (job.sensor.type) {
@@ -457,7 +443,30 @@ std::string jobJson(const Job& job) {
       sensor["type"] = "vector";
       break;
   }
-  j["sensor"] = sensor;
+  return sensor;
+}
+
+}  // namespace
+
+std::string jobJson(const Job& job) {
+  auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
+  const MountingCalibrator::Options& o = job.options;
+  const MountingCalibrator::Options def;
+  json j;
+  j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
+  if (job.per_point_poses) {
+    const io::PoseFields& f = job.pose_fields;
+    j["poses"] = {{"from", "extra_bytes"},
+                  {"position", {f.position[0], f.position[1], f.position[2]}},
+                  {"attitude", {f.attitude[0], f.attitude[1], f.attitude[2]}},
+                  {"attitude_unit", f.degrees ? "deg" : "rad"},
+                  {"convention", io::toString(f.convention)}};
+  } else {
+    j["trajectory"] = {{"path", rel(job.trajectory_path)},
+                       {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
+                       {"time_offset_s", job.time_offset_s}};
+  }
+  j["sensor"] = sensorJson(job);
   const Vec3 b = job.mounting_used.boresightDeg();
   j["mounting_used"] = {{"lever_arm_m", {job.mounting_used.a_b.x(), job.mounting_used.a_b.y(), job.mounting_used.a_b.z()}},
                         {"boresight_deg", {b.x(), b.y(), b.z()}}};

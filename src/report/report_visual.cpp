@@ -512,6 +512,50 @@ std::string profilesSection(const CalibrationData& data, const MountingCalibrato
   return v.str();
 }
 
+/// The intensities of `pts` (strip `s`'s points `inside` of the overlay window) on a P × P raster
+/// around (cx, cy), gaps between points filled from their neighbours, stretched between the 2nd
+/// and 98th percentiles to [0, 1].
+std::vector<double> intensityRaster(const CalibrationData& data, std::size_t s, const std::vector<std::size_t>& inside,
+                                    const std::vector<Vec3>& pts, double cx, double cy, double half, int P) {
+  std::vector<double> sum(static_cast<std::size_t>(P) * P, 0.0), n(sum.size(), 0.0);
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    const int px = static_cast<int>((pts[k].x() - (cx - half)) / (2 * half) * P),
+              py = static_cast<int>(((cy + half) - pts[k].y()) / (2 * half) * P);
+    if (px < 0 || py < 0 || px >= P || py >= P) continue;
+    const std::size_t i = static_cast<std::size_t>(py) * P + px;
+    sum[i] += data.strips[s].intensity[inside[k]];
+    n[i] += 1;
+  }
+  // An empty pixel takes the mean of its filled 8-neighbours (a gap between points), else stays empty.
+  std::vector<double> img(sum.size(), -1);
+  for (std::size_t i = 0; i < sum.size(); ++i)
+    if (n[i] > 0) img[i] = sum[i] / n[i];
+  std::vector<double> filled_img = img;
+  for (int y = 0; y < P; ++y)
+    for (int x = 0; x < P; ++x) {
+      if (img[static_cast<std::size_t>(y) * P + x] >= 0) continue;
+      double acc = 0;
+      int m = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= P || yy >= P) continue;
+          const double w = img[static_cast<std::size_t>(yy) * P + xx];
+          if (w >= 0) acc += w, ++m;
+        }
+      if (m >= 3) filled_img[static_cast<std::size_t>(y) * P + x] = acc / m;
+    }
+  img.swap(filled_img);
+  // Stretch between the 2nd and 98th percentiles.
+  std::vector<double> filled;
+  for (double x : img)
+    if (x >= 0) filled.push_back(x);
+  std::sort(filled.begin(), filled.end());
+  const double lo = filled.empty() ? 0 : filled[filled.size() * 2 / 100], hi = filled.empty() ? 1 : filled[filled.size() * 98 / 100];
+  for (double& x : img) x = x < 0 ? 0 : std::clamp((x - lo) / std::max(hi - lo, 1e-9), 0.0, 1.0);
+  return img;
+}
+
 /// Two strips' intensities overlaid before and after (Fig. 11), where the intensity has most contrast.
 std::string overlaySection(const CalibrationData& data, const MountingCalibrator::Summary& S, const DrawnStrips& drawn,
                            const std::vector<Profile>& profiles, const ReportOptions& o) {
@@ -568,45 +612,6 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
       for (std::size_t i : inside[A]) window_a.push_back(X[A][i]);
       const double spacing = std::max(detail::planSpacing(window_a), 0.02);
       const int P = std::clamp(static_cast<int>(2 * half / (0.67 * spacing)), 16, o.overlay_px);
-      auto raster = [&](std::size_t s, const std::vector<Vec3>& pts) {
-        std::vector<double> sum(static_cast<std::size_t>(P) * P, 0.0), n(sum.size(), 0.0);
-        for (std::size_t k = 0; k < pts.size(); ++k) {
-          const int px = static_cast<int>((pts[k].x() - (cx - half)) / (2 * half) * P),
-                    py = static_cast<int>(((cy + half) - pts[k].y()) / (2 * half) * P);
-          if (px < 0 || py < 0 || px >= P || py >= P) continue;
-          const std::size_t i = static_cast<std::size_t>(py) * P + px;
-          sum[i] += data.strips[s].intensity[inside[s][k]];
-          n[i] += 1;
-        }
-        // An empty pixel takes the mean of its filled 8-neighbours (a gap between points), else stays empty.
-        std::vector<double> img(sum.size(), -1);
-        for (std::size_t i = 0; i < sum.size(); ++i)
-          if (n[i] > 0) img[i] = sum[i] / n[i];
-        std::vector<double> filled_img = img;
-        for (int y = 0; y < P; ++y)
-          for (int x = 0; x < P; ++x) {
-            if (img[static_cast<std::size_t>(y) * P + x] >= 0) continue;
-            double acc = 0;
-            int m = 0;
-            for (int dy = -1; dy <= 1; ++dy)
-              for (int dx = -1; dx <= 1; ++dx) {
-                const int xx = x + dx, yy = y + dy;
-                if (xx < 0 || yy < 0 || xx >= P || yy >= P) continue;
-                const double w = img[static_cast<std::size_t>(yy) * P + xx];
-                if (w >= 0) acc += w, ++m;
-              }
-            if (m >= 3) filled_img[static_cast<std::size_t>(y) * P + x] = acc / m;
-          }
-        img.swap(filled_img);
-        // Stretch between the 2nd and 98th percentiles.
-        std::vector<double> filled;
-        for (double x : img)
-          if (x >= 0) filled.push_back(x);
-        std::sort(filled.begin(), filled.end());
-        const double lo = filled.empty() ? 0 : filled[filled.size() * 2 / 100], hi = filled.empty() ? 1 : filled[filled.size() * 98 / 100];
-        for (double& x : img) x = x < 0 ? 0 : std::clamp((x - lo) / std::max(hi - lo, 1e-9), 0.0, 1.0);
-        return img;
-      };
       auto overlay = [&](const MountingParameters& m, bool use_used) {
         std::vector<Vec3> pa, pb;
         if (use_used) {
@@ -616,7 +621,8 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
           pa = movedPoints(data, data.strips[A], X[A], inside[A], m);
           pb = movedPoints(data, data.strips[Bs], X[Bs], inside[Bs], m);
         }
-        const std::vector<double> ia = raster(A, pa), ib = raster(Bs, pb);
+        const std::vector<double> ia = intensityRaster(data, A, inside[A], pa, cx, cy, half, P),
+                                  ib = intensityRaster(data, Bs, inside[Bs], pb, cx, cy, half, P);
         std::vector<unsigned char> rgb(static_cast<std::size_t>(P) * P * 3);
         for (std::size_t i = 0; i < ia.size(); ++i) {  // strip A magenta, strip B green: aligned → grey
           rgb[3 * i] = static_cast<unsigned char>(std::lround(255 * ia[i]));
