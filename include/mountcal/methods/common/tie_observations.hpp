@@ -50,6 +50,12 @@ struct TieObservationOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// What a module that picks virtual tie points needs (methods "vtpm" and "control"): the picks'
+/// stochastic model and the virtual tie point's construction.
+struct TiePickOptions : TieObservationOptions {
+  VtpOptions vtp;
+};
+
 /// The residual section of the ties (or of the control points).
 struct TieSection {
   int ties_used = 0;          ///< distinct ties in the adjustment

@@ -14,9 +14,8 @@ namespace mountcal {
 
 /// Options of ground control (job object "control"): the picks' stochastic model and the
 /// virtual tie point's construction, as for method "vtpm".
-struct ControlOptions : TieObservationOptions {
+struct ControlOptions : TiePickOptions {
   static constexpr const char* kMethod = "control";
-  VtpOptions vtp;
 };
 
 /// The Summary section of ground control; result-file key "control".

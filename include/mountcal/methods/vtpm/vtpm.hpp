@@ -13,9 +13,8 @@ namespace mountcal {
 
 /// Options of method "vtpm" (job object "vtpm"): the tie's stochastic model and the virtual
 /// tie point's construction.
-struct VtpmOptions : TieObservationOptions {
+struct VtpmOptions : TiePickOptions {
   static constexpr const char* kMethod = "vtpm";
-  VtpOptions vtp;
 };
 
 /// The Summary section of method "vtpm" (seed Table 1); result-file keys "ties",
