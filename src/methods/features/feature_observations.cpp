@@ -183,6 +183,25 @@ Clouds makeClouds(const CalibrationData& data) {
   return c;
 }
 
+/// The platform that saw a view: its mean position, mean time and horizontal forward direction
+/// over the view's points.
+void setPlatform(const CalibrationData& data, const StripData& strip, const std::vector<std::uint32_t>& group, FeatureView* v) {
+  std::size_t cursor = 0;
+  Vec3 fwd = Vec3::Zero(), pos = Vec3::Zero();
+  double t = 0;
+  for (std::uint32_t i : group) {
+    const Pose P = data.pose(strip, i, strip.poses.empty() ? &cursor : nullptr);
+    fwd += P.R_mb.col(0);
+    pos += P.p_m;
+    t += strip.time_s[i];
+  }
+  fwd.z() = 0;
+  const double n = static_cast<double>(group.size());
+  v->forward = fwd.norm() > 0 ? Vec3(fwd.normalized()) : Vec3::UnitY();
+  v->platform_m = pos / n;
+  v->time_s = t / n;
+}
+
 std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& clouds, const PlaneRegion& region, const FeatureOptions& o,
                                      std::vector<RejectedFeature>* rejected, std::vector<std::vector<std::uint32_t>>* indices) {
   auto reject = [&](const std::string& strip, const std::string& why) {
@@ -284,19 +303,7 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     v.sigma_normal_m = std::max(fit.sigma_m, 0.002) / std::sqrt(n);
     v.sigma_in_plane_m = o.sigma_in_plane_m > 0 ? o.sigma_in_plane_m : 1.5 * spacing / std::sqrt(n);
     v.threshold = threshold;
-    std::size_t cursor = 0;
-    Vec3 fwd = Vec3::Zero(), pos = Vec3::Zero();
-    double t = 0;
-    for (std::uint32_t i : group) {
-      const Pose P = data.pose(strip, i, strip.poses.empty() ? &cursor : nullptr);
-      fwd += P.R_mb.col(0);
-      pos += P.p_m;
-      t += strip.time_s[i];
-    }
-    fwd.z() = 0;
-    v.forward = fwd.norm() > 0 ? Vec3(fwd.normalized()) : Vec3::UnitY();
-    v.platform_m = pos / n;
-    v.time_s = t / n;
+    setPlatform(data, strip, group, &v);
     views.push_back(v);
     view_indices.push_back(group);
   }
@@ -440,6 +447,33 @@ IcpResult matchTranslation(const std::vector<Vec3>& a, const std::vector<Vec3>& 
   return R;
 }
 
+namespace {
+
+/// The sample standard deviation of at least two values.
+double sampleStandardDeviation(const std::vector<double>& x) {
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  double v = 0;
+  for (double e : x) v += (e - mean) * (e - mean);
+  return std::sqrt(v / static_cast<double>(x.size() - 1));
+}
+
+/// What the closed form could not determine, and the one-height coupling, in words.
+std::string closedFormMessage(const std::array<bool, 5>& use, bool pitch_lever_arm_coupled) {
+  std::string held;
+  const char* names[3] = {"roll", "pitch", "heading"};
+  for (int j = 0; j < 3; ++j)
+    if (!use[j]) held += std::string(held.empty() ? "" : ", ") + names[j];
+  if (!held.empty()) held += " not determined (roll and pitch need opposite pairs, heading same-direction lines offset sideways)";
+  if (pitch_lever_arm_coupled) {
+    held += std::string(held.empty() ? "" : "; ") +
+            "one flight height: pitch and the along-track lever arm are coupled (Δ_along = 2(ε_φ H + η_x)); the lever arm is "
+            "taken as measured — fly a second height to separate them";
+  }
+  return held;
+}
+
+}  // namespace
+
 FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pairs, const MountingParameters& used,
                                       const FeatureOptions& o) {
   FeatureClosedForm C;
@@ -544,25 +578,10 @@ FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pair
       C.lever_arm_sigma_m(j - 3) = sd;
     }
   }
-  for (int j = 0; j < 3; ++j) {
-    if (single[j].size() < 2) continue;
-    const double mean = std::accumulate(single[j].begin(), single[j].end(), 0.0) / static_cast<double>(single[j].size());
-    double v = 0;
-    for (double x : single[j]) v += (x - mean) * (x - mean);
-    C.boresight_spread_rad(j) = std::sqrt(v / static_cast<double>(single[j].size() - 1));
-  }
-  C.valid = true;
-  std::string held;
-  const char* names[3] = {"roll", "pitch", "heading"};
   for (int j = 0; j < 3; ++j)
-    if (!use[j]) held += std::string(held.empty() ? "" : ", ") + names[j];
-  if (!held.empty()) held += " not determined (roll and pitch need opposite pairs, heading same-direction lines offset sideways)";
-  C.message = held;
-  if (C.pitch_lever_arm_coupled) {
-    C.message += std::string(C.message.empty() ? "" : "; ") +
-                 "one flight height: pitch and the along-track lever arm are coupled (Δ_along = 2(ε_φ H + η_x)); the lever arm is "
-                 "taken as measured — fly a second height to separate them";
-  }
+    if (single[j].size() >= 2) C.boresight_spread_rad(j) = sampleStandardDeviation(single[j]);
+  C.valid = true;
+  C.message = closedFormMessage(use, C.pitch_lever_arm_coupled);
   C.mounting.boresight = used.boresight - C.boresight_correction_rad;
   C.mounting.a_b = used.a_b - C.lever_arm_correction_m;
   return C;
