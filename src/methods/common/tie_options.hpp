@@ -1,6 +1,11 @@
 #pragma once
-// Internal to the tie-based modules (vtpm, control): the job options they share, declared once.
+// Internal to the tie-based modules (vtpm, control): what they share — their job options, declared
+// once, and their result-file lists of rejected picks and residuals.
 
+#include <nlohmann/json.hpp>
+
+#include "mountcal/methods/common/tie_observations.hpp"
+#include "section_format.hpp"
 #include "mountcal/methods/method.hpp"
 #include "mountcal/methods/common/virtual_tie_point.hpp"
 
@@ -39,6 +44,26 @@ inline bool vtpOptionsValid(const VtpOptions& v, std::string* error) {
     return false;
   }
   return true;
+}
+
+/// The result file's list of rejected picks, each named by `id_key` ("tie_id", "gcp_id").
+inline nlohmann::json rejectedTiesJson(const std::vector<RejectedTie>& rejected, const char* id_key) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RejectedTie& r : rejected) out.push_back({{id_key, r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
+  return out;
+}
+
+/// The result file's list of pick residuals before and after, each named by `id_key`.
+inline nlohmann::json tieResidualsJson(const std::vector<TieResidual>& residuals, const char* id_key) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const TieResidual& r : residuals) {
+    out.push_back({{id_key, r.tie_id},
+                   {"strip_id", r.strip_id},
+                   {"before_m", vec3Json(r.before_m)},
+                   {"after_m", vec3Json(r.after_m)},
+                   {"outlier", r.outlier}});
+  }
+  return out;
 }
 
 }  // namespace mountcal::detail

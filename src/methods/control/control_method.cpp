@@ -79,16 +79,8 @@ std::string ControlSection::text(const AdjustmentSummary&) const {
 
 std::string ControlSection::resultJson(const AdjustmentSummary&) const {
   using nlohmann::json;
-  json rej = json::array();
-  for (const RejectedTie& r : rejected) rej.push_back({{"gcp_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-  json res = json::array();
-  for (const TieResidual& r : residuals) {
-    res.push_back({{"gcp_id", r.tie_id},
-                   {"strip_id", r.strip_id},
-                   {"before_m", detail::vec3Json(r.before_m)},
-                   {"after_m", detail::vec3Json(r.after_m)},
-                   {"outlier", r.outlier}});
-  }
+  const json rej = detail::rejectedTiesJson(rejected, "gcp_id");
+  const json res = detail::tieResidualsJson(residuals, "gcp_id");
   json j;
   j["control"] = {{"points", ties_used},
                   {"observations", observations_used},
@@ -115,10 +107,6 @@ std::vector<std::string> ControlSection::warnings() const {
   return {std::to_string(rejected.size()) + " ground control observations rejected"};
 }
 
-int ControlSection::outliers() const {
-  int n = 0;
-  for (const TieResidual& r : residuals) n += r.outlier;
-  return n;
-}
+int ControlSection::outliers() const { return outlierCount(); }
 
 }  // namespace mountcal

@@ -90,16 +90,8 @@ std::string VtpmSection::text(const AdjustmentSummary&) const {
 
 std::string VtpmSection::resultJson(const AdjustmentSummary&) const {
   using nlohmann::json;
-  json rej = json::array();
-  for (const RejectedTie& r : rejected) rej.push_back({{"tie_id", r.tie_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
-  json res = json::array();
-  for (const TieResidual& r : residuals) {
-    res.push_back({{"tie_id", r.tie_id},
-                   {"strip_id", r.strip_id},
-                   {"before_m", detail::vec3Json(r.before_m)},
-                   {"after_m", detail::vec3Json(r.after_m)},
-                   {"outlier", r.outlier}});
-  }
+  const json rej = detail::rejectedTiesJson(rejected, "tie_id");
+  const json res = detail::tieResidualsJson(residuals, "tie_id");
   json j;
   j["ties"] = {{"used", ties_used}, {"observations", observations_used}, {"rejected", rej}};
   j["rms_before_m"] = detail::vec3Json(rms_before_m);
@@ -154,11 +146,7 @@ std::vector<std::string> VtpmSection::warnings() const {
   return {std::to_string(rejected.size()) + " tie observations rejected (reasons in the table below)"};
 }
 
-int VtpmSection::outliers() const {
-  int n = 0;
-  for (const TieResidual& r : residuals) n += r.outlier;
-  return n;
-}
+int VtpmSection::outliers() const { return outlierCount(); }
 
 std::vector<PlanResidual> VtpmSection::planResiduals(const CalibrationData& data) const {
   std::map<std::pair<std::string, std::string>, const TieObservation*> pick;

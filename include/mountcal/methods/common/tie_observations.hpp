@@ -67,6 +67,12 @@ struct TieSection {
   /// The σ used in the last solve: the stated ones, or those estimated (estimate_tie_sigma) [m].
   double sigma_xy_m = 0.0, sigma_z_m = 0.0;
   bool sigma_estimated = false;
+  /// Observations flagged as outliers [-].
+  int outlierCount() const {
+    int n = 0;
+    for (const TieResidual& r : residuals) n += r.outlier;
+    return n;
+  }
 };
 
 class VtpStrip;
