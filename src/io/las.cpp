@@ -9,26 +9,16 @@
 #include <random>
 #include <thread>
 
+#include "io/bytes.hpp"
 #include "mountcal/core/error.hpp"
-
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
-#error "mountcal's LAS I/O assumes a little-endian host"
-#endif
 
 namespace mountcal::io {
 
 namespace {
 
-template <typename T>
-T get(const char* buf, std::size_t off) {
-  T v;
-  std::memcpy(&v, buf + off, sizeof(T));
-  return v;
-}
-template <typename T>
-void put(char* buf, std::size_t off, T v) {
-  std::memcpy(buf + off, &v, sizeof(T));
-}
+using bytes::get;
+using bytes::put;
+
 std::string fixedString(const char* buf, std::size_t off, std::size_t n) {
   std::string s(buf + off, n);
   return s.substr(0, s.find('\0'));
@@ -632,14 +622,14 @@ void LasWriter::accountBlock(const std::uint8_t* records, std::size_t n) {
   // x = X·scale + offset is monotonic in X, so the block's extreme coordinates are those of its
   // extreme integers (the lower one of the two for the minimum, whatever the sign of the scale).
   std::int32_t lo[3], hi[3];
-  std::memcpy(lo, records, 12);
-  std::memcpy(hi, records, 12);
+  LasRecordLayout::integers(records, lo);
+  LasRecordLayout::integers(records, hi);
   const int mask = header_.point_format < 6 ? 7 : 15;
   std::uint64_t by_return[16] = {};
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint8_t* r = records + i * len;
     std::int32_t X[3];
-    std::memcpy(X, r, 12);
+    LasRecordLayout::integers(r, X);
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], X[a]);
       hi[a] = std::max(hi[a], X[a]);
@@ -832,12 +822,6 @@ std::string fixedString(const std::uint8_t* p, std::size_t n) {
   return std::string(reinterpret_cast<const char*>(p), len);
 }
 
-double readF64(const std::uint8_t* p) {
-  double v;
-  std::memcpy(&v, p, 8);
-  return v;
-}
-
 }  // namespace
 
 std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, const std::string& path) {
@@ -871,8 +855,8 @@ std::vector<ExtraBytesAttribute> extraBytesAttributes(const LasHeader& header, c
       a.elements = a.data_type <= 10 ? 1 : (a.data_type <= 20 ? 2 : 3);
       a.size = elementSize(base) * static_cast<std::size_t>(a.elements);
       for (int e = 0; e < 3; ++e) {
-        a.scale[static_cast<std::size_t>(e)] = a.hasScale() ? readF64(d + 112 + 8 * e) : 1.0;
-        a.offset[static_cast<std::size_t>(e)] = a.hasOffset() ? readF64(d + 136 + 8 * e) : 0.0;
+        a.scale[static_cast<std::size_t>(e)] = a.hasScale() ? bytes::get<double>(d, 112 + 8 * e) : 1.0;
+        a.offset[static_cast<std::size_t>(e)] = a.hasOffset() ? bytes::get<double>(d, 136 + 8 * e) : 0.0;
         if (!std::isfinite(a.scale[static_cast<std::size_t>(e)]) || !std::isfinite(a.offset[static_cast<std::size_t>(e)]))
           throw FileError(path, where, "scale or offset is not finite");
       }
@@ -916,54 +900,30 @@ double extraBytesValue(const LasPoint& p, const ExtraBytesAttribute& a, int elem
     case 2:
       raw = static_cast<std::int8_t>(b[0]);
       break;
-    case 3: {
-      std::uint16_t v;
-      std::memcpy(&v, b, 2);
-      raw = v;
+    case 3:
+      raw = bytes::get<std::uint16_t>(b, 0);
       break;
-    }
-    case 4: {
-      std::int16_t v;
-      std::memcpy(&v, b, 2);
-      raw = v;
+    case 4:
+      raw = bytes::get<std::int16_t>(b, 0);
       break;
-    }
-    case 5: {
-      std::uint32_t v;
-      std::memcpy(&v, b, 4);
-      raw = v;
+    case 5:
+      raw = bytes::get<std::uint32_t>(b, 0);
       break;
-    }
-    case 6: {
-      std::int32_t v;
-      std::memcpy(&v, b, 4);
-      raw = v;
+    case 6:
+      raw = bytes::get<std::int32_t>(b, 0);
       break;
-    }
-    case 7: {
-      std::uint64_t v;
-      std::memcpy(&v, b, 8);
-      raw = static_cast<double>(v);
+    case 7:
+      raw = static_cast<double>(bytes::get<std::uint64_t>(b, 0));
       break;
-    }
-    case 8: {
-      std::int64_t v;
-      std::memcpy(&v, b, 8);
-      raw = static_cast<double>(v);
+    case 8:
+      raw = static_cast<double>(bytes::get<std::int64_t>(b, 0));
       break;
-    }
-    case 9: {
-      float v;
-      std::memcpy(&v, b, 4);
-      raw = v;
+    case 9:
+      raw = bytes::get<float>(b, 0);
       break;
-    }
-    default: {
-      double v;
-      std::memcpy(&v, b, 8);
-      raw = v;
+    default:
+      raw = bytes::get<double>(b, 0);
       break;
-    }
   }
   const auto e = static_cast<std::size_t>(element);
   return raw * (a.hasScale() ? a.scale[e] : 1.0) + (a.hasOffset() ? a.offset[e] : 0.0);

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 
+#include "io/bytes.hpp"
 #include "laz_coder.hpp"
 #include "laz_items.hpp"
 #include "mountcal/core/error.hpp"
@@ -12,18 +13,8 @@ namespace mountcal::io {
 
 namespace {
 
-template <typename T>
-T get(const std::uint8_t* p, std::size_t off) {
-  T v;
-  std::memcpy(&v, p + off, sizeof(T));
-  return v;
-}
-template <typename T>
-void put(std::vector<std::uint8_t>& out, T v) {
-  const std::size_t at = out.size();
-  out.resize(at + sizeof(T));
-  std::memcpy(out.data() + at, &v, sizeof(T));
-}
+using bytes::get;
+using bytes::put;
 
 std::uint16_t fixedItemSize(std::uint16_t type) {
   switch (type) {

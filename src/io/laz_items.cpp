@@ -3,6 +3,8 @@
 // test compares with; quirks of the reference that a compatible decoder must share are noted.
 #include "laz_items.hpp"
 
+#include "io/bytes.hpp"
+
 #include <algorithm>
 #include <cstring>
 
@@ -10,16 +12,8 @@ namespace mountcal::io::laz {
 
 namespace {
 
-template <typename T>
-T get(const std::uint8_t* p, std::size_t off) {
-  T v;
-  std::memcpy(&v, p + off, sizeof(T));
-  return v;
-}
-template <typename T>
-void put(std::uint8_t* p, std::size_t off, T v) {
-  std::memcpy(p + off, &v, sizeof(T));
-}
+using bytes::get;
+using bytes::put;
 std::int32_t wrapAdd(std::int32_t a, std::int32_t b) {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) + static_cast<std::uint32_t>(b));
 }

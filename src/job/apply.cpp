@@ -94,7 +94,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     std::vector<std::int32_t> XYZ_new;
     double max_shift2 = 0;  // the largest squared shift: one square root per file
     const std::size_t len = h.point_record_length;
-    const std::size_t time_at = h.point_format < 6 ? 20 : 22;  // LAS 1.4 R15 tables 7–16
+    const io::LasRecordLayout layout(h.point_format);
     const double s0 = h.scale[0], s1 = h.scale[1], s2 = h.scale[2], o0 = h.offset[0], o1 = h.offset[1], o2 = h.offset[2];
     const double t_start = T ? T->startTime() : 0.0, t_end = T ? T->endTime() : 0.0;
     // Points per batch: the arrays stay in the caches' reach. The records are read a batch at a
@@ -115,11 +115,9 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
         // The records' times and coordinates in the CRS, as arrays.
         for (std::size_t k = 0; k < n; ++k) {
           const std::uint8_t* r = block + k * len;
-          double t;
           std::int32_t X[3];
-          std::memcpy(&t, r + time_at, 8);
-          std::memcpy(X, r, 12);
-          times[k] = t;
+          io::LasRecordLayout::integers(r, X);
+          times[k] = layout.gpsTime(r);
           xyz_crs[3 * k] = X[0] * s0 + o0;
           xyz_crs[3 * k + 1] = X[1] * s1 + o1;
           xyz_crs[3 * k + 2] = X[2] * s2 + o2;
@@ -153,7 +151,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
           max_shift2 = std::max(max_shift2, dx * dx + dy * dy + dz * dz);
         }
         writer.quantize(xyz_new.data(), XYZ_new.data(), n, record);
-        for (std::size_t k = 0; k < n; ++k) std::memcpy(block + k * len, &XYZ_new[3 * k], 12);
+        for (std::size_t k = 0; k < n; ++k) io::LasRecordLayout::setIntegers(block + k * len, &XYZ_new[3 * k]);
         writer.writeRaw(block, n);
         record += n;
       }

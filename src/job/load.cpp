@@ -1,7 +1,5 @@
 #include "mountcal/job/load.hpp"
 
-#include <flann/flann.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -14,39 +12,35 @@
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/pose_fields.hpp"
 #include "mountcal/io/sbet.hpp"
+#include "geometry/kd_tree.hpp"
 
 namespace mountcal {
 
 namespace detail {
 
-/// Every strip point's plan position in the CRS in a FLANN k-d tree, with its height.
+/// Every strip point's plan position in the CRS in a k-d tree, with its height.
 class PlanHeightIndex {
  public:
   explicit PlanHeightIndex(std::vector<double> xyz) : xyz_(std::move(xyz)) {
     const std::size_t n = xyz_.size() / 3;
-    xy_.resize(2 * n);
+    std::vector<double> xy(2 * n);
     for (std::size_t i = 0; i < n; ++i) {
-      xy_[2 * i] = xyz_[3 * i];
-      xy_[2 * i + 1] = xyz_[3 * i + 1];
+      xy[2 * i] = xyz_[3 * i];
+      xy[2 * i + 1] = xyz_[3 * i + 1];
     }
-    if (n == 0) return;
-    flann::Matrix<double> data(xy_.data(), n, 2);
-    tree_ = std::make_unique<flann::Index<flann::L2_Simple<double>>>(data, flann::KDTreeSingleIndexParams(12));
-    tree_->buildIndex();
+    tree_ = KdTree<double, 2>(std::move(xy));
   }
   double heightAt(double x, double y) const {
-    if (!tree_) return 0.0;
-    double q[2] = {x, y};
-    flann::Matrix<double> query(q, 1, 2);
-    std::vector<std::vector<std::size_t>> idx;
-    std::vector<std::vector<double>> dist;
-    tree_->knnSearch(query, idx, dist, 1, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
-    return xyz_[3 * idx[0][0] + 2];
+    const double q[2] = {x, y};
+    std::size_t nearest = 0;
+    double d2 = 0;
+    if (tree_.nearest(q, 1, &nearest, &d2) == 0) return 0.0;
+    return xyz_[3 * nearest + 2];
   }
 
  private:
-  std::vector<double> xyz_, xy_;
-  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree_;
+  std::vector<double> xyz_;
+  KdTree<double, 2> tree_;
 };
 
 }  // namespace detail

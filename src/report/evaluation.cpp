@@ -1,12 +1,12 @@
 #include "mountcal/report/evaluation.hpp"
 
 #include <Eigen/Eigenvalues>
-#include <flann/flann.hpp>
 #include <algorithm>
 #include <cmath>
 #include <map>
 
 #include "mountcal/core/error.hpp"
+#include "geometry/kd_tree.hpp"
 #include "methods/common/vtp_strip.hpp"
 #include "mountcal/core/georeference_model.hpp"
 
@@ -147,9 +147,7 @@ std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<
   const Vec3 origin = reference.front();
   std::vector<double> ref(3 * reference.size());
   for (std::size_t i = 0; i < reference.size(); ++i) Eigen::Map<Vec3>{&ref[3 * i]} = reference[i] - origin;
-  flann::Matrix<double> data(ref.data(), reference.size(), 3);
-  flann::Index<flann::L2_Simple<double>> tree(data, flann::KDTreeSingleIndexParams(12));
-  tree.buildIndex();
+  const detail::KdTree<double, 3> tree(ref);
   const std::size_t stride = (query.size() + o.max_queries - 1) / o.max_queries;
   const int k = o.neighbours;
   std::vector<std::size_t> idx(static_cast<std::size_t>(k));
@@ -160,10 +158,7 @@ std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<
   for (std::size_t q = 0; q < query.size(); q += stride) {
     ++*queries;
     Vec3 x = query[q] - origin;
-    flann::Matrix<double> qm(x.data(), 1, 3);
-    flann::Matrix<std::size_t> im(idx.data(), 1, static_cast<std::size_t>(k));
-    flann::Matrix<double> dm(dist.data(), 1, static_cast<std::size_t>(k));
-    tree.knnSearch(qm, im, dm, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
+    tree.nearest(x.data(), static_cast<std::size_t>(k), idx.data(), dist.data());
     if (dist[0] > max_d2) continue;
     Vec3 c = Vec3::Zero();
     for (int j = 0; j < k; ++j) c += Eigen::Map<const Vec3>(&ref[3 * idx[static_cast<std::size_t>(j)]]);

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -77,6 +78,28 @@ struct LasPoint {
   double gps_time = 0.0;  ///< formats 1, 3, 6+ [s]
   std::uint16_t red = 0, green = 0, blue = 0, nir = 0;
   std::vector<std::uint8_t> extra;  ///< extra bytes, kept as they are
+};
+
+/// Where a stored point record (LasReader::readRaw, LasWriter::writeRaw) keeps the fields that
+/// re-georeferencing reads and rewrites (LAS 1.4 R15 tables 7–16): the integers X, Y, Z in
+/// bytes 0–11 of every format, the GPS time at byte 20 (formats 1, 3, 4, 5) or 22 (6–10).
+struct LasRecordLayout {
+  explicit LasRecordLayout(int point_format)
+      : has_gps_time(point_format != 0 && point_format != 2),
+        gps_time_offset(point_format >= 6 ? 22
+                        : has_gps_time    ? 20
+                                          : 0) {}
+  bool has_gps_time;
+  std::size_t gps_time_offset;  ///< 0 when !has_gps_time
+
+  static void integers(const std::uint8_t* record, std::int32_t XYZ[3]) { std::memcpy(XYZ, record, 12); }
+  static void setIntegers(std::uint8_t* record, const std::int32_t XYZ[3]) { std::memcpy(record, XYZ, 12); }
+  /// The record's GPS time [s]; only when has_gps_time.
+  double gpsTime(const std::uint8_t* record) const {
+    double t;
+    std::memcpy(&t, record + gps_time_offset, 8);
+    return t;
+  }
 };
 
 /// Scan angle of `p` in degrees for the header's point format.

@@ -5,10 +5,11 @@
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <algorithm>
 #include <cmath>
-#include <flann/flann.hpp>
 #include <random>
 
 #include "mountcal/core/error.hpp"
+#include "geometry/kd_tree.hpp"
+#include "geometry/plane_ransac.hpp"
 #include "mountcal/core/georeference_model.hpp"
 
 namespace mountcal {
@@ -78,8 +79,7 @@ Vec3 VirtualTiePoint::position(const MountingParameters& m) const {
 
 // ------------------------------------------------------------------------------------------
 struct VtpStrip::Index {
-  std::vector<double> xy;  // row-major (x, y) per point
-  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree;
+  detail::KdTree<double, 2> plan;  // the points' (x, y)
 };
 
 VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory, const MountingParameters& reference)
@@ -105,14 +105,12 @@ VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory
     model.forward(strip_.time_s.data(), r.data(), x.data(), n);
     for (std::size_t i = 0; i < n; ++i) strip_.x_m[i] = Eigen::Map<const Vec3>(&x[3 * i]);
   }
-  index_->xy.resize(2 * n);
+  std::vector<double> xy(2 * n);
   for (std::size_t i = 0; i < n; ++i) {
-    index_->xy[2 * i] = strip_.x_m[i].x();
-    index_->xy[2 * i + 1] = strip_.x_m[i].y();
+    xy[2 * i] = strip_.x_m[i].x();
+    xy[2 * i + 1] = strip_.x_m[i].y();
   }
-  flann::Matrix<double> data(index_->xy.data(), n, 2);
-  index_->tree = std::make_unique<flann::Index<flann::L2_Simple<double>>>(data, flann::KDTreeSingleIndexParams(12));
-  index_->tree->buildIndex();
+  index_->plan = detail::KdTree<double, 2>(std::move(xy));
 }
 
 VtpStrip::~VtpStrip() = default;
@@ -120,33 +118,18 @@ VtpStrip::VtpStrip(VtpStrip&&) noexcept = default;
 VtpStrip& VtpStrip::operator=(VtpStrip&&) noexcept = default;
 
 std::vector<std::size_t> VtpStrip::radiusSearch(double x, double y, double radius_m) const {
-  double q[2] = {x, y};
-  flann::Matrix<double> query(q, 1, 2);
-  std::vector<std::vector<std::size_t>> indices;
-  std::vector<std::vector<double>> dists;
-  flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
-  params.sorted = true;
-  index_->tree->radiusSearch(query, indices, dists, static_cast<float>(radius_m * radius_m), params);
-  // FLANN takes the radius as a float: re-check the boundary in double precision.
-  std::vector<std::size_t> out;
-  for (std::size_t i : indices[0]) {
-    const double dx = strip_.x_m[i].x() - x, dy = strip_.x_m[i].y() - y;
-    if (dx * dx + dy * dy <= radius_m * radius_m) out.push_back(i);
-  }
-  return out;
+  const double q[2] = {x, y};
+  return index_->plan.within(q, radius_m, /*sorted=*/true);
 }
 
 double VtpStrip::localSpacing(double x, double y) const {
-  const std::size_t k = std::min<std::size_t>(9, strip_.x_m.size());
-  double q[2] = {x, y};
-  flann::Matrix<double> query(q, 1, 2);
-  std::vector<std::vector<std::size_t>> indices;
-  std::vector<std::vector<double>> dists;
-  index_->tree->knnSearch(query, indices, dists, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
-  if (dists[0].empty()) return 0.0;
+  const double q[2] = {x, y};
+  std::size_t found[9];
+  double squared[9];
+  const std::size_t k = index_->plan.nearest(q, 9, found, squared);
+  if (k == 0) return 0.0;
   // k points within radius r ⇒ density k / (π r²) ⇒ spacing √(π r² / k).
-  const double r2 = dists[0].back();
-  return std::sqrt(kPi * r2 / static_cast<double>(dists[0].size()));
+  return std::sqrt(kPi * squared[k - 1] / static_cast<double>(k));
 }
 
 namespace {
@@ -235,26 +218,11 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   // plane wanted is the one the pick lies on, so a candidate scores first by how many of the
   // pick's nearest neighbours it holds (idx is sorted by distance), then by its inliers.
   const std::size_t n_near = std::min<std::size_t>(6, idx.size());
-  std::vector<std::size_t> best;
-  std::size_t best_near = 0;
-  for (int it = 0; it < o.ransac_iterations; ++it) {
-    const std::size_t a = idx[pickone(rng)], b = idx[pickone(rng)], c = idx[pickone(rng)];
-    const Vec3 nrm = (X[b] - X[a]).cross(X[c] - X[a]);
-    if (nrm.norm() < 1e-9) continue;
-    const Vec3 n = nrm.normalized();
-    std::vector<std::size_t> in;
-    std::size_t near = 0;
-    for (std::size_t r = 0; r < idx.size(); ++r) {
-      if (std::abs(n.dot(X[idx[r]] - X[a])) <= o.ransac_threshold_m) {
-        in.push_back(idx[r]);
-        near += r < n_near;
-      }
-    }
-    if (near > best_near || (near == best_near && in.size() > best.size())) {
-      best.swap(in);
-      best_near = near;
-    }
-  }
+  const detail::PlaneHypothesis plane = detail::ransacPlane(
+      X, idx, o.ransac_threshold_m, o.ransac_iterations, [&] { return pickone(rng); }, n_near);
+  const std::vector<std::size_t> best =
+      plane.found ? detail::planeInliers(X, idx, plane.normal, plane.point, o.ransac_threshold_m) : std::vector<std::size_t>{};
+  const std::size_t best_near = plane.priority;
   if (static_cast<int>(best.size()) < std::max(o.min_points, 3) ||
       static_cast<double>(best_near) < o.min_inlier_fraction * static_cast<double>(n_near)) {
     *reason = "no plane: " + std::to_string(best_near) + " of the " + std::to_string(n_near) + " points nearest the pick (" +

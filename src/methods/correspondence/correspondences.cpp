@@ -1,7 +1,6 @@
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 #include <ceres/ceres.h>
-#include <flann/flann.hpp>
 
 #include <algorithm>
 #include <functional>
@@ -12,7 +11,8 @@
 #include <set>
 #include <unordered_set>
 
-#include "../common/strip_geometry.hpp"
+#include "geometry/kd_tree.hpp"
+#include "methods/common/strip_geometry.hpp"
 #include "dense_matching.hpp"
 #include "core/parallel.hpp"
 #include "mountcal/core/error.hpp"
@@ -103,48 +103,31 @@ std::unordered_set<std::int64_t> dilatedHull(const std::vector<Vec3>& x, double 
 class PointTree {
  public:
   PointTree(const std::vector<Vec3>& x, std::vector<std::size_t> indices) : index_(std::move(indices)) {
-    xyz_.resize(3 * index_.size());
-    for (std::size_t k = 0; k < index_.size(); ++k)
-      for (int c = 0; c < 3; ++c) xyz_[3 * k + static_cast<std::size_t>(c)] = x[index_[k]][c];
     if (index_.size() < 3) return;
-    flann::Matrix<double> mat(xyz_.data(), index_.size(), 3);
-    tree_ = std::make_unique<flann::Index<flann::L2_Simple<double>>>(mat, flann::KDTreeSingleIndexParams(12));
-    tree_->buildIndex();
+    std::vector<double> xyz(3 * index_.size());
+    for (std::size_t k = 0; k < index_.size(); ++k)
+      for (int c = 0; c < 3; ++c) xyz[3 * k + static_cast<std::size_t>(c)] = x[index_[k]][c];
+    tree_ = KdTree<double, 3>(std::move(xyz));
   }
   /// Strip indices of the k nearest of p within `radius`, nearest first.
   void nearest(const Vec3& p, std::size_t k, double radius, std::vector<std::size_t>* out) {
     out->clear();
-    if (!tree_) return;
-    k = std::min(k, index_.size());
     I_.resize(k);
     D_.resize(k);
-    double q[3] = {p.x(), p.y(), p.z()};
-    flann::Matrix<double> query(q, 1, 3);
-    flann::Matrix<std::size_t> I(I_.data(), 1, k);
-    flann::Matrix<double> D(D_.data(), 1, k);
-    tree_->knnSearch(query, I, D, k, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
-    for (std::size_t j = 0; j < k; ++j)
+    const std::size_t found = tree_.nearest(p.data(), k, I_.data(), D_.data());
+    for (std::size_t j = 0; j < found; ++j)
       if (D_[j] <= radius * radius) out->push_back(index_[I_[j]]);
   }
   /// Strip indices of every point within `radius` of p (any order).
   void within(const Vec3& p, double radius, std::vector<std::size_t>* out) {
     out->clear();
-    if (!tree_) return;
-    double q[3] = {p.x(), p.y(), p.z()};
-    flann::Matrix<double> query(q, 1, 3);
-    std::vector<std::vector<std::size_t>> I;
-    std::vector<std::vector<double>> D;
-    flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
-    params.sorted = false;
-    tree_->radiusSearch(query, I, D, static_cast<float>(radius * radius), params);
-    for (std::size_t j : I[0]) out->push_back(index_[j]);
+    for (std::size_t j : tree_.within(p.data(), radius, /*sorted=*/false)) out->push_back(index_[j]);
   }
-  bool empty() const { return !tree_; }
+  bool empty() const { return tree_.empty(); }
 
  private:
   std::vector<std::size_t> index_;
-  std::vector<double> xyz_;
-  std::unique_ptr<flann::Index<flann::L2_Simple<double>>> tree_;
+  KdTree<double, 3> tree_;
   std::vector<std::size_t> I_;
   std::vector<double> D_;
 };

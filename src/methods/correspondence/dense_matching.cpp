@@ -17,7 +17,6 @@ namespace {
 
 // Single precision in the trees: coordinates relative to one origin within a few hundred
 // metres resolve to micrometres; planes and distances use the double positions.
-using Tree = flann::Index<flann::L2_Simple<float>>;
 
 /// ∂R_zyx(b)/∂b_k (R = Rz(κ)·Ry(φ)·Rx(ω); d/dθ exp(θ[e]×) = [e]× exp(θ[e]×)).
 std::array<Mat3, 3> dRzyx(const Vec3& b) {
@@ -108,17 +107,15 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   // Coordinates relative to one origin in the k-d trees: no kilometre-size values.
   const std::size_t k_fine = static_cast<std::size_t>(o_.max_neighbours), k = coarse ? std::max<std::size_t>(30, k_fine) : k_fine;
   // k-d trees of every strip's points where they are now.
+  tree_.clear();
   tree_.resize(n);
-  ref_.resize(n);
   for (std::size_t s = 0; s < n; ++s) {
     out.points_searched += x_[s].size();
-    tree_[s].reset();
     const std::vector<std::size_t>& kept = keep_[s];
     if (kept.size() < k) continue;
-    ref_[s].resize(3 * kept.size());
-    for (std::size_t j = 0; j < kept.size(); ++j) Eigen::Map<Eigen::Vector3f>{&ref_[s][3 * j]} = (x_[s][kept[j]] - origin_).cast<float>();
-    tree_[s] = std::make_unique<Tree>(flann::Matrix<float>(ref_[s].data(), kept.size(), 3), flann::KDTreeSingleIndexParams(12));
-    tree_[s]->buildIndex();
+    std::vector<float> coords(3 * kept.size());
+    for (std::size_t j = 0; j < kept.size(); ++j) Eigen::Map<Eigen::Vector3f>{&coords[3 * j]} = (x_[s][kept[j]] - origin_).cast<float>();
+    tree_[s] = KdTree<float, 3>(std::move(coords));
   }
   const auto& tree = tree_;
   const double spacing = spacing_;
@@ -131,14 +128,10 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   out.max_distance_m = gate;
   std::vector<std::size_t> idx(k), ia(k);
   std::vector<float> dist(k);
-  const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
   // The k nearest points of strip s around p; returns the squared distance of the nearest.
   auto knn = [&](std::size_t s, const Vec3& p, std::vector<std::size_t>* I) {
-    Eigen::Vector3f q = (p - origin_).cast<float>();
-    flann::Matrix<float> query(q.data(), 1, 3);
-    flann::Matrix<std::size_t> Im(I->data(), 1, k);
-    flann::Matrix<float> Dm(dist.data(), 1, k);
-    tree[s]->knnSearch(query, Im, Dm, static_cast<int>(k), params);
+    const Eigen::Vector3f q = (p - origin_).cast<float>();
+    tree[s].nearest(q.data(), k, I->data(), dist.data());
     for (std::size_t& j : *I) j = keep_[s][j];  // tree index → strip index
     return static_cast<double>(dist[0]);
   };
@@ -153,7 +146,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
       CorrespondencePairStats st;
       st.strip_a = data_.strips[a].id;
       st.strip_b = data_.strips[b].id;
-      if (!tree[a] || !tree[b]) {
+      if (tree[a].empty() || tree[b].empty()) {
         out.pairs.push_back(st);
         continue;
       }

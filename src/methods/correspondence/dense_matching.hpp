@@ -3,7 +3,6 @@
 // point-to-plane residual with analytic derivatives.
 
 #include <ceres/ceres.h>
-#include <flann/flann.hpp>
 
 #include <array>
 #include <memory>
@@ -11,6 +10,7 @@
 
 #include "mountcal/data.hpp"
 #include "mountcal/core/sensor_model.hpp"
+#include "geometry/kd_tree.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 namespace mountcal::detail {
@@ -44,11 +44,9 @@ class DenseMatcher {
   std::vector<std::vector<Vec3>> x_, p_m_;
   std::vector<std::vector<Mat3>> R_mb_;
   Vec3 origin_ = Vec3::Zero();
-  double spacing_ = 0.0;  // the strips' largest plan spacing at the mounting used [m]
-  std::vector<std::unique_ptr<flann::Index<flann::L2_Simple<float>>>> tree_;
-  std::vector<std::vector<float>> ref_;
-  std::vector<std::vector<std::size_t>>
-      keep_;  // each strip's points after thinning  // the trees' points (this round's positions − origin_)
+  double spacing_ = 0.0;                        // the strips' largest plan spacing at the mounting used [m]
+  std::vector<KdTree<float, 3>> tree_;          // each strip's kept points at this round's positions − origin_
+  std::vector<std::vector<std::size_t>> keep_;  // each strip's points after thinning
 };
 
 /// r = n · [(x_A + o_A) − mean_j (x_Bj + o_B)] / σ with x = p_m + R_mb (R_zyx(b) R_nom r(δ) + a),

@@ -1,7 +1,6 @@
 #include "mountcal/methods/features/feature_observations.hpp"
 
 #include <ceres/ceres.h>
-#include <flann/flann.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +11,9 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "../common/strip_geometry.hpp"
+#include "geometry/kd_tree.hpp"
+#include "geometry/plane_ransac.hpp"
+#include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
 namespace mountcal {
@@ -126,22 +127,8 @@ std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::ve
     state = state * 6364136223846793005ULL + 1442695040888963407ULL;
     return static_cast<std::size_t>(state >> 33) % group.size();
   };
-  std::size_t best_count = 0;
-  Vec3 best_n = Vec3::UnitZ(), best_p = X[group[0]];
-  for (int it = 0; it < iterations; ++it) {
-    const Vec3& a = X[group[next()]];
-    const Vec3& b = X[group[next()]];
-    const Vec3& c = X[group[next()]];
-    Vec3 n = (b - a).cross(c - a);
-    if (n.norm() < 1e-9) continue;
-    n.normalize();
-    std::size_t count = 0;
-    for (std::uint32_t i : group) count += std::abs(n.dot(X[i] - a)) <= threshold;
-    if (count > best_count) best_count = count, best_n = n, best_p = a;
-  }
-  std::vector<std::uint32_t> in;
-  for (std::uint32_t i : group)
-    if (std::abs(best_n.dot(X[i] - best_p)) <= threshold) in.push_back(i);
+  const detail::PlaneHypothesis plane = detail::ransacPlane(X, group, threshold, iterations, next);
+  std::vector<std::uint32_t> in = detail::planeInliers(X, group, plane.normal, plane.found ? plane.point : X[group[0]], threshold);
   if (in.size() >= 3) {
     *fit = detail::fitPlane(in.size(), [&](std::size_t k) { return X[in[k]]; });
     // One refinement against the least-squares plane.
@@ -400,22 +387,17 @@ IcpResult matchTranslation(const std::vector<Vec3>& a, const std::vector<Vec3>& 
   std::vector<double> ref(3 * a.size());
   for (std::size_t i = 0; i < a.size(); ++i)
     for (int k = 0; k < 3; ++k) ref[3 * i + k] = a[i](k) - ca(k);
-  flann::Index<flann::L2_Simple<double>> tree(flann::Matrix<double>(ref.data(), a.size(), 3), flann::KDTreeSingleIndexParams(12));
-  tree.buildIndex();
+  const detail::KdTree<double, 3> tree(std::move(ref));
   const Vec3 n = normal.normalized();
   const Mat3 W = planeCovariance(n, sigma_normal_m, sigma_in_plane_m).inverse();
   Vec3 t = initial ? *initial : Vec3(ca - cb);
   std::vector<double> q(3 * b.size());
   std::vector<std::size_t> I(b.size());
   std::vector<double> D(b.size());
-  const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED);
   for (int it = 0; it < max_iterations; ++it) {
     for (std::size_t j = 0; j < b.size(); ++j)
       for (int k = 0; k < 3; ++k) q[3 * j + k] = b[j](k) + t(k) - ca(k);
-    flann::Matrix<double> Q(q.data(), b.size(), 3);
-    flann::Matrix<std::size_t> Im(I.data(), b.size(), 1);
-    flann::Matrix<double> Dm(D.data(), b.size(), 1);
-    tree.knnSearch(Q, Im, Dm, 1, params);
+    tree.nearestMany(q.data(), b.size(), 1, I.data(), D.data());
     // Trim matches beyond 3 × the median distance (a target edge seen by one strip only).
     std::vector<double> d_sorted(D.begin(), D.end());
     std::nth_element(d_sorted.begin(), d_sorted.begin() + static_cast<long>(d_sorted.size() / 2), d_sorted.end());

@@ -10,7 +10,8 @@
 #include <random>
 #include <set>
 
-#include "../common/strip_geometry.hpp"
+#include "geometry/plane_ransac.hpp"
+#include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
 namespace mountcal {
@@ -73,23 +74,12 @@ int normalBin(const Vec3& n) {
 /// RANSAC plane of a strip's points, refined by least squares; the inliers.
 std::vector<std::uint32_t> ransacPlane(const std::vector<Vec3>& X, const std::vector<std::uint32_t>& idx, double threshold, int iterations,
                                        std::uint32_t seed, detail::PlaneFit* fit) {
-  std::vector<std::uint32_t> best;
-  if (idx.size() < 3) return best;
+  if (idx.size() < 3) return {};
   std::mt19937 rng(seed);
   std::uniform_int_distribution<std::size_t> pick(0, idx.size() - 1);
-  for (int it = 0; it < iterations; ++it) {
-    const Vec3 &a = X[idx[pick(rng)]], &b = X[idx[pick(rng)]], &c = X[idx[pick(rng)]];
-    const Vec3 nrm = (b - a).cross(c - a);
-    if (nrm.norm() < 1e-9) continue;
-    const Vec3 n = nrm.normalized();
-    std::size_t count = 0;
-    for (std::uint32_t i : idx) count += std::abs(n.dot(X[i] - a)) <= threshold;
-    if (count > best.size()) {
-      best.clear();
-      for (std::uint32_t i : idx)
-        if (std::abs(n.dot(X[i] - a)) <= threshold) best.push_back(i);
-    }
-  }
+  const detail::PlaneHypothesis plane = detail::ransacPlane(X, idx, threshold, iterations, [&] { return pick(rng); });
+  if (!plane.found) return {};
+  const std::vector<std::uint32_t> best = detail::planeInliers(X, idx, plane.normal, plane.point, threshold);
   if (best.size() < 3) return {};
   *fit = detail::fitPlane(best.size(), [&](std::size_t k) { return X[best[k]]; });
   // Refine: inliers within 3 robust σ of the least-squares plane (never wider than the RANSAC

@@ -1,0 +1,207 @@
+// The shared kernels of issue 27 against independent references: the k-d tree against brute
+// force, the RANSAC plane against a plane the test draws its points from, the byte reader
+// against byte patterns written out by hand (IEEE 754 and two's complement).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "geometry/kd_tree.hpp"
+#include "geometry/plane_ransac.hpp"
+#include "io/bytes.hpp"
+#include "mountcal/io/las.hpp"
+
+namespace mountcal {
+namespace {
+
+template <typename Scalar, int Dim>
+std::vector<Scalar> randomCloud(std::size_t n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-50.0, 50.0);
+  std::vector<Scalar> c(Dim * n);
+  for (Scalar& v : c) v = static_cast<Scalar>(u(rng));
+  // A few exact duplicates and a tight cluster: ties and degenerate cells.
+  for (int d = 0; d < Dim; ++d) c[Dim * 1 + d] = c[d];
+  for (std::size_t i = 2; i < std::min<std::size_t>(n, 40); ++i)
+    for (int d = 0; d < Dim; ++d) c[Dim * i + d] = static_cast<Scalar>(3.0 + 1e-3 * static_cast<double>(i % 7) * (d + 1));
+  return c;
+}
+
+template <typename Scalar, int Dim>
+double squaredDistance(const std::vector<Scalar>& c, std::size_t i, const Scalar* q) {
+  double d2 = 0;
+  for (int d = 0; d < Dim; ++d) {
+    const double e = static_cast<double>(c[Dim * i + d]) - static_cast<double>(q[d]);
+    d2 += e * e;
+  }
+  return d2;
+}
+
+template <typename Scalar, int Dim>
+void checkAgainstBruteForce(std::uint32_t seed) {
+  const std::size_t n = 3000;
+  const std::vector<Scalar> cloud = randomCloud<Scalar, Dim>(n, seed);
+  const detail::KdTree<Scalar, Dim> tree(cloud);
+  ASSERT_EQ(tree.size(), n);
+  std::mt19937 rng(seed + 1);
+  std::uniform_real_distribution<double> u(-55.0, 55.0);
+  for (int query = 0; query < 200; ++query) {
+    Scalar q[Dim];
+    for (int d = 0; d < Dim; ++d) q[d] = static_cast<Scalar>(query < 20 ? cloud[Dim * (query + 1) + d] : u(rng));
+    std::vector<double> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = squaredDistance<Scalar, Dim>(cloud, i, q);
+    std::vector<double> sorted = all;
+    std::sort(sorted.begin(), sorted.end());
+    // k nearest: the same distances as brute force, nearest first.
+    const std::size_t k = 1 + static_cast<std::size_t>(query % 12);
+    std::vector<std::size_t> idx(k);
+    std::vector<Scalar> d2(k);
+    ASSERT_EQ(tree.nearest(q, k, idx.data(), d2.data()), k);
+    for (std::size_t j = 0; j < k; ++j) {
+      EXPECT_NEAR(all[idx[j]], sorted[j], 1e-9 * (1 + sorted[j]) + (sizeof(Scalar) == 4 ? 1e-3 : 0)) << "query " << query << " rank " << j;
+      if (j > 0) {
+        EXPECT_LE(d2[j - 1], d2[j]);
+      }
+    }
+    // Radius: exactly the brute-force set (the boundary in double precision), sorted on demand.
+    const double radius = 0.5 + 0.05 * query;
+    std::vector<std::size_t> expected;
+    for (std::size_t i = 0; i < n; ++i)
+      if (all[i] <= radius * radius) expected.push_back(i);
+    std::vector<std::size_t> got = tree.within(q, radius, /*sorted=*/true);
+    const double order_tolerance = sizeof(Scalar) == 4 ? 1e-5 : 1e-12;
+    for (std::size_t j = 1; j < got.size(); ++j) EXPECT_LE(all[got[j - 1]], all[got[j]] * (1 + order_tolerance) + order_tolerance);
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, expected) << "query " << query;
+    std::vector<std::size_t> unsorted = tree.within(q, radius, /*sorted=*/false);
+    std::sort(unsorted.begin(), unsorted.end());
+    EXPECT_EQ(unsorted, expected);
+  }
+}
+
+TEST(KdTree, MatchesBruteForce2dDouble) { checkAgainstBruteForce<double, 2>(11); }
+TEST(KdTree, MatchesBruteForce3dDouble) { checkAgainstBruteForce<double, 3>(12); }
+TEST(KdTree, MatchesBruteForce3dFloat) { checkAgainstBruteForce<float, 3>(13); }
+
+TEST(KdTree, ManyQueriesAtOnceEqualOneByOne) {
+  const std::vector<double> cloud = randomCloud<double, 3>(500, 5);
+  const detail::KdTree<double, 3> tree(cloud);
+  const std::vector<double> queries = randomCloud<double, 3>(64, 6);
+  std::vector<std::size_t> many(64 * 2);
+  std::vector<double> many_d2(64 * 2);
+  ASSERT_EQ(tree.nearestMany(queries.data(), 64, 2, many.data(), many_d2.data()), 2u);
+  for (std::size_t q = 0; q < 64; ++q) {
+    std::size_t one[2];
+    double one_d2[2];
+    tree.nearest(&queries[3 * q], 2, one, one_d2);
+    EXPECT_DOUBLE_EQ(many_d2[2 * q], one_d2[0]);
+    EXPECT_DOUBLE_EQ(many_d2[2 * q + 1], one_d2[1]);
+  }
+}
+
+TEST(KdTree, EmptyAndSmallTreesAnswerWhatTheyHold) {
+  const detail::KdTree<double, 2> empty;
+  const double q[2] = {0, 0};
+  std::size_t idx[4];
+  double d2[4];
+  EXPECT_TRUE(empty.empty());
+  EXPECT_EQ(empty.nearest(q, 4, idx, d2), 0u);
+  EXPECT_TRUE(empty.within(q, 10.0, true).empty());
+  const detail::KdTree<double, 2> two(std::vector<double>{1, 0, 0, 2});
+  ASSERT_EQ(two.nearest(q, 4, idx, d2), 2u);  // k larger than the tree: all of it
+  EXPECT_EQ(idx[0], 0u);
+  EXPECT_DOUBLE_EQ(d2[0], 1.0);
+  EXPECT_DOUBLE_EQ(d2[1], 4.0);
+  EXPECT_EQ(two.within(q, 1.0, true), std::vector<std::size_t>{0});  // on the boundary: inside
+  EXPECT_TRUE(two.within(q, 0.999999, true).empty());
+}
+
+TEST(PlaneRansac, FindsThePlaneThePointsWereDrawnFromAmongOutliers) {
+  // z = 0.2 x − 0.1 y + 5 with ±1 mm noise, and 30 % of points scattered in a 10 m cube.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-5, 5), e(-0.001, 0.001);
+  std::vector<Vec3> points;
+  std::vector<std::uint32_t> candidates;
+  for (std::uint32_t i = 0; i < 1000; ++i) {
+    const double x = u(rng), y = u(rng);
+    points.emplace_back(x, y, i % 10 < 3 ? 5 + u(rng) : 0.2 * x - 0.1 * y + 5 + e(rng));
+    candidates.push_back(i);
+  }
+  std::uniform_int_distribution<std::size_t> pick(0, candidates.size() - 1);
+  const detail::PlaneHypothesis plane = detail::ransacPlane(points, candidates, 0.005, 200, [&] { return pick(rng); });
+  ASSERT_TRUE(plane.found);
+  const Vec3 truth = Vec3(-0.2, 0.1, 1).normalized();
+  EXPECT_GT(std::abs(plane.normal.dot(truth)), std::cos(0.01));
+  const std::vector<std::uint32_t> in = detail::planeInliers(points, candidates, plane.normal, plane.point, 0.005);
+  EXPECT_EQ(in.size(), plane.inliers);
+  EXPECT_GE(in.size(), 700u);
+  EXPECT_LE(in.size(), 720u);  // the plane's 700 and the few outliers that happen to lie on it
+}
+
+TEST(PlaneRansac, PriorityPointsChooseTheSurfaceOfThePick) {
+  // A ground plane z = 0 and a smaller board at z = 1: ranked by the board's first points first
+  // (the pick's nearest neighbours), the board wins although the ground has more points.
+  std::vector<Vec3> points;
+  std::vector<std::size_t> candidates;
+  for (int i = 0; i < 60; ++i) points.emplace_back(0.1 * (i % 3), 0.1 * (i / 3), 1.0);  // the first 6: a 3 × 2 block
+  for (int i = 0; i < 120; ++i) points.emplace_back(-5 + 0.5 * (i % 20), -5 + 0.5 * (i / 20), 0.0);
+  candidates.resize(points.size());
+  std::iota(candidates.begin(), candidates.end(), std::size_t{0});
+  std::mt19937 rng(1);
+  std::uniform_int_distribution<std::size_t> pick(0, candidates.size() - 1);
+  const auto ground = detail::ransacPlane(points, candidates, 0.01, 300, [&] { return pick(rng); });
+  EXPECT_NEAR(ground.point.z(), 0.0, 1e-12);
+  const auto board = detail::ransacPlane(points, candidates, 0.01, 300, [&] { return pick(rng); }, 6);
+  EXPECT_NEAR(board.point.z(), 1.0, 1e-12);
+  EXPECT_EQ(board.priority, 6u);
+  EXPECT_EQ(board.inliers, 60u);
+}
+
+TEST(PlaneRansac, DegenerateSamplesFindNothing) {
+  std::vector<Vec3> line;
+  for (int i = 0; i < 10; ++i) line.emplace_back(i, 2 * i, 0);
+  std::vector<std::uint32_t> all(10);
+  std::iota(all.begin(), all.end(), 0u);
+  std::size_t next = 0;
+  EXPECT_FALSE(detail::ransacPlane(line, all, 0.1, 50, [&] { return next++ % 10; }).found);
+}
+
+TEST(Bytes, ReadAndWriteLittleEndianAsWrittenByHand) {
+  // 1.5 = 0x3FF8000000000000; −2 as int16 = 0xFFFE; 0x01020304 stored 04 03 02 01.
+  const std::uint8_t raw[] = {0xAA, 0, 0, 0, 0, 0, 0, 0xF8, 0x3F, 0xFE, 0xFF, 0x04, 0x03, 0x02, 0x01};
+  EXPECT_EQ(io::bytes::get<double>(raw, 1), 1.5);
+  EXPECT_EQ(io::bytes::get<std::int16_t>(raw, 9), -2);
+  EXPECT_EQ(io::bytes::get<std::uint32_t>(raw, 11), 0x01020304u);
+  std::uint8_t out[15] = {0xAA};
+  io::bytes::put<double>(out, 1, 1.5);
+  io::bytes::put<std::int16_t>(out, 9, -2);
+  io::bytes::put<std::uint32_t>(out, 11, 0x01020304u);
+  EXPECT_TRUE(std::equal(raw, raw + 15, out));
+  std::vector<std::uint8_t> appended;
+  io::bytes::put<std::uint16_t>(appended, 0x0102);
+  EXPECT_EQ(appended, (std::vector<std::uint8_t>{0x02, 0x01}));
+}
+
+TEST(LasRecordLayout, TimeAndIntegersWhereTheSpecificationPutsThem) {
+  // LAS 1.4 R15 tables 7–16: GPS time at byte 20 in formats 1, 3–5, at 22 in 6–10.
+  EXPECT_FALSE(io::LasRecordLayout(0).has_gps_time);
+  EXPECT_FALSE(io::LasRecordLayout(2).has_gps_time);
+  for (int f : {1, 3, 4, 5}) EXPECT_EQ(io::LasRecordLayout(f).gps_time_offset, 20u) << f;
+  for (int f : {6, 7, 8, 9, 10}) EXPECT_EQ(io::LasRecordLayout(f).gps_time_offset, 22u) << f;
+  std::uint8_t record[30] = {};
+  const std::int32_t xyz[3] = {-7, 123456, 2147483647};
+  io::LasRecordLayout::setIntegers(record, xyz);
+  EXPECT_EQ(record[0], 0xF9);  // −7
+  EXPECT_EQ(record[11], 0x7F);
+  io::bytes::put<double>(record, 22, 4321.25);
+  EXPECT_EQ(io::LasRecordLayout(6).gpsTime(record), 4321.25);
+  std::int32_t back[3];
+  io::LasRecordLayout::integers(record, back);
+  EXPECT_TRUE(std::equal(xyz, xyz + 3, back));
+}
+
+}  // namespace
+}  // namespace mountcal
