@@ -154,7 +154,8 @@ TEST(PlaneRansac, PriorityPointsChooseTheSurfaceOfThePick) {
   std::uniform_int_distribution<std::size_t> pick(0, candidates.size() - 1);
   const auto ground = detail::ransacPlane(points, candidates, 0.01, 300, [&] { return pick(rng); });
   EXPECT_NEAR(ground.point.z(), 0.0, 1e-12);
-  const auto board = detail::ransacPlane(points, candidates, 0.01, 300, [&] { return pick(rng); }, 6);
+  const auto board = detail::ransacPlane(
+      points, candidates, 0.01, 300, [&] { return pick(rng); }, 6);
   EXPECT_NEAR(board.point.z(), 1.0, 1e-12);
   EXPECT_EQ(board.priority, 6u);
   EXPECT_EQ(board.inliers, 60u);

@@ -308,33 +308,33 @@ using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-bool priorOn(const MountingBlockOptions& o, int j) { return o.prior_sigma[j] > 0 && std::isfinite(o.prior_sigma[j]); }
+bool priorOn(const MountingBlockOptions& options, int j) { return options.prior_sigma[j] > 0 && std::isfinite(options.prior_sigma[j]); }
 
 /// Reduced normal matrix of the full mounting block — every nuisance block (the sources'
 /// blocks and the strip offsets) eliminated by a Schur complement — and the unreduced
 /// diagonal, from the Jacobians of every residual block at the current values (SPEC §3 step 5:
 /// rank and condition). Nuisance blocks on a manifold enter in their tangent space.
-void reducedNormalMatrix(AdjustmentProblem& P, Mat6* N_red, Vec6* diag) {
+void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag) {
   // Columns: 0..5 mounting, then the tangent coordinates of every variable nuisance block.
   std::map<const double*, std::pair<int, int>> col;  // block → (first column, tangent size)
   std::map<const double*, const AdjustmentProblem::Block*> info;
   int n = 6;
-  for (const auto& b : P.nuisanceBlocks()) {
+  for (const auto& b : problem.nuisanceBlocks()) {
     const int t = b.manifold ? b.manifold->TangentSize() : b.size;
     col[b.values] = {n, t};
     info[b.values] = &b;
     n += t;
   }
-  if (P.stripOffsetSigma() > 0) {
-    for (const auto& entry : P.stripOffsets()) {
+  if (problem.stripOffsetSigma() > 0) {
+    for (const auto& entry : problem.stripOffsets()) {
       col[entry.second.data()] = {n, 3};
       n += 3;
     }
   }
   std::vector<Eigen::Triplet<double>> trip;
   int row = 0;
-  const double* m = P.mounting();
-  for (const auto& rec : P.records()) {
+  const double* m = problem.mounting();
+  for (const auto& rec : problem.records()) {
     const int nr = rec.cost->num_residuals();
     const auto& sizes = rec.cost->parameter_block_sizes();
     std::vector<RowMat> J(rec.blocks.size());
@@ -768,40 +768,40 @@ class Estimation {
 
 AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources,
                                             const std::array<double, 6>* start) const {
-  Summary S;
-  S.mounting_used = mounting_used;
-  S.mounting = mounting_used;
-  S.sigma.fill(std::nan(""));
+  Summary summary;
+  summary.mounting_used = mounting_used;
+  summary.mounting = mounting_used;
+  summary.sigma.fill(std::nan(""));
   std::string why;
   if (!options_.IsValid(&why)) {
-    S.message = "invalid options: " + why;
-    return S;
+    summary.message = "invalid options: " + why;
+    return summary;
   }
-  Estimation e(options_, mounting_used, sources, start, &S);
+  Estimation e(options_, mounting_used, sources, start, &summary);
   std::array<bool, 6> est = options_.estimate;
   if (!e.estimate(est, e.initial(est))) {
-    S.message = "no usable observation: every method's input was rejected (see the rejected lists)";
-    S.time_s = e.elapsed();
-    return S;
+    summary.message = "no usable observation: every method's input was rejected (see the rejected lists)";
+    summary.time_s = e.elapsed();
+    return summary;
   }
   double t_mark = e.elapsed();
   Mat6 N_red;
   Vec6 diag;
   if (e.holdUndeterminable(&est, &N_red, &diag)) {
     // Re-solve with the undeterminable parameters held at their used values.
-    S.analysis_time_s += e.elapsed() - t_mark;
+    summary.analysis_time_s += e.elapsed() - t_mark;
     if (!e.estimate(est, e.initial(est))) {
-      S.message = "no usable observation";
-      S.time_s = e.elapsed();
-      return S;
+      summary.message = "no usable observation";
+      summary.time_s = e.elapsed();
+      return summary;
     }
     t_mark = e.elapsed();
     reducedNormalMatrix(e.problem(), &N_red, &diag);
   }
   e.analyse(est, N_red, mounting_used);
-  S.analysis_time_s += e.elapsed() - t_mark;
-  S.time_s = e.elapsed();
-  return S;
+  summary.analysis_time_s += e.elapsed() - t_mark;
+  summary.time_s = e.elapsed();
+  return summary;
 }
 
 }  // namespace mountcal

@@ -133,21 +133,21 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   const LoadedJob loaded = pair_dir.empty() ? loadJob(job) : loadJobFromPairFiles(job, pair_dir);
   const CalibrationData& data = loaded.data;
   progress("building the observations and solving");
-  const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(data);
+  const MountingCalibrator::Summary summary = MountingCalibrator(job.options).calibrate(data);
   // Check data and the pass-to-pass discrepancy need the strips' points: not from pair files.
   const ResultEvaluation ev =
-      pair_dir.empty() ? evaluateJob(job, loaded, S.mounting, false, S.laserElevationOffsetsRad()) : ResultEvaluation{};
+      pair_dir.empty() ? evaluateJob(job, loaded, summary.mounting, false, summary.laserElevationOffsetsRad()) : ResultEvaluation{};
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
-  if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(S, any_eval ? &ev : nullptr));
-  if (!job.report_path.empty()) outputs.emplace_back(job.report_path, visualReport(S, data, any_eval ? &ev : nullptr, ro));
+  if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(summary, any_eval ? &ev : nullptr));
+  if (!job.report_path.empty()) outputs.emplace_back(job.report_path, visualReport(summary, data, any_eval ? &ev : nullptr, ro));
   io::writeFilesAtomically(outputs);
-  if (!quiet) std::printf("%s", S.FullReport().c_str());
+  if (!quiet) std::printf("%s", summary.FullReport().c_str());
   if (!job.result_path.empty() && !quiet) std::printf("wrote %s\n", job.result_path.c_str());
   if (report_skipped && !quiet)
     std::printf("no report: a solve from pair files does not read the strips' points (run calibrate on the whole job for it)\n");
-  if (!S.IsSolutionUsable()) {
-    std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(S.termination), S.message.c_str());
+  if (!summary.IsSolutionUsable()) {
+    std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(summary.termination), summary.message.c_str());
     return 1;
   }
   return 0;
@@ -211,14 +211,14 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
   }
   if (!report.empty()) {
     // No solve here: the report shows the result's mounting against the job's, and the data.
-    MountingCalibrator::Summary S;
-    S.termination = TerminationType::kConvergence;
-    S.message = "evaluation of " + result_path + " (no adjustment: no σ, correlations or residuals)";
-    S.mounting_used = loaded.data.mounting_used;
-    S.mounting = m;
-    S.estimated.fill(true);
-    S.sigma.fill(std::nan(""));
-    io::writeFilesAtomically({{report, visualReport(S, loaded.data, &ev, ro)}});
+    MountingCalibrator::Summary summary;
+    summary.termination = TerminationType::kConvergence;
+    summary.message = "evaluation of " + result_path + " (no adjustment: no σ, correlations or residuals)";
+    summary.mounting_used = loaded.data.mounting_used;
+    summary.mounting = m;
+    summary.estimated.fill(true);
+    summary.sigma.fill(std::nan(""));
+    io::writeFilesAtomically({{report, visualReport(summary, loaded.data, &ev, ro)}});
   }
   if (!ev.discrepancy_after.empty()) {
     const DiscrepancyOptions d;
@@ -397,9 +397,9 @@ int runPlan(const std::string& plan_path, const std::string& report_path, bool n
     throw FileError(report_path, "", "is the plan file; --report writes a new file");
   const plan::Plan p = plan::readPlan(plan_path);
   progress("simulating the plan and its candidate additions");
-  plan::PlannerOptions o;
-  o.try_candidates = !no_candidates;
-  const plan::PlanAnalysis a = plan::analysePlan(p, o);
+  plan::PlannerOptions opts;
+  opts.try_candidates = !no_candidates;
+  const plan::PlanAnalysis a = plan::analysePlan(p, opts);
   if (!report_path.empty()) io::writeFilesAtomically({{report_path, plan::planReportHtml(p, a)}});
   std::printf("plan %s: %zu lines, methods", p.name.c_str(), p.lines.size());
   for (const std::string& m : p.options.methods) std::printf(" %s", m.c_str());

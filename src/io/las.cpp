@@ -78,6 +78,169 @@ const std::vector<LazChunk>& LasReader::lazChunks() const {
   return laz_ ? laz_->chunks : none;
 }
 
+namespace {
+
+/// What the header block says of the rest of the file.
+struct HeaderBlock {
+  std::uint16_t header_size = 0;
+  std::uint32_t vlr_count = 0;
+  std::uint64_t evlr_start = 0;
+  std::uint32_t evlr_count = 0;
+  bool compressed = false;  // the point format's LAZ bit
+};
+
+/// The public header block (LAS 1.4 R15 table 3) into `header`, checked against the file size.
+HeaderBlock readHeaderBlock(std::ifstream& in, const std::string& path, std::uint64_t file_size, LasHeader* header_out,
+                            std::uint64_t* point_offset_out) {
+  LasHeader& header = *header_out;
+  std::uint64_t& point_offset = *point_offset_out;
+  HeaderBlock block;
+  char h[375] = {};
+  if (file_size < 227)
+    throw FileError(path, byteAt(file_size),
+                    "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
+  in.read(h, 227);
+  if (std::memcmp(h, "LASF", 4) != 0) throw FileError(path, byteAt(0), "not a LAS file (signature is not 'LASF')");
+  header.file_source_id = get<std::uint16_t>(h, 4);
+  header.global_encoding = get<std::uint16_t>(h, 6);
+  std::memcpy(header.project_guid.data(), h + 8, 16);
+  header.version_major = get<std::uint8_t>(h, 24);
+  header.version_minor = get<std::uint8_t>(h, 25);
+  if (header.version_major != 1 || header.version_minor > 4) {
+    throw FileError(path, byteAt(24),
+                    "unsupported LAS version " + std::to_string(header.version_major) + "." + std::to_string(header.version_minor) +
+                        " (1.0-1.4 are read)");
+  }
+  header.system_identifier = fixedString(h, 26, 32);
+  header.generating_software = fixedString(h, 58, 32);
+  header.creation_day = get<std::uint16_t>(h, 90);
+  header.creation_year = get<std::uint16_t>(h, 92);
+  block.header_size = get<std::uint16_t>(h, 94);
+  const std::uint16_t header_size = block.header_size;
+  point_offset = get<std::uint32_t>(h, 96);
+  block.vlr_count = get<std::uint32_t>(h, 100);
+  const std::uint8_t raw_format = get<std::uint8_t>(h, 104);
+  block.compressed = (raw_format & 0xC0) != 0;  // bit 7 (bit 6 in old LASzip files): LAZ
+  header.point_format = raw_format & 0x3F;
+  header.point_record_length = get<std::uint16_t>(h, 105);
+  std::uint64_t count = get<std::uint32_t>(h, 107);
+  for (int r = 0; r < 5; ++r) header.points_by_return[r] = get<std::uint32_t>(h, 111 + 4 * r);
+  for (int a = 0; a < 3; ++a) {
+    header.scale[a] = get<double>(h, 131 + 8 * a);
+    header.offset[a] = get<double>(h, 155 + 8 * a);
+    header.max[a] = get<double>(h, 179 + 16 * a);
+    header.min[a] = get<double>(h, 187 + 16 * a);
+  }
+  if (point_offset > file_size) {
+    throw FileError(path, byteAt(96),
+                    "offset to point data " + std::to_string(point_offset) + " is beyond the end of the file (" +
+                        std::to_string(file_size) + " bytes)");
+  }
+  const std::uint16_t expected_header = headerSize(header.version_minor);
+  if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
+    throw FileError(path, byteAt(94),
+                    "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header.version_minor));
+  }
+  if (header.version_minor >= 4 && header_size >= 375) {
+    in.read(h + 227, 375 - 227);
+    block.evlr_start = get<std::uint64_t>(h, 235);
+    block.evlr_count = get<std::uint32_t>(h, 243);
+    const std::uint64_t count14 = get<std::uint64_t>(h, 247);
+    if (count14 != 0 || count == 0) count = count14;
+    for (int r = 0; r < 15; ++r) header.points_by_return[r] = get<std::uint64_t>(h, 255 + 8 * r);
+  }
+  header.point_count = count;
+  const std::uint16_t std_len = LasHeader::standardRecordLength(header.point_format);
+  if (std_len == 0 || header.point_format == 4 || header.point_format == 5 || header.point_format >= 9) {
+    throw FileError(path, byteAt(104),
+                    "point data record format " + std::to_string(header.point_format) + " is not supported (0-3 and 6-8 are)");
+  }
+  if (header.point_record_length < std_len) {
+    throw FileError(path, byteAt(105),
+                    "point record length " + std::to_string(header.point_record_length) + " is shorter than format " +
+                        std::to_string(header.point_format) + " needs (" + std::to_string(std_len) + ")");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!(header.scale[a] > 0) || !std::isfinite(header.scale[a]) || !std::isfinite(header.offset[a])) {
+      throw FileError(path, byteAt(131 + 8 * a), "invalid scale or offset");
+    }
+  }
+  // Bytes after the standard header block (user-defined header data).
+  in.seekg(0);
+  std::vector<char> head(header_size);
+  in.read(head.data(), header_size);
+  const std::uint16_t known = std::min<std::uint16_t>(header_size, expected_header);
+  header.header_padding.assign(head.begin() + known, head.end());
+  return block;
+}
+
+/// The VLRs into `header` (the LASzip VLR left out and returned, parsed; null for LAS) and the
+/// bytes between the last VLR and the point data.
+std::unique_ptr<LazVlr> readVlrs(std::ifstream& in, const std::string& path, std::uint16_t header_size, std::uint32_t vlr_count,
+                                 std::uint64_t point_offset, LasHeader* header_out) {
+  LasHeader& header = *header_out;
+  std::unique_ptr<LazVlr> laszip;
+  std::uint64_t pos = header_size;
+  for (std::uint32_t v = 0; v < vlr_count; ++v) {
+    if (pos + kVlrHeader > point_offset)
+      throw FileError(
+          path, byteAt(pos),
+          "VLR " + std::to_string(v) + " runs into the point data (offset to point data is " + std::to_string(point_offset) + ")");
+    char vh[kVlrHeader];
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(vh, kVlrHeader);
+    LasVlr vlr;
+    vlr.user_id = fixedString(vh, 2, 16);
+    vlr.record_id = get<std::uint16_t>(vh, 18);
+    const std::uint16_t len = get<std::uint16_t>(vh, 20);
+    vlr.description = fixedString(vh, 22, 32);
+    if (pos + kVlrHeader + len > point_offset)
+      throw FileError(path, byteAt(pos),
+                      "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
+    vlr.data.resize(len);
+    in.read(reinterpret_cast<char*>(vlr.data.data()), len);
+    if (vlr.user_id == kLazVlrUserId && vlr.record_id == kLazVlrRecordId) {
+      // The LASzip VLR describes the compression; it is not part of the LAS content.
+      if (laszip) throw FileError(path, byteAt(pos), "a second LASzip VLR");
+      laszip = std::make_unique<LazVlr>(parseLazVlr(vlr.data, header.point_format, header.point_record_length, path));
+    } else {
+      header.vlrs.push_back(std::move(vlr));
+    }
+    pos += kVlrHeader + len;
+  }
+  if (pos < point_offset) {
+    header.vlr_padding.resize(point_offset - pos);
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(reinterpret_cast<char*>(header.vlr_padding.data()), static_cast<std::streamsize>(header.vlr_padding.size()));
+  }
+  return laszip;
+}
+
+/// The EVLRs (LAS 1.4) into `header`, each checked to lie within the file.
+void readEvlrs(std::ifstream& in, const std::string& path, std::uint64_t evlr_start, std::uint32_t evlr_count, std::uint64_t file_size,
+               LasHeader* header_out) {
+  LasHeader& header = *header_out;
+  std::uint64_t pos = evlr_start;
+  for (std::uint32_t v = 0; v < evlr_count; ++v) {
+    if (pos + kEvlrHeader > file_size) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is truncated");
+    char vh[kEvlrHeader];
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(vh, kEvlrHeader);
+    LasVlr vlr;
+    vlr.user_id = fixedString(vh, 2, 16);
+    vlr.record_id = get<std::uint16_t>(vh, 18);
+    const std::uint64_t len = get<std::uint64_t>(vh, 20);
+    vlr.description = fixedString(vh, 28, 32);
+    if (len > file_size - pos - kEvlrHeader) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is longer than the file");
+    vlr.data.resize(len);
+    in.read(reinterpret_cast<char*>(vlr.data.data()), static_cast<std::streamsize>(len));
+    header.evlrs.push_back(std::move(vlr));
+    pos += kEvlrHeader + len;
+  }
+}
+
+}  // namespace
+
 LasReader::LasReader(const std::string& path) : path_(path) {
   in_.open(path, std::ios::binary);
   if (!in_) throw FileError(path, "", "cannot open for reading");
@@ -86,119 +249,13 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   if (!in_ || in_.tellg() < 0) throw FileError(path, "", "cannot determine the file size (not a regular file?)");
   file_size_ = file_size;
   in_.seekg(0);
-  char h[375] = {};
-  if (file_size < 227)
-    throw FileError(path, byteAt(file_size),
-                    "truncated LAS header (" + std::to_string(file_size) + " bytes; a LAS header has at least 227)");
-  in_.read(h, 227);
-  if (std::memcmp(h, "LASF", 4) != 0) throw FileError(path, byteAt(0), "not a LAS file (signature is not 'LASF')");
-  header_.file_source_id = get<std::uint16_t>(h, 4);
-  header_.global_encoding = get<std::uint16_t>(h, 6);
-  std::memcpy(header_.project_guid.data(), h + 8, 16);
-  header_.version_major = get<std::uint8_t>(h, 24);
-  header_.version_minor = get<std::uint8_t>(h, 25);
-  if (header_.version_major != 1 || header_.version_minor > 4) {
-    throw FileError(path, byteAt(24),
-                    "unsupported LAS version " + std::to_string(header_.version_major) + "." + std::to_string(header_.version_minor) +
-                        " (1.0-1.4 are read)");
+  const HeaderBlock block = readHeaderBlock(in_, path, file_size, &header_, &point_offset_);
+  const std::uint64_t count = header_.point_count;
+  if (std::unique_ptr<LazVlr> laszip = readVlrs(in_, path, block.header_size, block.vlr_count, point_offset_, &header_)) {
+    laz_ = std::make_unique<Laz>();
+    laz_->vlr = *laszip;
   }
-  header_.system_identifier = fixedString(h, 26, 32);
-  header_.generating_software = fixedString(h, 58, 32);
-  header_.creation_day = get<std::uint16_t>(h, 90);
-  header_.creation_year = get<std::uint16_t>(h, 92);
-  const std::uint16_t header_size = get<std::uint16_t>(h, 94);
-  point_offset_ = get<std::uint32_t>(h, 96);
-  const std::uint32_t n_vlr = get<std::uint32_t>(h, 100);
-  const std::uint8_t raw_format = get<std::uint8_t>(h, 104);
-  const bool compressed_bit = (raw_format & 0xC0) != 0;  // bit 7 (bit 6 in old LASzip files): LAZ
-  header_.point_format = raw_format & 0x3F;
-  header_.point_record_length = get<std::uint16_t>(h, 105);
-  std::uint64_t count = get<std::uint32_t>(h, 107);
-  for (int r = 0; r < 5; ++r) header_.points_by_return[r] = get<std::uint32_t>(h, 111 + 4 * r);
-  for (int a = 0; a < 3; ++a) {
-    header_.scale[a] = get<double>(h, 131 + 8 * a);
-    header_.offset[a] = get<double>(h, 155 + 8 * a);
-    header_.max[a] = get<double>(h, 179 + 16 * a);
-    header_.min[a] = get<double>(h, 187 + 16 * a);
-  }
-  if (point_offset_ > file_size) {
-    throw FileError(path, byteAt(96),
-                    "offset to point data " + std::to_string(point_offset_) + " is beyond the end of the file (" +
-                        std::to_string(file_size) + " bytes)");
-  }
-  const std::uint16_t expected_header = headerSize(header_.version_minor);
-  if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
-    throw FileError(path, byteAt(94),
-                    "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header_.version_minor));
-  }
-  std::uint64_t evlr_start = 0;
-  std::uint32_t n_evlr = 0;
-  if (header_.version_minor >= 4 && header_size >= 375) {
-    in_.read(h + 227, 375 - 227);
-    evlr_start = get<std::uint64_t>(h, 235);
-    n_evlr = get<std::uint32_t>(h, 243);
-    const std::uint64_t count14 = get<std::uint64_t>(h, 247);
-    if (count14 != 0 || count == 0) count = count14;
-    for (int r = 0; r < 15; ++r) header_.points_by_return[r] = get<std::uint64_t>(h, 255 + 8 * r);
-  }
-  header_.point_count = count;
-  const std::uint16_t std_len = LasHeader::standardRecordLength(header_.point_format);
-  if (std_len == 0 || header_.point_format == 4 || header_.point_format == 5 || header_.point_format >= 9) {
-    throw FileError(path, byteAt(104),
-                    "point data record format " + std::to_string(header_.point_format) + " is not supported (0-3 and 6-8 are)");
-  }
-  if (header_.point_record_length < std_len) {
-    throw FileError(path, byteAt(105),
-                    "point record length " + std::to_string(header_.point_record_length) + " is shorter than format " +
-                        std::to_string(header_.point_format) + " needs (" + std::to_string(std_len) + ")");
-  }
-  for (int a = 0; a < 3; ++a) {
-    if (!(header_.scale[a] > 0) || !std::isfinite(header_.scale[a]) || !std::isfinite(header_.offset[a])) {
-      throw FileError(path, byteAt(131 + 8 * a), "invalid scale or offset");
-    }
-  }
-  // Bytes after the standard header block (user-defined header data).
-  in_.seekg(0);
-  std::vector<char> head(header_size);
-  in_.read(head.data(), header_size);
-  const std::uint16_t known = std::min<std::uint16_t>(header_size, expected_header);
-  header_.header_padding.assign(head.begin() + known, head.end());
-  // VLRs.
-  std::uint64_t pos = header_size;
-  for (std::uint32_t v = 0; v < n_vlr; ++v) {
-    if (pos + kVlrHeader > point_offset_)
-      throw FileError(
-          path, byteAt(pos),
-          "VLR " + std::to_string(v) + " runs into the point data (offset to point data is " + std::to_string(point_offset_) + ")");
-    char vh[kVlrHeader];
-    in_.seekg(static_cast<std::streamoff>(pos));
-    in_.read(vh, kVlrHeader);
-    LasVlr vlr;
-    vlr.user_id = fixedString(vh, 2, 16);
-    vlr.record_id = get<std::uint16_t>(vh, 18);
-    const std::uint16_t len = get<std::uint16_t>(vh, 20);
-    vlr.description = fixedString(vh, 22, 32);
-    if (pos + kVlrHeader + len > point_offset_)
-      throw FileError(path, byteAt(pos),
-                      "VLR " + std::to_string(v) + " (" + vlr.user_id + ") is longer than the space before the point data");
-    vlr.data.resize(len);
-    in_.read(reinterpret_cast<char*>(vlr.data.data()), len);
-    if (vlr.user_id == kLazVlrUserId && vlr.record_id == kLazVlrRecordId) {
-      // The LASzip VLR describes the compression; it is not part of the LAS content.
-      if (laz_) throw FileError(path, byteAt(pos), "a second LASzip VLR");
-      laz_ = std::make_unique<Laz>();
-      laz_->vlr = parseLazVlr(vlr.data, header_.point_format, header_.point_record_length, path);
-    } else {
-      header_.vlrs.push_back(std::move(vlr));
-    }
-    pos += kVlrHeader + len;
-  }
-  if (pos < point_offset_) {
-    header_.vlr_padding.resize(point_offset_ - pos);
-    in_.seekg(static_cast<std::streamoff>(pos));
-    in_.read(reinterpret_cast<char*>(header_.vlr_padding.data()), static_cast<std::streamsize>(header_.vlr_padding.size()));
-  }
-  if (compressed_bit && !laz_) throw FileError(path, byteAt(104), "the point format says compressed (LAZ) but there is no LASzip VLR");
+  if (block.compressed && !laz_) throw FileError(path, byteAt(104), "the point format says compressed (LAZ) but there is no LASzip VLR");
   // Checked by division: count · length can overflow 64 bits in a corrupt header.
   if (!laz_ && (point_offset_ > file_size || count > (file_size - point_offset_) / header_.point_record_length)) {
     throw FileError(path, byteAt(file_size),
@@ -208,27 +265,12 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   }
   const std::uint64_t points_end = laz_ ? point_offset_ : point_offset_ + count * header_.point_record_length;
   // EVLRs.
-  if (n_evlr > 0) {
-    if (evlr_start < points_end || evlr_start > file_size) throw FileError(path, byteAt(235), "start of the first EVLR is invalid");
-    pos = evlr_start;
-    for (std::uint32_t v = 0; v < n_evlr; ++v) {
-      if (pos + kEvlrHeader > file_size) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is truncated");
-      char vh[kEvlrHeader];
-      in_.seekg(static_cast<std::streamoff>(pos));
-      in_.read(vh, kEvlrHeader);
-      LasVlr vlr;
-      vlr.user_id = fixedString(vh, 2, 16);
-      vlr.record_id = get<std::uint16_t>(vh, 18);
-      const std::uint64_t len = get<std::uint64_t>(vh, 20);
-      vlr.description = fixedString(vh, 28, 32);
-      if (len > file_size - pos - kEvlrHeader) throw FileError(path, byteAt(pos), "EVLR " + std::to_string(v) + " is longer than the file");
-      vlr.data.resize(len);
-      in_.read(reinterpret_cast<char*>(vlr.data.data()), static_cast<std::streamsize>(len));
-      header_.evlrs.push_back(std::move(vlr));
-      pos += kEvlrHeader + len;
-    }
+  if (block.evlr_count > 0) {
+    if (block.evlr_start < points_end || block.evlr_start > file_size)
+      throw FileError(path, byteAt(235), "start of the first EVLR is invalid");
+    readEvlrs(in_, path, block.evlr_start, block.evlr_count, file_size, &header_);
   }
-  if (laz_) openLaz(n_evlr > 0 ? evlr_start : file_size);
+  if (laz_) openLaz(block.evlr_count > 0 ? block.evlr_start : file_size);
   in_.clear();
   in_.seekg(static_cast<std::streamoff>(point_offset_));
 }

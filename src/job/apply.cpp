@@ -20,15 +20,20 @@ namespace mountcal {
 
 namespace fs = std::filesystem;
 
-ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir, std::size_t chunk_points,
-                         const std::vector<double>& laser_elevation_rad, StripFormat format, const std::vector<std::string>& also_inputs,
-                         int threads) {
+namespace {
+
+/// Every input LAS file once, in job order, and the output path of each in `out_dir`; throws
+/// FileError before anything is written when an output would overwrite an input or another
+/// output, or when the result needs a field the job does not name.
+void planOutputs(const Job& job, const std::string& out_dir, const std::vector<double>& laser_elevation_rad, StripFormat format,
+                 const std::vector<std::string>& also_inputs, std::vector<std::string>* inputs_out, std::vector<std::string>* outputs_out) {
+  std::vector<std::string>& inputs = *inputs_out;
+  std::vector<std::string>& outputs = *outputs_out;
   if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
     throw FileError(job.path, "field 'sensor.laser_field'",
                     "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
   }
   // Every input file once, in job order; every output checked against every input first.
-  std::vector<std::string> inputs;
   for (const JobStrip& js : job.strips) {
     if (js.format != "las") throw FileError(js.path, "", "apply rewrites LAS strips; this strip is a raw CSV");
     bool seen = false;
@@ -36,7 +41,6 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     if (!seen) inputs.push_back(js.path);
   }
   std::map<std::string, std::string> by_name;
-  std::vector<std::string> outputs;
   for (const std::string& in : inputs) {
     fs::path file = fs::path(in).filename();
     if (format != StripFormat::same_as_input) file.replace_extension(format == StripFormat::laz ? ".laz" : ".las");
@@ -53,42 +57,61 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
         throw FileError(outputs.back(), "", "apply would overwrite an input (" + other + "); choose another --out folder");
     }
   }
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
-  const LoadedJob loaded = loadJobTrajectory(job);
-  const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
-  std::vector<ApplyStats> per_file(inputs.size());
-  detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
-    ApplyStats& stats = per_file[f];
-    const JobFrame frame = loaded.frame.forAnotherThread();
-    const std::string& in_path = inputs[f];
-    io::LasReader reader(in_path);
-    const io::LasHeader& h = reader.header();
-    std::unique_ptr<io::PoseFieldReader> poses;
-    if (job.per_point_poses)
-      poses = std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
-    else if (!h.hasGpsTime())
-      throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
-    std::unique_ptr<io::PointFieldReader> laser;
-    if (!laser_elevation_rad.empty()) laser = std::make_unique<io::PointFieldReader>(h, in_path, job.laser_field);
-    const Trajectory* T = loaded.data.trajectory.get();
-    io::LasWriter writer(outputs[f], h);
-    std::vector<io::LasPoint> chunk;
-    std::size_t cursor = 0;
-    std::uint64_t record = 0;
+}
+
+/// The reader of the job's per-point pose fields; null when the poses come from the trajectory,
+/// which needs the points' GPS time.
+std::unique_ptr<io::PoseFieldReader> poseReader(const Job& job, const io::LasHeader& h, const std::string& in_path) {
+  if (job.per_point_poses) return std::make_unique<io::PoseFieldReader>(h, in_path, job.pose_fields);
+  if (!h.hasGpsTime()) throw FileError(in_path, "byte 104", "point format " + std::to_string(h.point_format) + " has no GPS time");
+  return nullptr;
+}
+
+/// One input file re-georeferenced into its output: from the mounting the job used to `mounting`.
+class FileApplier {
+ public:
+  FileApplier(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, const std::vector<double>& laser_elevation_rad,
+              const std::string& in_path, const std::string& out_path, std::size_t chunk_points)
+      : job_(job),
+        loaded_(loaded),
+        mounting_(mounting),
+        laser_elevation_rad_(laser_elevation_rad),
+        in_path_(in_path),
+        chunk_points_(chunk_points),
+        frame_(loaded.frame.forAnotherThread()),
+        reader_(in_path),
+        poses_(poseReader(job, reader_.header(), in_path)),
+        laser_(laser_elevation_rad.empty() ? nullptr : std::make_unique<io::PointFieldReader>(reader_.header(), in_path, job.laser_field)),
+        writer_(out_path, reader_.header()) {}
+
+  ApplyStats run() {
+    ApplyStats stats;
     // With a trajectory and no per-laser offsets, each chunk goes through the batch
     // georeferencing (attitude expanded once per trajectory interval, exact within 1e-9 m):
     // inverse with the mounting used, forward with the new one.
-    const bool batch = !poses && !laser && T;
-    std::unique_ptr<GeoreferenceModel> used_model, new_model;
-    if (batch) {
-      used_model = std::make_unique<GeoreferenceModel>(loaded.data.trajectory, job.mounting_used);
-      new_model = std::make_unique<GeoreferenceModel>(loaded.data.trajectory, mounting);
-    }
-    // The batch path works on the records as stored: X, Y, Z and the GPS time are read from
-    // their bytes, the new X, Y, Z written back, every other byte (extra bytes included) passes
-    // through untouched.
+    const std::uint64_t points = !poses_ && !laser_ && loaded_.data.trajectory ? rewriteRecords(&stats) : rewritePoints(&stats);
+    writer_.close();
+    stats.points = points;
+    stats.strips = 1;
+    return stats;
+  }
+
+ private:
+  /// The batch path works on the records as stored: X, Y, Z and the GPS time are read from
+  /// their bytes, the new X, Y, Z written back, every other byte (extra bytes included) passes
+  /// through untouched. Returns the records written.
+  std::uint64_t rewriteRecords(ApplyStats* stats_out) {
+    ApplyStats& stats = *stats_out;
+    const io::LasHeader& h = reader_.header();
+    io::LasReader& reader = reader_;
+    io::LasWriter& writer = writer_;
+    const JobFrame& frame = frame_;
+    const std::string& in_path = in_path_;
+    const std::size_t chunk_points = chunk_points_;
+    const Trajectory* T = loaded_.data.trajectory.get();
+    const auto used_model = std::make_unique<GeoreferenceModel>(loaded_.data.trajectory, job_.mounting_used);
+    const auto new_model = std::make_unique<GeoreferenceModel>(loaded_.data.trajectory, mounting_);
+    std::uint64_t record = 0;
     std::vector<std::uint8_t> records;
     std::vector<double> times, xyz_crs, xyz, r_s_batch, xyz_new;
     std::vector<std::int32_t> XYZ_new;
@@ -96,13 +119,13 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
     const std::size_t len = h.point_record_length;
     const io::LasRecordLayout layout(h.point_format);
     const double s0 = h.scale[0], s1 = h.scale[1], s2 = h.scale[2], o0 = h.offset[0], o1 = h.offset[1], o2 = h.offset[2];
-    const double t_start = T ? T->startTime() : 0.0, t_end = T ? T->endTime() : 0.0;
+    const double t_start = T->startTime(), t_end = T->endTime();
     // Points per batch: the arrays stay in the caches' reach. The records are read a batch at a
     // time too, so that they are still in the cache when processed and written (reading whole
     // chunks of a million records made each record travel through memory three times, and two
     // threads then waited on the memory bus).
     constexpr std::size_t kBatch = 1u << 16;
-    while (batch && reader.readRaw(&records, std::min(chunk_points, kBatch)) > 0) {
+    while (reader.readRaw(&records, std::min(chunk_points, kBatch)) > 0) {
       const std::size_t in_chunk = records.size() / len;
       for (std::size_t k0 = 0; k0 < in_chunk; k0 += kBatch) {
         const std::size_t n = std::min(kBatch, in_chunk - k0);
@@ -157,7 +180,28 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
       }
     }
     stats.max_shift_m = std::max(stats.max_shift_m, std::sqrt(max_shift2));
-    while (!batch && reader.read(&chunk, chunk_points) > 0) {
+    return record;
+  }
+
+  /// Point by point, through per-point poses or per-laser offsets. Returns the points written.
+  std::uint64_t rewritePoints(ApplyStats* stats_out) {
+    ApplyStats& stats = *stats_out;
+    io::LasReader& reader = reader_;
+    io::LasWriter& writer = writer_;
+    const JobFrame& frame = frame_;
+    const std::string& in_path = in_path_;
+    const std::size_t chunk_points = chunk_points_;
+    const std::unique_ptr<io::PoseFieldReader>& poses = poses_;
+    const std::unique_ptr<io::PointFieldReader>& laser = laser_;
+    const std::vector<double>& laser_elevation_rad = laser_elevation_rad_;
+    const Job& job = job_;
+    const MountingParameters& mounting = mounting_;
+    const Trajectory* T = loaded_.data.trajectory.get();
+    const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
+    std::vector<io::LasPoint> chunk;
+    std::size_t cursor = 0;
+    std::uint64_t record = 0;
+    while (reader.read(&chunk, chunk_points) > 0) {
       for (io::LasPoint& p : chunk) {
         Pose pose;
         if (poses) {
@@ -188,9 +232,36 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
         ++record;
       }
     }
-    writer.close();
-    stats.points += record;
-    ++stats.strips;
+    return record;
+  }
+
+  const Job& job_;
+  const LoadedJob& loaded_;
+  const MountingParameters& mounting_;
+  const std::vector<double>& laser_elevation_rad_;
+  const std::string& in_path_;
+  const std::size_t chunk_points_;
+  const JobFrame frame_;
+  io::LasReader reader_;
+  std::unique_ptr<io::PoseFieldReader> poses_;   // per-point poses, when the job has them
+  std::unique_ptr<io::PointFieldReader> laser_;  // each point's laser id, for per-laser offsets
+  io::LasWriter writer_;                         // opened last: a bad input leaves no temporary file
+};
+
+}  // namespace
+
+ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir, std::size_t chunk_points,
+                         const std::vector<double>& laser_elevation_rad, StripFormat format, const std::vector<std::string>& also_inputs,
+                         int threads) {
+  std::vector<std::string> inputs, outputs;
+  planOutputs(job, out_dir, laser_elevation_rad, format, also_inputs, &inputs, &outputs);
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
+  const LoadedJob loaded = loadJobTrajectory(job);
+  std::vector<ApplyStats> per_file(inputs.size());
+  detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
+    per_file[f] = FileApplier(job, loaded, mounting, laser_elevation_rad, inputs[f], outputs[f], chunk_points).run();
   });
   ApplyStats stats;
   for (const ApplyStats& f : per_file) {

@@ -54,7 +54,7 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job) {
     b.spacing = std::sqrt(std::max((b.x1 - b.x0) * (b.y1 - b.y0), 1.0) / static_cast<double>(std::max<std::uint64_t>(h.point_count, 1)));
     b.known = true;
   }
-  const CorrespondenceOptions& o = job.options.method<CorrespondenceOptions>();
+  const CorrespondenceOptions& opts = job.options.method<CorrespondenceOptions>();
   std::vector<std::pair<std::string, std::string>> out;
   for (std::size_t a = 0; a < box.size(); ++a) {
     for (std::size_t b = a + 1; b < box.size(); ++b) {
@@ -63,8 +63,8 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job) {
       if (A.known && B.known) {
         // The search pairs strips within two voxels (Matcher: boxes grown by 2 voxels); here 4,
         // with the spacing doubled, for a plan box in the CRS against points in the local frame.
-        const double r = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * 2.0 * std::max(A.spacing, B.spacing));
-        const double voxel = o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r);
+        const double r = opts.radius_m > 0 ? opts.radius_m : std::max(0.25, 2.5 * 2.0 * std::max(A.spacing, B.spacing));
+        const double voxel = opts.voxel_size_m > 0 ? opts.voxel_size_m : std::max(2.0, 4 * r);
         const double margin = std::max(25.0, 4 * voxel);
         meet = !(A.x0 > B.x1 + margin || B.x0 > A.x1 + margin || A.y0 > B.y1 + margin || B.y0 > A.y1 + margin);
       }
@@ -109,10 +109,10 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
   std::map<std::pair<std::string, std::string>, std::string> seen;
   const std::array<double, 6> used = job.mounting_used.toArray();
   for (const std::string& f : files) {
-    CorrespondenceOptions o;
+    CorrespondenceOptions opts;
     std::array<double, 6> m{};
-    PairCandidates p = readPairCandidates(f, &o, &m);
-    if (!sameMatchingOptions(o, job.options.method<CorrespondenceOptions>()))
+    PairCandidates p = readPairCandidates(f, &opts, &m);
+    if (!sameMatchingOptions(opts, job.options.method<CorrespondenceOptions>()))
       throw FileError(f, "", "was matched with other correspondence options than " + job.path + "; rerun mountcal match");
     if (m != used) throw FileError(f, "", "was matched at another mounting_used than " + job.path + "'s; rerun mountcal match");
     if (!p.attitudes_stored) {

@@ -58,10 +58,10 @@ json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 }  // namespace
 
-std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluation* ev) {
-  const Vec3 b = S.mounting.boresightDeg();
+std::string resultJson(const MountingCalibrator::Summary& summary, const ResultEvaluation* ev) {
+  const Vec3 b = summary.mounting.boresightDeg();
   json j;
-  j["mounting"] = {{"lever_arm_m", vec(S.mounting.a_b)}, {"boresight_deg", vec(b)}};
+  j["mounting"] = {{"lever_arm_m", vec(summary.mounting.a_b)}, {"boresight_deg", vec(b)}};
   // SPEC §2, stated where a reader of the file looks (`mountcal mounting` writes other forms).
   j["conventions"] = {{"body_frame", "x forward, y right, z down (IMU body frame)"},
                       {"lever_arm", "IMU origin to scanner origin, body axes, metres"},
@@ -69,47 +69,47 @@ std::string resultJson(const MountingCalibrator::Summary& S, const ResultEvaluat
                       {"sigma", "standard deviations in the same units (metres, degrees); null: not estimated"}};
   json sl = json::array(), sb = json::array();
   for (int i = 0; i < 3; ++i) {
-    sl.push_back(numOrNull(S.sigma[i]));
-    sb.push_back(numOrNull(rad2deg(S.sigma[3 + i])));
+    sl.push_back(numOrNull(summary.sigma[i]));
+    sb.push_back(numOrNull(rad2deg(summary.sigma[3 + i])));
   }
   j["sigma"] = {{"lever_arm_m", sl}, {"boresight_deg", sb}};
   json corr = json::array();
   for (int a = 0; a < 6; ++a) {
     json row = json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(numOrNull(S.correlation(a, c)));
+    for (int c = 0; c < 6; ++c) row.push_back(numOrNull(summary.correlation(a, c)));
     corr.push_back(row);
   }
   j["correlation"] = corr;
-  j["estimated"] = {{"lever_arm", {S.estimated[0], S.estimated[1], S.estimated[2]}},
-                    {"boresight", {S.estimated[3], S.estimated[4], S.estimated[5]}}};
-  j["unobservable"] = S.unobservable;
-  j["observability_report"] = S.observability_report;
+  j["estimated"] = {{"lever_arm", {summary.estimated[0], summary.estimated[1], summary.estimated[2]}},
+                    {"boresight", {summary.estimated[3], summary.estimated[4], summary.estimated[5]}}};
+  j["unobservable"] = summary.unobservable;
+  j["observability_report"] = summary.observability_report;
   json offs = json::object();
-  for (const auto& [id, o] : S.strip_offsets_m) offs[id] = vec(o);
+  for (const auto& [id, o] : summary.strip_offsets_m) offs[id] = vec(o);
   j["strip_offsets_m"] = offs;
-  j["variance_factor"] = S.variance_factor;
-  j["degrees_of_freedom"] = S.degrees_of_freedom;
-  j["solver"] = {{"termination", toString(S.termination)},
-                 {"message", S.message},
-                 {"iterations", S.iterations},
-                 {"rematch_rounds", S.rematch_rounds},
-                 {"initial_cost", S.initial_cost},
-                 {"final_cost", S.final_cost},
-                 {"time_s", S.time_s},
-                 {"construction_time_s", S.construction_time_s},
-                 {"solve_time_s", S.solve_time_s},
-                 {"analysis_time_s", S.analysis_time_s}};
-  j["methods"] = S.methods;
+  j["variance_factor"] = summary.variance_factor;
+  j["degrees_of_freedom"] = summary.degrees_of_freedom;
+  j["solver"] = {{"termination", toString(summary.termination)},
+                 {"message", summary.message},
+                 {"iterations", summary.iterations},
+                 {"rematch_rounds", summary.rematch_rounds},
+                 {"initial_cost", summary.initial_cost},
+                 {"final_cost", summary.final_cost},
+                 {"time_s", summary.time_s},
+                 {"construction_time_s", summary.construction_time_s},
+                 {"solve_time_s", summary.solve_time_s},
+                 {"analysis_time_s", summary.analysis_time_s}};
+  j["methods"] = summary.methods;
   json kinds = json::array();
-  for (const auto& k : S.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
+  for (const auto& k : summary.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
   j["kinds"] = kinds;
-  j["covariance_source"] = S.covariance_source;
-  j["condition_number"] = numOrNull(S.condition_number);
+  j["covariance_source"] = summary.covariance_source;
+  j["condition_number"] = numOrNull(summary.condition_number);
   // SPEC §4's tie keys are in every result file: null unless a method fills them (method "vtpm").
   for (const char* key : {"ties", "rms_before_m", "rms_after_m", "residuals"}) j[key] = nullptr;
   // Each method's keys (SPEC §4: "ties", "residuals", "planes", "features", "correspondences", …).
-  for (const auto& section : S.sections) {
-    const json part = json::parse(section->resultJson(S));
+  for (const auto& section : summary.sections) {
+    const json part = json::parse(section->resultJson(summary));
     for (auto it = part.begin(); it != part.end(); ++it) j[it.key()] = it.value();
   }
   if (ev) {

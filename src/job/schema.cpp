@@ -113,7 +113,7 @@ void readMethodOptions(const Fields& f, const Method& m, std::any* options) {
 /// Every registered method's options object of the job (under the method's name, or a legacy
 /// key with a notice), and the input value of the methods whose input shares that key.
 void readMethodSections(const std::string& path, const Fields& top, const json& j, Job* job) {
-  MountingCalibrator::Options& o = job->options;
+  MountingCalibrator::Options& opts = job->options;
   for (const auto& m : registeredMethods()) {
     std::string key;
     if (top.has(m->name()) && j.at(m->name()).is_object()) key = m->name();
@@ -134,7 +134,7 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
     const bool input_inside = m->input().job_key == key;
     if (input_inside) known.insert(kInputInObject);
     const Fields f(path, section, key, known);
-    std::any& options = o.method_options.at(m->name(), m->defaultOptions());
+    std::any& options = opts.method_options.at(m->name(), m->defaultOptions());
     readMethodOptions(f, *m, &options);
     if (input_inside && f.has(kInputInObject)) job->method_inputs[m->name()] = f.str(kInputInObject);
   }
@@ -143,17 +143,17 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
 /// The stochastic settings every method shares: "stochastic" (and the earlier
 /// "vtpm.strip_offset_sigma_m", with a notice).
 void readStochastic(const Fields& top, const json& j, Job* job) {
-  MountingCalibrator::Options& o = job->options;
+  MountingCalibrator::Options& opts = job->options;
   if (top.has("stochastic")) {
     const Fields st = top.sub("stochastic", {"strip_offset_sigma_m"});
-    o.strip_offset_sigma_m = st.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
+    opts.strip_offset_sigma_m = st.num("strip_offset_sigma_m", opts.strip_offset_sigma_m, 0.0, 1000.0);
   }
   if (top.has("vtpm") && j.at("vtpm").is_object() && j.at("vtpm").contains("strip_offset_sigma_m")) {
     if (top.has("stochastic") && j.at("stochastic").contains("strip_offset_sigma_m"))
       top.fail("vtpm", "strip_offset_sigma_m is given twice (\"stochastic\" and \"vtpm\")");
     const json only = {{"strip_offset_sigma_m", j.at("vtpm").at("strip_offset_sigma_m")}};
     const Fields v(job->path, only, "vtpm", {"strip_offset_sigma_m"});
-    o.strip_offset_sigma_m = v.num("strip_offset_sigma_m", o.strip_offset_sigma_m, 0.0, 1000.0);
+    opts.strip_offset_sigma_m = v.num("strip_offset_sigma_m", opts.strip_offset_sigma_m, 0.0, 1000.0);
     job->notices.push_back(
         "field 'vtpm.strip_offset_sigma_m' is deprecated: every method uses the strip offsets; write it as "
         "\"stochastic\": {\"strip_offset_sigma_m\": …}");
@@ -298,7 +298,7 @@ void readInputs(const std::string& path, const Fields& top, const json& j, Job* 
 /// "method": a name or an array of names (SPEC §4); each named method's input is required.
 void readMethods(const Fields& top, Job* job) {
   // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
-  MountingCalibrator::Options& o = job->options;
+  MountingCalibrator::Options& opts = job->options;
   std::vector<std::string> methods;
   auto addMethod = [&](const std::string& name) {
     const Method* m = findMethod(name);
@@ -319,29 +319,29 @@ void readMethods(const Fields& top, Job* job) {
   } else {
     addMethod(top.str("method"));
   }
-  o.methods = methods;
+  opts.methods = methods;
   for (const std::string& name : methods) {
     const Method& m = *findMethod(name);
     const MethodInput in = m.input();
     const auto given = job->method_inputs.find(name);
     if (in.required && !in.job_key.empty() && given == job->method_inputs.end())
       top.fail(in.job_key, "missing: method \"" + name + "\" needs " + in.doc + " (SPEC §4)");
-    if (given != job->method_inputs.end()) m.adoptInput(given->second, &o.method_options.at(name, m.defaultOptions()));
+    if (given != job->method_inputs.end()) m.adoptInput(given->second, &opts.method_options.at(name, m.defaultOptions()));
   }
 }
 
 /// The settings every method shares: "estimate", "pulse_noise", "solver".
 void readSettings(const Fields& top, Job* job) {
-  MountingCalibrator::Options& o = job->options;
+  MountingCalibrator::Options& opts = job->options;
   if (top.has("estimate")) {
     const Fields e = top.sub("estimate", {"lever_arm", "boresight"});
     if (e.has("lever_arm")) {
       const auto a = e.bool3("lever_arm");
-      for (int i = 0; i < 3; ++i) o.estimate[i] = a[i];
+      for (int i = 0; i < 3; ++i) opts.estimate[i] = a[i];
     }
     if (e.has("boresight")) {
       const auto b = e.bool3("boresight");
-      for (int i = 0; i < 3; ++i) o.estimate[3 + i] = b[i];
+      for (int i = 0; i < 3; ++i) opts.estimate[3 + i] = b[i];
     }
   }
   if (top.has("pulse_noise")) {
@@ -349,7 +349,7 @@ void readSettings(const Fields& top, Job* job) {
     // precision as the manufacturers state them.
     const Fields n =
         top.sub("pulse_noise", {"position_m", "roll_pitch_deg", "heading_deg", "range_m", "beam_deg", "attitude_correlation_s"});
-    PulseNoise& pn = o.pulse_noise;
+    PulseNoise& pn = opts.pulse_noise;
     pn.position_m = n.num("position_m", pn.position_m, 0.0, 10.0);
     pn.roll_pitch_deg = n.num("roll_pitch_deg", pn.roll_pitch_deg, 0.0, 10.0);
     pn.heading_deg = n.num("heading_deg", pn.heading_deg, 0.0, 10.0);
@@ -361,24 +361,24 @@ void readSettings(const Fields& top, Job* job) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
                                         "scale_covariance_by_variance_factor", "max_rematch_rounds", "rematch_tolerance_m",
                                         "rematch_tolerance_deg", "max_iterations_per_matching"});
-    o.max_iterations = s.integer("max_iterations", o.max_iterations, 1, 100000);
+    opts.max_iterations = s.integer("max_iterations", opts.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", "trivial");
     if (loss == "trivial")
-      o.loss = LossType::kTrivial;
+      opts.loss = LossType::kTrivial;
     else if (loss == "huber")
-      o.loss = LossType::kHuber;
+      opts.loss = LossType::kHuber;
     else if (loss == "cauchy")
-      o.loss = LossType::kCauchy;
+      opts.loss = LossType::kCauchy;
     else
       s.fail("loss", "expected \"trivial\", \"huber\" or \"cauchy\"");
-    o.loss_scale_m = s.num("loss_scale_m", o.loss_scale_m);
-    o.function_tolerance = s.num("function_tolerance", o.function_tolerance);
-    o.parameter_tolerance = s.num("parameter_tolerance", o.parameter_tolerance);
-    o.scale_covariance_by_variance_factor = s.boolean("scale_covariance_by_variance_factor", o.scale_covariance_by_variance_factor);
-    o.max_rematch_rounds = s.integer("max_rematch_rounds", o.max_rematch_rounds, 1, 1000);
-    o.rematch_tolerance_m = s.num("rematch_tolerance_m", o.rematch_tolerance_m);
-    o.max_iterations_per_matching = s.integer("max_iterations_per_matching", o.max_iterations_per_matching, 0, 100000);
-    o.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(o.rematch_tolerance_rad)));
+    opts.loss_scale_m = s.num("loss_scale_m", opts.loss_scale_m);
+    opts.function_tolerance = s.num("function_tolerance", opts.function_tolerance);
+    opts.parameter_tolerance = s.num("parameter_tolerance", opts.parameter_tolerance);
+    opts.scale_covariance_by_variance_factor = s.boolean("scale_covariance_by_variance_factor", opts.scale_covariance_by_variance_factor);
+    opts.max_rematch_rounds = s.integer("max_rematch_rounds", opts.max_rematch_rounds, 1, 1000);
+    opts.rematch_tolerance_m = s.num("rematch_tolerance_m", opts.rematch_tolerance_m);
+    opts.max_iterations_per_matching = s.integer("max_iterations_per_matching", opts.max_iterations_per_matching, 0, 100000);
+    opts.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(opts.rematch_tolerance_rad)));
   }
 }
 
@@ -450,7 +450,7 @@ json sensorJson(const Job& job) {
 
 std::string jobJson(const Job& job) {
   auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
-  const MountingCalibrator::Options& o = job.options;
+  const MountingCalibrator::Options& opts = job.options;
   const MountingCalibrator::Options def;
   json j;
   j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
@@ -495,17 +495,17 @@ std::string jobJson(const Job& job) {
     j["planes"] = "auto";
   else if (!job.planes_path.empty())
     j["planes"] = rel(job.planes_path);
-  if (o.methods.size() == 1) {
-    j["method"] = o.methods[0];
+  if (opts.methods.size() == 1) {
+    j["method"] = opts.methods[0];
   } else {
-    j["method"] = o.methods;
+    j["method"] = opts.methods;
   }
-  j["estimate"] = {{"lever_arm", {o.estimate[0], o.estimate[1], o.estimate[2]}},
-                   {"boresight", {o.estimate[3], o.estimate[4], o.estimate[5]}}};
+  j["estimate"] = {{"lever_arm", {opts.estimate[0], opts.estimate[1], opts.estimate[2]}},
+                   {"boresight", {opts.estimate[3], opts.estimate[4], opts.estimate[5]}}};
   // Each method's options that differ from its defaults, under the method's name.
   for (const auto& m : registeredMethods()) {
     const std::any defaults = m->defaultOptions();
-    const std::any& options = o.method_options.at(m->name(), defaults);
+    const std::any& options = opts.method_options.at(m->name(), defaults);
     json section = json::object();
     for (const OptionSpec& spec : m->options()) {
       const double v = spec.get(options);
@@ -523,15 +523,15 @@ std::string jobJson(const Job& job) {
     }
     j[m->name()] = section;
   }
-  if (o.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"] = {{"strip_offset_sigma_m", o.strip_offset_sigma_m}};
-  if (o.pulse_noise.any() || o.pulse_noise.attitude_correlation_s > 0) {
-    const PulseNoise& pn = o.pulse_noise;
+  if (opts.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"] = {{"strip_offset_sigma_m", opts.strip_offset_sigma_m}};
+  if (opts.pulse_noise.any() || opts.pulse_noise.attitude_correlation_s > 0) {
+    const PulseNoise& pn = opts.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},
                         {"heading_deg", pn.heading_deg}, {"range_m", pn.range_m},
                         {"beam_deg", pn.beam_deg},       {"attitude_correlation_s", pn.attitude_correlation_s}};
   }
-  j["solver"] = {{"max_iterations", o.max_iterations}, {"loss", lossName(o.loss)}};
-  if (o.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = o.loss_scale_m;
+  j["solver"] = {{"max_iterations", opts.max_iterations}, {"loss", lossName(opts.loss)}};
+  if (opts.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = opts.loss_scale_m;
   json out = json::object();
   if (!job.result_path.empty()) out["result"] = rel(job.result_path);
   if (!job.report_path.empty()) out["report"] = rel(job.report_path);

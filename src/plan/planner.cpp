@@ -254,33 +254,33 @@ void readPlanGcps(const std::string& path, const Fields& top, Plan& p) {
 void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
   SurveyConfig& c = p.survey;
   NoiseModel& n = c.noise;
-  MountingCalibrator::Options& o = p.options;
-  o.methods.clear();
+  MountingCalibrator::Options& opts = p.options;
+  opts.methods.clear();
   if (top.has("method")) {
     const json& m = top.at("method");
     if (m.is_string()) {
-      o.methods.push_back(methodOf(top, "method", m.get<std::string>()));
+      opts.methods.push_back(methodOf(top, "method", m.get<std::string>()));
     } else if (m.is_array() && !m.empty()) {
       for (const json& x : m) {
         if (!x.is_string()) top.fail("method", "expected a method name or an array of them");
-        o.methods.push_back(methodOf(top, "method", x.get<std::string>()));
+        opts.methods.push_back(methodOf(top, "method", x.get<std::string>()));
       }
     } else {
       top.fail("method", "expected a method name or an array of them");
     }
   } else {
-    o.methods = {"vtpm"};
+    opts.methods = {"vtpm"};
   }
-  o.estimate.fill(true);
+  opts.estimate.fill(true);
   if (top.has("estimate")) {
     const Fields e = top.sub("estimate", {"lever_arm", "boresight"});
     if (e.has("lever_arm")) {
       const auto b = e.bool3("lever_arm");
-      for (int k = 0; k < 3; ++k) o.estimate[k] = b[k];
+      for (int k = 0; k < 3; ++k) opts.estimate[k] = b[k];
     }
     if (e.has("boresight")) {
       const auto b = e.bool3("boresight");
-      for (int k = 0; k < 3; ++k) o.estimate[3 + k] = b[k];
+      for (int k = 0; k < 3; ++k) opts.estimate[3 + k] = b[k];
     }
   }
   static const json kNone = json::object();
@@ -291,15 +291,15 @@ void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
   noise.pick_sigma_xy_m = sig.num("tie_xy_m", std::max(n.pick_sigma_m, 1e-3), 1e-4, 10.0);
   noise.pick_sigma_z_m = sig.num("tie_z_m", 0.002, 1e-4, 10.0);  // beyond the pulse noise of the plan's noise model
   noise.point_sigma_m = sig.num("plane_m", std::max(n.range_sigma_m, 0.005), 1e-4, 1.0);
-  for (const auto& m : registeredMethods()) m->adoptNoise(noise, &o.method_options.at(m->name(), m->defaultOptions()));
-  o.strip_offset_sigma_m = sig.num("strip_offset_m", n.gnss_sigma_m, 0.0, 10.0);
-  o.pulse_noise.range_m = n.range_sigma_m;
-  o.pulse_noise.beam_deg = rad2deg(n.scan_angle_sigma_rad);
-  o.pulse_noise.roll_pitch_deg = rad2deg(n.attitude_sigma_rad);
-  o.pulse_noise.heading_deg = 2.0 * rad2deg(n.attitude_sigma_rad);
-  o.pulse_noise.attitude_correlation_s = n.attitude_correlation_s > 0.05 ? n.attitude_correlation_s : 0.0;
+  for (const auto& m : registeredMethods()) m->adoptNoise(noise, &opts.method_options.at(m->name(), m->defaultOptions()));
+  opts.strip_offset_sigma_m = sig.num("strip_offset_m", n.gnss_sigma_m, 0.0, 10.0);
+  opts.pulse_noise.range_m = n.range_sigma_m;
+  opts.pulse_noise.beam_deg = rad2deg(n.scan_angle_sigma_rad);
+  opts.pulse_noise.roll_pitch_deg = rad2deg(n.attitude_sigma_rad);
+  opts.pulse_noise.heading_deg = 2.0 * rad2deg(n.attitude_sigma_rad);
+  opts.pulse_noise.attitude_correlation_s = n.attitude_correlation_s > 0.05 ? n.attitude_correlation_s : 0.0;
   std::string why;
-  if (!o.IsValid(&why)) throw FileError(path, "", "the stochastic model the plan gives is invalid: " + why);
+  if (!opts.IsValid(&why)) throw FileError(path, "", "the stochastic model the plan gives is invalid: " + why);
 }
 
 }  // namespace
@@ -340,19 +340,19 @@ Prediction predict(const Plan& plan) {
   for (const PlannedGcp& g : plan.gcps)
     for (const simulation::FeaturePoint& f : scene.features())
       if (f.id == g.feature_id) d.gcps.push_back({f.id, f.x_m.x(), f.x_m.y(), f.x_m.z(), g.sigma_xy_m, g.sigma_z_m});
-  const MountingCalibrator::Summary S = calibrate(d, plan.options);
+  const MountingCalibrator::Summary summary = calibrate(d, plan.options);
 
   Prediction p;
   p.strips = static_cast<int>(s.strips.size());
-  for (const auto& k : S.kinds) p.observations += k.blocks;
-  p.determined = S.estimated;
-  p.sigma = S.sigma;
-  p.correlation = S.correlation;
-  p.condition_number = S.condition_number;
-  p.undeterminable = S.unobservable;
-  p.observability = S.observability_report;
-  if (S.termination == TerminationType::kInvalidInput || S.termination == TerminationType::kFailure) {
-    throw InvalidInput("plan '" + plan.name + "': the planned survey gives no usable adjustment: " + S.message);
+  for (const auto& k : summary.kinds) p.observations += k.blocks;
+  p.determined = summary.estimated;
+  p.sigma = summary.sigma;
+  p.correlation = summary.correlation;
+  p.condition_number = summary.condition_number;
+  p.undeterminable = summary.unobservable;
+  p.observability = summary.observability_report;
+  if (summary.termination == TerminationType::kInvalidInput || summary.termination == TerminationType::kFailure) {
+    throw InvalidInput("plan '" + plan.name + "': the planned survey gives no usable adjustment: " + summary.message);
   }
   // The weakest parameter: the first undeterminable one, else the largest effect on the ground.
   const double H = plan.meanHeight();
@@ -380,7 +380,7 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 
   return buf;
 }
 
-std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& o) {
+std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& options) {
   std::vector<Suggestion> out;
   const PlannedLine& first = plan.lines.front();
   const double dx = first.x1_m - first.x0_m, dy = first.y1_m - first.y0_m, len = std::hypot(dx, dy);
@@ -399,7 +399,7 @@ std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& o) {
     s.plan = plan;
     PlannedLine l = first;
     l.id = unique(first.id + "_high");
-    l.height_m = first.height_m * o.second_height_factor;
+    l.height_m = first.height_m * options.second_height_factor;
     s.plan.lines.push_back(l);
     s.description = "fly line " + first.id + " again at " + fmt("%.0f m", l.height_m) + " (line " + l.id + ")";
     out.push_back(std::move(s));
@@ -408,7 +408,7 @@ std::vector<Suggestion> candidates(const Plan& plan, const PlannerOptions& o) {
     Suggestion s;
     s.kind = "offset line";
     s.plan = plan;
-    const double D = o.offset_fraction * swathWidth(plan.survey, first.height_m);
+    const double D = options.offset_fraction * swathWidth(plan.survey, first.height_m);
     PlannedLine l = first;
     l.id = unique(first.id + "_offset");
     l.x0_m += D * rx, l.y0_m += D * ry, l.x1_m += D * rx, l.y1_m += D * ry;

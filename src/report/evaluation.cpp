@@ -138,23 +138,23 @@ DiscrepancyStats statsOf(std::vector<double> d, std::size_t queries) {
 }
 
 /// The used points' distances of `query` against `reference` (the gates of DiscrepancyOptions).
-std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& o,
+std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& options,
                               std::size_t* queries) {
   std::vector<double> out;
   *queries = 0;
-  if (query.empty() || reference.size() < static_cast<std::size_t>(o.neighbours)) return out;
+  if (query.empty() || reference.size() < static_cast<std::size_t>(options.neighbours)) return out;
   // Coordinates relative to the reference's first point: kilometre-size values never enter the tree.
   const Vec3 origin = reference.front();
   std::vector<double> ref(3 * reference.size());
   for (std::size_t i = 0; i < reference.size(); ++i) Eigen::Map<Vec3>{&ref[3 * i]} = reference[i] - origin;
   const detail::KdTree<double, 3> tree(ref);
-  const std::size_t stride = (query.size() + o.max_queries - 1) / o.max_queries;
-  const int k = o.neighbours;
+  const std::size_t stride = (query.size() + options.max_queries - 1) / options.max_queries;
+  const int k = options.neighbours;
   std::vector<std::size_t> idx(static_cast<std::size_t>(k));
   std::vector<double> dist(static_cast<std::size_t>(k));
-  const double max_d2 = o.max_neighbour_distance_m * o.max_neighbour_distance_m;
-  const double max_var = o.max_plane_sigma_m * o.max_plane_sigma_m, max_ext2 = o.max_extent_m * o.max_extent_m;
-  const double min_ratio2 = o.min_spread_ratio * o.min_spread_ratio;
+  const double max_d2 = options.max_neighbour_distance_m * options.max_neighbour_distance_m;
+  const double max_var = options.max_plane_sigma_m * options.max_plane_sigma_m, max_ext2 = options.max_extent_m * options.max_extent_m;
+  const double min_ratio2 = options.min_spread_ratio * options.min_spread_ratio;
   for (std::size_t q = 0; q < query.size(); q += stride) {
     ++*queries;
     Vec3 x = query[q] - origin;
@@ -192,17 +192,18 @@ std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const Mo
 
 }  // namespace
 
-DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& o) {
+DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
+                                         const DiscrepancyOptions& opts) {
   std::string why;
-  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::size_t queries = 0;
-  std::vector<double> d = distances(query, reference, o, &queries);
+  std::vector<double> d = distances(query, reference, opts, &queries);
   return statsOf(std::move(d), queries);
 }
 
-std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& o) {
+std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   std::string why;
-  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
   std::vector<PairDiscrepancy> out;
   for (std::size_t a = 0; a < x.size(); ++a) {
@@ -210,7 +211,7 @@ std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, cons
       const bool a_smaller = x[a].size() <= x[b].size();
       const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
       std::size_t queries = 0;
-      std::vector<double> d = distances(x[q], x[r], o, &queries);
+      std::vector<double> d = distances(x[q], x[r], opts, &queries);
       if (d.empty()) continue;
       out.push_back({data.strips[q].id, data.strips[r].id, statsOf(std::move(d), queries)});
     }
@@ -218,9 +219,9 @@ std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, cons
   return out;
 }
 
-DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& o) {
+DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   std::string why;
-  if (!o.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
+  if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
   std::vector<double> all;
   std::size_t total = 0;
@@ -228,7 +229,7 @@ DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingPa
     for (std::size_t b = a + 1; b < x.size(); ++b) {
       const bool a_smaller = x[a].size() <= x[b].size();
       std::size_t queries = 0;
-      std::vector<double> d = distances(x[a_smaller ? a : b], x[a_smaller ? b : a], o, &queries);
+      std::vector<double> d = distances(x[a_smaller ? a : b], x[a_smaller ? b : a], opts, &queries);
       all.insert(all.end(), d.begin(), d.end());
       total += queries;
     }

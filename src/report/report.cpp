@@ -23,42 +23,43 @@ std::string f(double v, const char* fmt = "%.4f") {
 }
 }  // namespace
 
-std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluation* ev, const std::string& title) {
+std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultEvaluation* ev, const std::string& title) {
   std::ostringstream h;
   h << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << esc(title) << "</title><style>"
     << "body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse;margin:1em 0}"
     << "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f0f0f0}"
     << ".ok{color:#070}.bad{color:#a00}td.l{text-align:left}</style></head><body>";
   h << "<h1>" << esc(title) << "</h1>";
-  h << "<p>Termination: <b class=\"" << (S.IsSolutionUsable() ? "ok" : "bad") << "\">" << toString(S.termination) << "</b> — "
-    << esc(S.message) << "<br>" << S.iterations << " iterations, cost " << f(S.initial_cost, "%.5g") << " → " << f(S.final_cost, "%.5g")
-    << ", " << f(S.time_s, "%.3f") << " s; variance factor σ₀² = " << f(S.variance_factor, "%.3g") << " (" << S.degrees_of_freedom
+  h << "<p>Termination: <b class=\"" << (summary.IsSolutionUsable() ? "ok" : "bad") << "\">" << toString(summary.termination) << "</b> — "
+    << esc(summary.message) << "<br>" << summary.iterations << " iterations, cost " << f(summary.initial_cost, "%.5g") << " → "
+    << f(summary.final_cost, "%.5g") << ", " << f(summary.time_s, "%.3f")
+    << " s; variance factor σ₀² = " << f(summary.variance_factor, "%.3g") << " (" << summary.degrees_of_freedom
     << " degrees of freedom)</p>";
   h << "<h2>Mounting</h2><table><tr><th>parameter</th><th>used</th><th>calibrated</th><th>σ</th><th>status</th></tr>";
   const auto& names = mountingParameterNames();
-  const auto used = S.mounting_used.toArray(), est = S.mounting.toArray();
+  const auto used = summary.mounting_used.toArray(), est = summary.mounting.toArray();
   for (int j = 0; j < 6; ++j) {
     const bool lin = j < 3;
     const double k = lin ? 1.0 : 180.0 / kPi;
     const char* unit = lin ? " m" : "°";
-    const bool unobs = std::find(S.unobservable.begin(), S.unobservable.end(), names[j]) != S.unobservable.end();
+    const bool unobs = std::find(summary.unobservable.begin(), summary.unobservable.end(), names[j]) != summary.unobservable.end();
     h << "<tr><td class=l>" << names[j] << "</td><td>" << f(used[j] * k, "%+.5f") << unit << "</td><td>" << f(est[j] * k, "%+.5f") << unit
-      << "</td><td>" << (S.estimated[j] ? f(S.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
-      << (S.estimated[j] ? "estimated"
-          : unobs        ? "<span class=bad>undeterminable</span>"
-                         : "held fixed")
+      << "</td><td>" << (summary.estimated[j] ? f(summary.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
+      << (summary.estimated[j] ? "estimated"
+          : unobs              ? "<span class=bad>undeterminable</span>"
+                               : "held fixed")
       << "</td></tr>";
   }
   h << "</table>";
-  if (!S.observability_report.empty()) h << "<h2>Observability</h2><pre>" << esc(S.observability_report) << "</pre>";
-  h << "<p>Condition number of the estimated block (normalised): " << f(S.condition_number, "%.3g") << "</p>";
+  if (!summary.observability_report.empty()) h << "<h2>Observability</h2><pre>" << esc(summary.observability_report) << "</pre>";
+  h << "<p>Condition number of the estimated block (normalised): " << f(summary.condition_number, "%.3g") << "</p>";
   h << "<h2>Correlations</h2><table><tr><th></th>";
   for (int j = 0; j < 6; ++j) h << "<th>" << j << "</th>";
   h << "</tr>";
   for (int a = 0; a < 6; ++a) {
     h << "<tr><td class=l>" << a << " " << names[a] << "</td>";
     for (int b = 0; b < 6; ++b) {
-      const double c = S.correlation(a, b);
+      const double c = summary.correlation(a, b);
       h << "<td" << (a != b && std::abs(c) > 0.9 ? " class=bad" : "") << ">" << f(c, "%+.3f") << "</td>";
     }
     h << "</tr>";
@@ -67,13 +68,13 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
   // ---- one section per kind of observation ----------------------------------------------------
   h << "<p>Methods: " << esc([&] {
     std::string m;
-    for (const auto& x : S.methods) m += (m.empty() ? "" : " + ") + x;
+    for (const auto& x : summary.methods) m += (m.empty() ? "" : " + ") + x;
     return m;
   }())
     << ". Observations per kind:";
-  for (const auto& k : S.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
+  for (const auto& k : summary.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
   h << "</p>";
-  for (const auto& section : S.sections) h << section->html(S);
+  for (const auto& section : summary.sections) h << section->html(summary);
   if (ev) {
     h << "<h2>Check data (seed Tables 2 and 3)</h2>";
     if (ev->has_check_points) {
@@ -104,7 +105,7 @@ std::string htmlReport(const MountingCalibrator::Summary& S, const ResultEvaluat
       h << "</table>";
     }
   }
-  h << "<pre>" << esc(S.FullReport()) << "</pre></body></html>\n";
+  h << "<pre>" << esc(summary.FullReport()) << "</pre></body></html>\n";
   return h.str();
 }
 

@@ -150,8 +150,8 @@ struct Profile {
 
 /// Places where the strips disagree most in height at the mounting used: 2 m cells seen by at
 /// least two strips with 4+ points each; the largest spread of the strips' mean heights.
-std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, const ReportOptions& o) {
-  if (o.automatic_profiles <= 0) return {};
+std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, const ReportOptions& options) {
+  if (options.automatic_profiles <= 0) return {};
   const double cell = 2.0;
   struct Acc {
     double z = 0, zz = 0;
@@ -195,9 +195,9 @@ std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, 
   });
   std::vector<Profile> out;
   for (const Cand& c : cands) {
-    if (static_cast<int>(out.size()) >= o.automatic_profiles) break;
+    if (static_cast<int>(out.size()) >= options.automatic_profiles) break;
     bool near = false;
-    for (const Profile& p : out) near |= std::hypot(0.5 * (p.x0 + p.x1) - c.x, 0.5 * (p.y0 + p.y1) - c.y) < 2 * o.profile_length_m;
+    for (const Profile& p : out) near |= std::hypot(0.5 * (p.x0 + p.x1) - c.x, 0.5 * (p.y0 + p.y1) - c.y) < 2 * options.profile_length_m;
     if (near) continue;
     // Across the local slope: the direction in which the heights around the cell change most.
     Vec3 g = Vec3::Zero();
@@ -214,9 +214,9 @@ std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, 
     }
     double ux = 1, uy = 0;
     if (g.norm() > 0.05) ux = g.x() / g.norm(), uy = g.y() / g.norm();
-    const double h = 0.5 * o.profile_length_m;
-    out.push_back(
-        {"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy, 0.5 * o.profile_width_m, c.d});
+    const double h = 0.5 * options.profile_length_m;
+    out.push_back({"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy,
+                   0.5 * options.profile_width_m, c.d});
   }
   return out;
 }
@@ -315,26 +315,27 @@ DrawnStrips drawnStrips(const CalibrationData& data) {
 
 /// Warnings a user acts on: undeterminable and strongly correlated parameters, σ₀² far from 1,
 /// each method's own (rejected input, outliers), an unusable solve.
-std::string warningsSection(const MountingCalibrator::Summary& S) {
+std::string warningsSection(const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
   const auto& names = mountingParameterNames();
   std::vector<std::string> warn;
-  for (const auto& u : S.unobservable) warn.push_back(u + " could not be determined by the data and was held at its used value");
+  for (const auto& u : summary.unobservable) warn.push_back(u + " could not be determined by the data and was held at its used value");
   for (int a = 0; a < 6; ++a)
     for (int b = a + 1; b < 6; ++b)
-      if (S.estimated[a] && S.estimated[b] && std::abs(S.correlation(a, b)) > 0.9)
-        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" + detail::formatNumber(S.correlation(a, b), "%+.3f") +
-                       ")");
-  if (S.degrees_of_freedom > 0 && (S.variance_factor < 0.5 || S.variance_factor > 2.0))
-    warn.push_back("the variance factor σ₀² = " + detail::formatNumber(S.variance_factor, "%.3g") +
+      if (summary.estimated[a] && summary.estimated[b] && std::abs(summary.correlation(a, b)) > 0.9)
+        warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" +
+                       detail::formatNumber(summary.correlation(a, b), "%+.3f") + ")");
+  if (summary.degrees_of_freedom > 0 && (summary.variance_factor < 0.5 || summary.variance_factor > 2.0))
+    warn.push_back("the variance factor σ₀² = " + detail::formatNumber(summary.variance_factor, "%.3g") +
                    " is far from 1: the stated σ do not match the residuals");
   int outliers = 0;
-  for (const auto& section : S.sections) {
+  for (const auto& section : summary.sections) {
     for (const std::string& w : section->warnings()) warn.push_back(w);
     outliers += section->outliers();
   }
   if (outliers) warn.push_back(std::to_string(outliers) + " observations flagged as outliers");
-  if (!S.IsSolutionUsable()) warn.push_back(std::string("the solve is not usable: ") + toString(S.termination) + " — " + S.message);
+  if (!summary.IsSolutionUsable())
+    warn.push_back(std::string("the solve is not usable: ") + toString(summary.termination) + " — " + summary.message);
   v << "<h2>Warnings</h2>";
   if (warn.empty()) v << "<p class=ok>None.</p>";
   for (const auto& w : warn) v << "<p class=warn>" << detail::htmlEscape(w) << "</p>";
@@ -342,14 +343,14 @@ std::string warningsSection(const MountingCalibrator::Summary& S) {
   return v.str();
 }
 
-std::string correlationSection(const MountingCalibrator::Summary& S) {
+std::string correlationSection(const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
   const auto& names = mountingParameterNames();
   v << "<h2>Correlations</h2>";
   std::vector<std::string> labels(names.begin(), names.end());
   std::vector<double> c(36);
   for (int a = 0; a < 6; ++a)
-    for (int b = 0; b < 6; ++b) c[static_cast<std::size_t>(6 * a + b)] = S.correlation(a, b);
+    for (int b = 0; b < 6; ++b) c[static_cast<std::size_t>(6 * a + b)] = summary.correlation(a, b);
   v << svgCorrelationHeatMap(labels, c);
 
   return v.str();
@@ -357,13 +358,13 @@ std::string correlationSection(const MountingCalibrator::Summary& S) {
 
 /// Plan view: footprints per strip (overlaps darker), regions, the methods' marks and residual
 /// arrows before and after.
-std::string mapSection(const CalibrationData& data, const MountingCalibrator::Summary& S, const DrawnStrips& drawn,
-                       const std::vector<PlanResidual>& plan_residuals, const ReportOptions& o) {
+std::string mapSection(const CalibrationData& data, const MountingCalibrator::Summary& summary, const DrawnStrips& drawn,
+                       const std::vector<PlanResidual>& plan_residuals, const ReportOptions& options) {
   std::ostringstream v;
   const auto& X = drawn.X;
   const auto& strip_ids = drawn.strip_ids;
   const Bounds& box = drawn.box;
-  const int W = o.map_px;
+  const int W = options.map_px;
   const double scale = W / std::max(box.x1 - box.x0, box.y1 - box.y0);
   const int Wd = std::max(1, static_cast<int>((box.x1 - box.x0) * scale)), Hd = std::max(1, static_cast<int>((box.y1 - box.y0) * scale));
   // Footprints: each strip's occupancy blended in its colour; overlaps darker.
@@ -407,7 +408,7 @@ std::string mapSection(const CalibrationData& data, const MountingCalibrator::Su
     v << "<rect x=\"" << detail::formatNumber(PX(r.xmin)) << "\" y=\"" << detail::formatNumber(PY(r.ymax)) << "\" width=\""
       << detail::formatNumber((r.xmax - r.xmin) * scale) << "\" height=\"" << detail::formatNumber((r.ymax - r.ymin) * scale)
       << "\" fill=\"none\" stroke=\"#000\" stroke-dasharray=\"2 2\"><title>target region " << detail::htmlEscape(r.id) << "</title></rect>";
-  for (const auto& section : S.sections)
+  for (const auto& section : summary.sections)
     for (const PlanMark& p : section->planMarks())
       v << "<circle cx=\"" << detail::formatNumber(PX(p.x_m)) << "\" cy=\"" << detail::formatNumber(PY(p.y_m))
         << "\" r=\"3\" fill=\"#8c564b\"><title>" << detail::htmlEscape(p.label) << "</title></circle>";
@@ -458,15 +459,15 @@ std::string histogramSection(const std::vector<PlanResidual>& plan_residuals) {
 
 /// Elevation profiles before and after (Fig. 10): automatic ones where the strips disagree most,
 /// and the user's. `profiles` receives them (the intensity overlay looks at their middles).
-std::string profilesSection(const CalibrationData& data, const MountingCalibrator::Summary& S, const DrawnStrips& drawn,
-                            const ReportOptions& o, std::vector<Profile>* profiles_out) {
+std::string profilesSection(const CalibrationData& data, const MountingCalibrator::Summary& summary, const DrawnStrips& drawn,
+                            const ReportOptions& options, std::vector<Profile>* profiles_out) {
   std::ostringstream v;
   const auto& X = drawn.X;
   const auto& strip_ids = drawn.strip_ids;
   const bool drawable = drawn.drawable();
   std::vector<Profile> profiles;
-  if (drawable) profiles = automaticProfiles(X, o);
-  for (const auto& p : o.profiles) profiles.push_back({p.id, p.x0_m, p.y0_m, p.x1_m, p.y1_m, 0.5 * p.width_m});
+  if (drawable) profiles = automaticProfiles(X, options);
+  for (const auto& p : options.profiles) profiles.push_back({p.id, p.x0_m, p.y0_m, p.x1_m, p.y1_m, 0.5 * p.width_m});
   if (!profiles.empty()) v << "<h2>Elevation profiles across the overlaps</h2>";
   for (const Profile& pr : profiles) {
     const double len = std::hypot(pr.x1 - pr.x0, pr.y1 - pr.y0);
@@ -481,12 +482,12 @@ std::string profilesSection(const CalibrationData& data, const MountingCalibrato
         const double along = dx * ux + dy * uy, across = -dx * uy + dy * ux;
         if (along >= -1 && along <= len + 1 && std::abs(across) <= pr.half_width + 1) idx.push_back(i);
       }
-      if (idx.size() > o.max_points_per_panel) {
+      if (idx.size() > options.max_points_per_panel) {
         std::vector<std::size_t> t;
-        for (std::size_t k = 0; k < o.max_points_per_panel; ++k) t.push_back(idx[k * idx.size() / o.max_points_per_panel]);
+        for (std::size_t k = 0; k < options.max_points_per_panel; ++k) t.push_back(idx[k * idx.size() / options.max_points_per_panel]);
         idx.swap(t);
       }
-      const std::vector<Vec3> moved = movedPoints(data, data.strips[s], X[s], idx, S.mounting);
+      const std::vector<Vec3> moved = movedPoints(data, data.strips[s], X[s], idx, summary.mounting);
       for (std::size_t k = 0; k < idx.size(); ++k) {
         for (int pass = 0; pass < 2; ++pass) {
           const Vec3& p = pass == 0 ? X[s][idx[k]] : moved[k];
@@ -557,8 +558,8 @@ std::vector<double> intensityRaster(const CalibrationData& data, std::size_t s, 
 }
 
 /// Two strips' intensities overlaid before and after (Fig. 11), where the intensity has most contrast.
-std::string overlaySection(const CalibrationData& data, const MountingCalibrator::Summary& S, const DrawnStrips& drawn,
-                           const std::vector<Profile>& profiles, const ReportOptions& o) {
+std::string overlaySection(const CalibrationData& data, const MountingCalibrator::Summary& summary, const DrawnStrips& drawn,
+                           const std::vector<Profile>& profiles, const ReportOptions& options) {
   std::ostringstream v;
   const auto& X = drawn.X;
   const auto& strip_ids = drawn.strip_ids;
@@ -569,7 +570,7 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
   if (drawable && has_intensity && X.size() >= 2) {
     // Centre: where the intensity has the most contrast (markings, targets) among the places
     // seen by two strips: the ties, the target regions and the profiles' middles.
-    const double half = 0.5 * o.overlay_size_m;
+    const double half = 0.5 * options.overlay_size_m;
     std::vector<std::pair<double, double>> centres;
     for (const TieObservation& t : data.ties)
       if (centres.size() < 200) centres.push_back({t.x_m, t.y_m});
@@ -611,7 +612,7 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
       std::vector<Vec3> window_a;
       for (std::size_t i : inside[A]) window_a.push_back(X[A][i]);
       const double spacing = std::max(detail::planSpacing(window_a), 0.02);
-      const int P = std::clamp(static_cast<int>(2 * half / (0.67 * spacing)), 16, o.overlay_px);
+      const int P = std::clamp(static_cast<int>(2 * half / (0.67 * spacing)), 16, options.overlay_px);
       auto overlay = [&](const MountingParameters& m, bool use_used) {
         std::vector<Vec3> pa, pb;
         if (use_used) {
@@ -635,7 +636,7 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
         << detail::htmlEscape(strip_ids[Bs]) << " in green (where they agree the image is grey), " << detail::formatNumber(2 * half, "%.0f")
         << " m around (" << detail::formatNumber(cx) << ", " << detail::formatNumber(cy) << "); before and after.</p><div>"
         << imgTag(overlay(data.mounting_used, true), 360, 360, "overlay-before", "intensity overlay before") << " "
-        << imgTag(overlay(S.mounting, false), 360, 360, "overlay-after", "intensity overlay after") << "</div>";
+        << imgTag(overlay(summary.mounting, false), 360, 360, "overlay-after", "intensity overlay after") << "</div>";
     }
   }
 
@@ -643,12 +644,12 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
 }
 
 /// The error a line scanner's points would carry without the boresight change (Figs 1–3).
-std::string errorCurvesSection(const CalibrationData& data, const MountingCalibrator::Summary& S) {
+std::string errorCurvesSection(const CalibrationData& data, const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
   {
     std::vector<double> angles, ranges{500, 1000, 1500, 2000};
     for (int a = -30; a <= 30; ++a) angles.push_back(deg2rad(a));
-    const Vec3 b = S.mounting.boresight - data.mounting_used.boresight;
+    const Vec3 b = summary.mounting.boresight - data.mounting_used.boresight;
     const auto curves = boresightErrorCurves(b, angles, ranges);
     v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
          "points would carry if the boresight change found here ("
@@ -664,24 +665,24 @@ std::string errorCurvesSection(const CalibrationData& data, const MountingCalibr
 
 }  // namespace
 
-std::string visualReport(const MountingCalibrator::Summary& S, const CalibrationData& data, const ResultEvaluation* ev,
-                         const ReportOptions& o) {
+std::string visualReport(const MountingCalibrator::Summary& summary, const CalibrationData& data, const ResultEvaluation* ev,
+                         const ReportOptions& options) {
   std::vector<PlanResidual> plan_residuals;  // every method's residual arrows
-  for (const auto& section : S.sections) {
+  for (const auto& section : summary.sections) {
     std::vector<PlanResidual> r = section->planResiduals(data);
     plan_residuals.insert(plan_residuals.end(), r.begin(), r.end());
   }
   std::ostringstream v;  // the visual sections, inserted after the mounting table
-  v << warningsSection(S) << correlationSection(S);
+  v << warningsSection(summary) << correlationSection(summary);
   const DrawnStrips drawn = drawnStrips(data);
   if (!drawn.drawable()) v << "<p>No strip points: no map, profiles or overlays.</p>";
-  if (drawn.drawable()) v << mapSection(data, S, drawn, plan_residuals, o);
+  if (drawn.drawable()) v << mapSection(data, summary, drawn, plan_residuals, options);
   v << histogramSection(plan_residuals);
   std::vector<Profile> profiles;
-  v << profilesSection(data, S, drawn, o, &profiles);
-  v << overlaySection(data, S, drawn, profiles, o);
-  v << errorCurvesSection(data, S);
-  std::string html = htmlReport(S, ev, o.title);
+  v << profilesSection(data, summary, drawn, options, &profiles);
+  v << overlaySection(data, summary, drawn, profiles, options);
+  v << errorCurvesSection(data, summary);
+  std::string html = htmlReport(summary, ev, options.title);
   const std::string style =
       ".warn{background:#fff4e0;border-left:4px solid #e69500;padding:6px 10px}svg,img{max-width:100%}img{image-rendering:pixelated}"
       "@media print{body{margin:0}h2{page-break-after:avoid}}";

@@ -136,15 +136,12 @@ TieObservations::TieObservations(const CalibrationData& data, const std::vector<
   build(data.mounting_used);
 }
 
-void TieObservations::build(const MountingParameters& reference) {
-  const CalibrationData& data = *data_;
-  const std::vector<TieObservation>& picks = picks_;
-  const VtpOptions& vtp = vtp_;
-  const bool control = kind_ == "control";
-  vtps_.clear();
-  ties_.clear();
-  section_ = TieSection{};
-  // ---- virtual tie points (SPEC §3 steps 1–3) -------------------------------------------
+namespace {
+
+/// Each strip's index by id (ids must be unique), and in `needed` the ids the picks name (each
+/// must be a strip of the job).
+std::map<std::string, std::size_t> stripsOfPicks(const CalibrationData& data, const std::vector<TieObservation>& picks,
+                                                 std::vector<std::string>* needed_out) {
   std::map<std::string, std::size_t> strip_index;
   for (std::size_t i = 0; i < data.strips.size(); ++i) {
     if (!strip_index.emplace(data.strips[i].id, i).second)
@@ -158,35 +155,43 @@ void TieObservations::build(const MountingParameters& reference) {
     }
     needed.insert(t.strip_id);
   }
-  // Control points need only the strip points around them: a subset of each strip, within the
-  // largest VTP radius and a margin for the mounting's motion of each control point.
-  auto nearPicks = [&](const StripData& strip) {
-    const double reach = std::max(vtp.max_radius_m, vtp.radius_m) + 10.0, cell = 2 * reach;
-    std::set<std::pair<long, long>> cells;
-    for (const TieObservation& t : picks) cells.insert({std::lround(std::floor(t.x_m / cell)), std::lround(std::floor(t.y_m / cell))});
-    const std::vector<Vec3>& x = strip.x_m;
-    StripData sub;
-    sub.id = strip.id;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      const long cx = std::lround(std::floor(x[i].x() / cell)), cy = std::lround(std::floor(x[i].y() / cell));
-      bool near = false;
-      for (long dx = -1; dx <= 1 && !near; ++dx)
-        for (long dy = -1; dy <= 1 && !near; ++dy) near = cells.count({cx + dx, cy + dy}) > 0;
-      if (!near) continue;
-      sub.time_s.push_back(strip.time_s[i]);
-      sub.r_s.push_back(strip.r_s[i]);
-      if (!strip.poses.empty()) sub.poses.push_back(strip.poses[i]);
-    }
-    return sub;
-  };
-  // Each strip's points and k-d tree, then each pick's virtual tie point, on all threads (slots
-  // filled in parallel, read in order: the result does not depend on the threads).
-  const std::vector<std::string> ids(needed.begin(), needed.end());
+  needed_out->assign(needed.begin(), needed.end());
+  return strip_index;
+}
+
+/// Control points need only the strip points around them: a subset of each strip, within the
+/// largest VTP radius and a margin for the mounting's motion of each control point.
+StripData nearPicks(const StripData& strip, const std::vector<TieObservation>& picks, const VtpOptions& vtp) {
+  const double reach = std::max(vtp.max_radius_m, vtp.radius_m) + 10.0, cell = 2 * reach;
+  std::set<std::pair<long, long>> cells;
+  for (const TieObservation& t : picks) cells.insert({std::lround(std::floor(t.x_m / cell)), std::lround(std::floor(t.y_m / cell))});
+  const std::vector<Vec3>& x = strip.x_m;
+  StripData sub;
+  sub.id = strip.id;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const long cx = std::lround(std::floor(x[i].x() / cell)), cy = std::lround(std::floor(x[i].y() / cell));
+    bool near = false;
+    for (long dx = -1; dx <= 1 && !near; ++dx)
+      for (long dy = -1; dy <= 1 && !near; ++dy) near = cells.count({cx + dx, cy + dy}) > 0;
+    if (!near) continue;
+    sub.time_s.push_back(strip.time_s[i]);
+    sub.r_s.push_back(strip.r_s[i]);
+    if (!strip.poses.empty()) sub.poses.push_back(strip.poses[i]);
+  }
+  return sub;
+}
+
+/// Each needed strip's points and k-d tree at the reference mounting, on all threads (slots
+/// filled in parallel, read in order: the result does not depend on the threads).
+std::vector<std::unique_ptr<VtpStrip>> vtpStrips(const CalibrationData& data, const std::vector<TieObservation>& picks,
+                                                 const VtpOptions& vtp, const std::vector<std::string>& ids,
+                                                 const std::map<std::string, std::size_t>& strip_index, const MountingParameters& reference,
+                                                 bool control, int threads) {
   std::vector<std::unique_ptr<VtpStrip>> built(ids.size());
-  detail::parallelFor(ids.size(), threads_, [&](std::size_t k) {
+  detail::parallelFor(ids.size(), threads, [&](std::size_t k) {
     const StripData& strip = data.strips[strip_index.at(ids[k])];
     if (control && !strip.x_m.empty() && strip.x_m.size() == strip.time_s.size()) {
-      StripData sub = nearPicks(strip);  // georeferenced at the reference mounting by VtpStrip
+      StripData sub = nearPicks(strip, picks, vtp);  // georeferenced at the reference mounting by VtpStrip
       if (sub.time_s.size() >= 3)
         built[k] = std::make_unique<VtpStrip>(std::move(sub), data.trajectory, reference);
       else
@@ -199,6 +204,25 @@ void TieObservations::build(const MountingParameters& reference) {
       built[k] = std::make_unique<VtpStrip>(std::move(at), data.trajectory, reference);
     }
   });
+  return built;
+}
+
+}  // namespace
+
+void TieObservations::build(const MountingParameters& reference) {
+  const CalibrationData& data = *data_;
+  const std::vector<TieObservation>& picks = picks_;
+  const VtpOptions& vtp = vtp_;
+  const bool control = kind_ == "control";
+  vtps_.clear();
+  ties_.clear();
+  section_ = TieSection{};
+  // ---- virtual tie points (SPEC §3 steps 1–3) -------------------------------------------
+  // Each strip's points and k-d tree, then each pick's virtual tie point, on all threads (slots
+  // filled in parallel, read in order: the result does not depend on the threads).
+  std::vector<std::string> ids;
+  const std::map<std::string, std::size_t> strip_index = stripsOfPicks(data, picks, &ids);
+  const std::vector<std::unique_ptr<VtpStrip>> built = vtpStrips(data, picks, vtp, ids, strip_index, reference, control, threads_);
   std::map<std::string, const VtpStrip*> vtp_strips;
   for (std::size_t k = 0; k < ids.size(); ++k) vtp_strips.emplace(ids[k], built[k].get());
   struct Built {
@@ -275,7 +299,7 @@ std::unique_ptr<TieObservations> TieObservations::control(const CalibrationData&
   return std::make_unique<TieObservations>(data, picks, gcps, options, vtp, "control", threads);
 }
 
-void TieObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+void TieObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   // SPEC §3 step 4. Tie blocks do not depend on the mounting they are built at (Rule 2 is a
   // pure function of M), so ties start at their means at M_used every time. Control points
   // are picked again at each new mounting: a plan pick on a strip that is still misaligned
@@ -300,54 +324,57 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
         const Vec3 n = triangleNormal(v);
         // σ across the surface: the GCP's (its normal component) and the strip's (Rule 1).
         const double s_gcp2 = std::pow(tie.gcp->sigma_xy_m, 2) * n.head<2>().squaredNorm() + std::pow(tie.gcp->sigma_z_m * n.z(), 2);
-        const double s_pulse2 = P->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, P->pulseNoise()) * n) : 0.0;
+        const double s_pulse2 = problem->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, problem->pulseNoise()) * n) : 0.0;
         const double sigma = std::sqrt(s_gcp2 + options_.tie_sigma_z_m * options_.tie_sigma_z_m + s_pulse2);
         ceres::NumericDiffOptions nd;
-        nd.relative_step_size = P->numericDiffRelativeStep();
+        nd.relative_step_size = problem->numericDiffRelativeStep();
         const ControlResidual residual{&v, n, x - v.centroid(), 1.0 / sigma};
-        if (double* dpsi = P->attitudeError(v.stripId(), vtpTime(v, *data_))) {
+        if (double* dpsi = problem->attitudeError(v.stripId(), vtpTime(v, *data_))) {
           auto* cost = new ceres::NumericDiffCostFunction<ControlAttitudeResidual, ceres::CENTRAL, 1, 6, 3, 3>(
               new ControlAttitudeResidual{residual, imuToPoint(v)}, ceres::TAKE_OWNERSHIP, 1, nd);
-          blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId()), dpsi}));
+          blocks_.push_back(problem->addResidualBlock(cost, sigma, {problem->mounting(), problem->stripOffset(v.stripId()), dpsi}));
           continue;
         }
         auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(new ControlResidual(residual),
                                                                                                   ceres::TAKE_OWNERSHIP, 1, nd);
-        blocks_.push_back(P->addResidualBlock(cost, sigma, {P->mounting(), P->stripOffset(v.stripId())}));
+        blocks_.push_back(problem->addResidualBlock(cost, sigma, {problem->mounting(), problem->stripOffset(v.stripId())}));
       }
     }
     return;
   }
   for (Tie& tie : ties_) {
-    tie.X = P->addNuisanceBlock(3, tie.mean_m.data());
+    tie.X = problem->addNuisanceBlock(3, tie.mean_m.data());
     for (int k : tie.obs) {
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
       // seed eq. (10), whitened by the picking σ and, when the stochastic model has it, the
       // pulse noise at this tie point.
       Mat3 W = sigma.cwiseInverse().asDiagonal();
-      if (P->pulseNoise().any()) {
-        const Mat3 Sigma = Mat3(sigma.cwiseProduct(sigma).asDiagonal()) + vtpPulseCovariance(v, P->pulseNoise());
+      if (problem->pulseNoise().any()) {
+        const Mat3 Sigma = Mat3(sigma.cwiseProduct(sigma).asDiagonal()) + vtpPulseCovariance(v, problem->pulseNoise());
         W = Sigma.llt().matrixL().solve(Mat3::Identity());
       }
       whitening_.push_back(W);
       const double k_obs = static_cast<double>(tie.obs.size());
       redundancy_.push_back(tie.gcp ? k_obs / (k_obs + 1.0) : (k_obs - 1.0) / k_obs);
-      if (double* dpsi = P->attitudeError(v.stripId(), vtpTime(v, *data_))) {
-        ceres::CostFunction* cost = detail::makeVtpAttitudeCostFunction(&v, W, imuToPoint(v), P->numericDiffRelativeStep());
-        blocks_.push_back(P->addResidualBlock(cost, options_.tie_sigma_xy_m, {P->mounting(), tie.X, P->stripOffset(v.stripId()), dpsi}));
+      if (double* dpsi = problem->attitudeError(v.stripId(), vtpTime(v, *data_))) {
+        ceres::CostFunction* cost = detail::makeVtpAttitudeCostFunction(&v, W, imuToPoint(v), problem->numericDiffRelativeStep());
+        blocks_.push_back(problem->addResidualBlock(cost, options_.tie_sigma_xy_m,
+                                                    {problem->mounting(), tie.X, problem->stripOffset(v.stripId()), dpsi}));
         continue;
       }
-      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, W, P->numericDiffRelativeStep());
-      blocks_.push_back(P->addResidualBlock(cost, options_.tie_sigma_xy_m, {P->mounting(), tie.X, P->stripOffset(v.stripId())}));
+      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, W, problem->numericDiffRelativeStep());
+      blocks_.push_back(
+          problem->addResidualBlock(cost, options_.tie_sigma_xy_m, {problem->mounting(), tie.X, problem->stripOffset(v.stripId())}));
     }
     if (tie.gcp) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
-      P->addResidualBlock(new GcpPrior(x, Vec3(1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_z_m)), 0.0, {tie.X});
+      problem->addResidualBlock(new GcpPrior(x, Vec3(1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_xy_m, 1 / tie.gcp->sigma_z_m)), 0.0,
+                                {tie.X});
     }
   }
 }
 
-void TieObservations::solved(const AdjustmentProblem& P) {
+void TieObservations::solved(const AdjustmentProblem& problem) {
   if (!estimatesSigma() || blocks_.empty()) return;
   // Förstner's variance components: for component c with cofactor Q_c (Σ = Σ_c Q_c + Σ_pulse),
   // σ̂²_c / σ²_c = Σ (Wᵀr)ᵀ Q_c (Wᵀr) / Σ r_i tr(WᵀW Q_c), r = W e the whitened residual and
@@ -357,7 +384,7 @@ void TieObservations::solved(const AdjustmentProblem& P) {
   double q_xy = 0, q_z = 0, r_xy = 0, r_z = 0;
   for (std::size_t i = 0; i < blocks_.size(); ++i) {
     const Mat3& W = whitening_[i];
-    const Vec3 g = W.transpose() * Vec3(P.residual(blocks_[i]));  // Σ⁻¹ e
+    const Vec3 g = W.transpose() * Vec3(problem.residual(blocks_[i]));  // Σ⁻¹ e
     const Mat3 Sinv = W.transpose() * W;
     q_xy += g.dot(Q_xy * g);
     q_z += g.dot(Q_z * g);
@@ -376,7 +403,7 @@ void TieObservations::solved(const AdjustmentProblem& P) {
   }
 }
 
-void TieObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+void TieObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& problem,
                              const AnalysisOptions& analysis) {
   section_.residuals.clear();
   section_.sigma_xy_m = sigma_xy_m_ > 0 ? sigma_xy_m_ : options_.tie_sigma_xy_m;
@@ -395,7 +422,7 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
         r.tie_id = tie.id;
         r.strip_id = v.stripId();
         r.before_m = n * n.dot(v.position(m0.data()) - x);
-        r.after_m = n * n.dot(v.position(m.data()) + P.stripOffsetValue(v.stripId()) - x);
+        r.after_m = n * n.dot(v.position(m.data()) + problem.stripOffsetValue(v.stripId()) - x);
         ss_before += r.before_m.cwiseAbs2();
         ss_after += r.after_m.cwiseAbs2();
         norms.push_back(r.after_m.norm());
@@ -411,7 +438,7 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
       r.tie_id = tie.id;
       r.strip_id = v.stripId();
       r.before_m = v.position(m0.data()) - tie.mean_m;  // seed eq. (8)
-      r.after_m = v.position(m.data()) + P.stripOffsetValue(v.stripId()) - Eigen::Map<const Vec3>(tie.X);
+      r.after_m = v.position(m.data()) + problem.stripOffsetValue(v.stripId()) - Eigen::Map<const Vec3>(tie.X);
       ss_before += r.before_m.cwiseAbs2();
       ss_after += r.after_m.cwiseAbs2();
       norms.push_back(r.after_m.norm());

@@ -201,13 +201,13 @@ using TinMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
 }  // namespace
 
-bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTiePoint* vtp, std::string* reason) const {
+bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp, std::string* reason) const {
   const double spacing = localSpacing(pick.x_m, pick.y_m);
-  const double radius = std::max(o.radius_m, std::min(o.max_radius_m, o.radius_spacing_factor * spacing));
+  const double radius = std::max(options.radius_m, std::min(options.max_radius_m, options.radius_spacing_factor * spacing));
   std::vector<std::size_t> idx = radiusSearch(pick.x_m, pick.y_m, radius);
-  if (static_cast<int>(idx.size()) < std::max(o.min_points, 3)) {
+  if (static_cast<int>(idx.size()) < std::max(options.min_points, 3)) {
     *reason = "too few points: " + std::to_string(idx.size()) + " within " + std::to_string(radius).substr(0, 4) + " m of the pick (need " +
-              std::to_string(std::max(o.min_points, 3)) + "); is the pick on this strip?";
+              std::to_string(std::max(options.min_points, 3)) + "); is the pick on this strip?";
     return false;
   }
   // RANSAC plane (deterministic: seeded by the pick).
@@ -219,15 +219,15 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   // pick's nearest neighbours it holds (idx is sorted by distance), then by its inliers.
   const std::size_t n_near = std::min<std::size_t>(6, idx.size());
   const detail::PlaneHypothesis plane = detail::ransacPlane(
-      X, idx, o.ransac_threshold_m, o.ransac_iterations, [&] { return pickone(rng); }, n_near);
+      X, idx, options.ransac_threshold_m, options.ransac_iterations, [&] { return pickone(rng); }, n_near);
   const std::vector<std::size_t> best =
-      plane.found ? detail::planeInliers(X, idx, plane.normal, plane.point, o.ransac_threshold_m) : std::vector<std::size_t>{};
+      plane.found ? detail::planeInliers(X, idx, plane.normal, plane.point, options.ransac_threshold_m) : std::vector<std::size_t>{};
   const std::size_t best_near = plane.priority;
-  if (static_cast<int>(best.size()) < std::max(o.min_points, 3) ||
-      static_cast<double>(best_near) < o.min_inlier_fraction * static_cast<double>(n_near)) {
+  if (static_cast<int>(best.size()) < std::max(options.min_points, 3) ||
+      static_cast<double>(best_near) < options.min_inlier_fraction * static_cast<double>(n_near)) {
     *reason = "no plane: " + std::to_string(best_near) + " of the " + std::to_string(n_near) + " points nearest the pick (" +
               std::to_string(best.size()) + " of " + std::to_string(idx.size()) + " in all) within " +
-              std::to_string(o.ransac_threshold_m).substr(0, 5) + " m of one plane";
+              std::to_string(options.ransac_threshold_m).substr(0, 5) + " m of one plane";
     return false;
   }
   // Least-squares plane of the inliers, then re-select inliers against it.
@@ -239,15 +239,15 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
   const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
   Vec3 n = eig.eigenvectors().col(0);
   if (n.z() < 0) n = -n;
-  if (n.z() < std::cos(deg2rad(o.max_plane_tilt_deg))) {
+  if (n.z() < std::cos(deg2rad(options.max_plane_tilt_deg))) {
     *reason =
         "no plane: the local surface is too steep (" + std::to_string(rad2deg(std::acos(n.z()))).substr(0, 4) + "°) to hold a plan pick";
     return false;
   }
   std::vector<std::size_t> inliers;
   for (std::size_t i : idx)
-    if (std::abs(n.dot(X[i] - c)) <= o.ransac_threshold_m) inliers.push_back(i);
-  if (static_cast<int>(inliers.size()) < std::max(o.min_points, 3)) {
+    if (std::abs(n.dot(X[i] - c)) <= options.ransac_threshold_m) inliers.push_back(i);
+  if (static_cast<int>(inliers.size()) < std::max(options.min_points, 3)) {
     *reason = "no plane: too few coplanar points after refinement";
     return false;
   }
@@ -301,7 +301,7 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& o, VirtualTie
     const Vec3 b = X[inliers[found[(k + 2) % 3]]] - X[inliers[found[k]]];
     min_angle = std::min(min_angle, std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)));
   }
-  if (min_angle < deg2rad(o.min_triangle_angle_deg)) {
+  if (min_angle < deg2rad(options.min_triangle_angle_deg)) {
     *reason = "degenerate triangle: smallest angle " + std::to_string(rad2deg(min_angle)).substr(0, 4) + "°";
     return false;
   }

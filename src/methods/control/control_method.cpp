@@ -13,8 +13,8 @@ namespace {
 class ControlRun final : public MethodRun {
  public:
   explicit ControlRun(const MethodContext& c) {
-    const ControlOptions& o = std::any_cast<const ControlOptions&>(c.options);
-    control_ = TieObservations::control(c.data, c.unclaimed_gcps, o, o.vtp, c.threads);
+    const ControlOptions& opts = std::any_cast<const ControlOptions&>(c.options);
+    control_ = TieObservations::control(c.data, c.unclaimed_gcps, opts, opts.vtp, c.threads);
   }
   std::vector<ObservationSource*> sources() override {
     if (control_->observationCount() == 0) return {};
@@ -48,14 +48,14 @@ MethodInput ControlMethod::input() const { return {"gcps", "", "the GCP CSV (gcp
 std::any ControlMethod::defaultOptions() const { return ControlOptions{}; }
 const std::vector<OptionSpec>& ControlMethod::options() const { return controlOptionSpecs(); }
 bool ControlMethod::validate(const std::any& options, std::string* error) const {
-  const ControlOptions& o = std::any_cast<const ControlOptions&>(options);
-  return o.IsValid(error) && detail::vtpOptionsValid(o.vtp, error);
+  const ControlOptions& opts = std::any_cast<const ControlOptions&>(options);
+  return opts.IsValid(error) && detail::vtpOptionsValid(opts.vtp, error);
 }
 void ControlMethod::adoptNoise(const NoiseHint& noise, std::any* options) const {
-  ControlOptions& o = std::any_cast<ControlOptions&>(*options);
-  o.tie_sigma_xy_m = noise.pick_sigma_xy_m;
-  o.tie_sigma_z_m = noise.pick_sigma_z_m;
-  o.estimate_tie_sigma = false;
+  ControlOptions& opts = std::any_cast<ControlOptions&>(*options);
+  opts.tie_sigma_xy_m = noise.pick_sigma_xy_m;
+  opts.tie_sigma_z_m = noise.pick_sigma_z_m;
+  opts.estimate_tie_sigma = false;
 }
 std::unique_ptr<MethodRun> ControlMethod::run(const MethodContext& context) const {
   if (context.unclaimed_gcps.empty()) return nullptr;

@@ -48,12 +48,16 @@ namespace detail {
 
 namespace {
 
-double pairRadius(const CorrespondenceOptions& o, double spacing_a, double spacing_b) {
-  return o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * std::max(spacing_a, spacing_b));
+double pairRadius(const CorrespondenceOptions& options, double spacing_a, double spacing_b) {
+  return options.radius_m > 0 ? options.radius_m : std::max(0.25, 2.5 * std::max(spacing_a, spacing_b));
 }
-double pairVoxel(const CorrespondenceOptions& o, double r) { return o.voxel_size_m > 0 ? o.voxel_size_m : std::max(2.0, 4 * r); }
+double pairVoxel(const CorrespondenceOptions& options, double r) {
+  return options.voxel_size_m > 0 ? options.voxel_size_m : std::max(2.0, 4 * r);
+}
 /// The first round's distance gate: max(3 r, 2 × the a-priori misalignment).
-double firstGate(const CorrespondenceOptions& o, double r) { return std::max(o.max_distance_factor * r, 2.0 * o.apriori_misalignment_m); }
+double firstGate(const CorrespondenceOptions& options, double r) {
+  return std::max(options.max_distance_factor * r, 2.0 * options.apriori_misalignment_m);
+}
 
 std::int64_t cellKey(const Vec3& p, double cell) {
   const auto q = [cell](double v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
@@ -134,7 +138,7 @@ class PointTree {
 
 /// The candidate neighbourhoods of strips a and b (see PairCandidates).
 PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const StripRef& A, const StripRef& B,
-                           const CorrespondenceOptions& o) {
+                           const CorrespondenceOptions& options) {
   const StripData& SA = data.strips[static_cast<std::size_t>(ia)];
   const StripData& SB = data.strips[static_cast<std::size_t>(ib)];
   PairCandidates pc;
@@ -142,13 +146,13 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
   pc.strip_b = SB.id;
   pc.spacing_a_m = A.spacing;
   pc.spacing_b_m = B.spacing;
-  const double r = pairRadius(o, A.spacing, B.spacing);
+  const double r = pairRadius(options, A.spacing, B.spacing);
   pc.radius_m = r;
-  const double voxel = pairVoxel(o, r);
+  const double voxel = pairVoxel(options, r);
   if (!boxesMeet(A, B, 2 * voxel)) return pc;
   // A point of one strip is in the overlap where the other's dilated hull holds it.
   const std::unordered_set<std::int64_t> hull_a = dilatedHull(A.x0, voxel), hull_b = dilatedHull(B.x0, voxel);
-  const double sample = o.sample_spacing_m > 0 ? o.sample_spacing_m : 2 * r;
+  const double sample = options.sample_spacing_m > 0 ? options.sample_spacing_m : 2 * r;
   std::vector<std::size_t> act_a, act_b;
   // Samples of A in the overlap: one per sample cell (the point nearest its centre in plan:
   // a choice by height would pick the points with the largest upward noise).
@@ -174,9 +178,9 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
   for (const auto& c : cells) samples.push_back(c.second.second);
   std::sort(samples.begin(), samples.end());
   PointTree tree_a(A.x0, act_a), tree_b(B.x0, act_b);
-  const auto K = static_cast<std::size_t>(o.max_neighbours);
-  const auto min_n = static_cast<std::size_t>(o.min_neighbours);
-  const double search_first = std::max(r, firstGate(o, r));  // the first round's neighbour radius
+  const auto K = static_cast<std::size_t>(options.max_neighbours);
+  const auto min_n = static_cast<std::size_t>(options.min_neighbours);
+  const double search_first = std::max(r, firstGate(options, r));  // the first round's neighbour radius
   std::vector<std::size_t> na, nb, around;
   std::vector<std::size_t> kept, ub;
   for (std::size_t i : samples) {
@@ -193,7 +197,7 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
     // B's points a later matching can take as the sample's neighbours: within the K-th
     // neighbour's distance plus the largest discrepancy expected between the strips.
     const double d_k = (B.x0[nb.back()] - A.x0[i]).norm();
-    tree_b.within(A.x0[i], d_k + o.apriori_misalignment_m, &around);
+    tree_b.within(A.x0[i], d_k + options.apriori_misalignment_m, &around);
     ub.insert(ub.end(), around.begin(), around.end());
   }
   std::sort(ub.begin(), ub.end());
@@ -229,20 +233,20 @@ class Matcher {
     std::vector<std::uint32_t> b;
   };
 
-  Matcher(const CalibrationData& data, const CorrespondenceOptions& o, int threads) : data_(data), o_(o), threads_(threads) {
+  Matcher(const CalibrationData& data, const CorrespondenceOptions& opts, int threads) : data_(data), o_(opts), threads_(threads) {
     std::string why;
-    if (!o.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
+    if (!opts.IsValid(&why)) throw InvalidInput("correspondence options: " + why);
     if (data.correspondence_candidates) {
       takeGiven(*data.correspondence_candidates);
     } else {
       data.requirePoses();
       std::vector<StripRef> refs(data.strips.size());
       parallelFor(refs.size(), threads_, [&](std::size_t s) { refs[s] = stripRef(data, data.strips[s]); });
-      const std::vector<std::pair<int, int>> candidates = pairsOf(data, refs, o);
+      const std::vector<std::pair<int, int>> candidates = pairsOf(data, refs, opts);
       std::vector<PairCandidates> found(candidates.size());
       parallelFor(found.size(), threads_, [&](std::size_t k) {
         found[k] = extractPair(data, candidates[k].first, candidates[k].second, refs[static_cast<std::size_t>(candidates[k].first)],
-                               refs[static_cast<std::size_t>(candidates[k].second)], o);
+                               refs[static_cast<std::size_t>(candidates[k].second)], opts);
       });
       for (std::size_t k = 0; k < found.size(); ++k) {
         if (!found[k].overlap) continue;
@@ -259,15 +263,15 @@ class Matcher {
       for (std::size_t j = 0; j < x0.size(); ++j) x0[j] = pairs_[k].points_b[j].x0_m, all[j] = j;
       trees_[k] = std::make_unique<PointTree>(x0, std::move(all));
     });
-    r_ = o.radius_m > 0 ? o.radius_m : std::max(0.25, 2.5 * spacing_);
+    r_ = opts.radius_m > 0 ? opts.radius_m : std::max(0.25, 2.5 * spacing_);
   }
 
   static std::vector<std::pair<int, int>> pairsOf(const CalibrationData& data, const std::vector<StripRef>& refs,
-                                                  const CorrespondenceOptions& o) {
+                                                  const CorrespondenceOptions& options) {
     std::vector<std::pair<int, int>> out;
     for (std::size_t a = 0; a < refs.size(); ++a)
       for (std::size_t b = a + 1; b < refs.size(); ++b)
-        if (boxesMeet(refs[a], refs[b], 2 * pairVoxel(o, pairRadius(o, refs[a].spacing, refs[b].spacing))))
+        if (boxesMeet(refs[a], refs[b], 2 * pairVoxel(options, pairRadius(options, refs[a].spacing, refs[b].spacing))))
           out.emplace_back(static_cast<int>(a), static_cast<int>(b));
     (void)data;
     return out;
@@ -290,96 +294,114 @@ class Matcher {
     out.max_distance_m = 0;
     const MountingParameters& used = data_.mounting_used;
     const MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m.data());
-    struct Candidate {
-      Correspondence c;
-      Ref ref;
-    };
     out.pairs.resize(pairs_.size());
     std::vector<std::vector<Candidate>> per_pair(pairs_.size());
     std::vector<double> gates(pairs_.size(), 0.0);
     // Each pair on its own thread: its points at m, then every sample (selection from the
     // candidate neighbourhoods, the plane fits and the gates). Slots merged in pair order.
-    parallelFor(pairs_.size(), threads_, [&](std::size_t pi) {
-      const PairCandidates& pr = pairs_[pi];
-      CorrespondencePairStats& st = out.pairs[pi];
-      st.strip_a = pr.strip_a;
-      st.strip_b = pr.strip_b;
-      st.samples = static_cast<int>(pr.samples());
-      st.rejected_sparse = pr.sparse_samples;
-      const double r = pr.radius_m;
-      const double gate_m = first_round ? firstGate(o_, r) : o_.max_distance_factor * r;
-      gates[pi] = gate_m;
-      const double search_r = std::max(r, gate_m);
-      PointTree& tree = *trees_[pi];
-      std::vector<std::size_t> found;
-      std::vector<Vec3> xb(pr.points_b.size());
-      for (std::size_t k = 0; k < xb.size(); ++k)
-        xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
-      const auto K = static_cast<std::size_t>(o_.max_neighbours);
-      std::vector<std::uint32_t> nb;
-      for (std::size_t k = 0; k < pr.samples_a.size(); ++k) {
-        const PairPoint& qa = pr.samples_a[k];
-        const Vec3 p = qa.x0_m + motion.displacement(qa.R_mb, qa.r_s_m);
-        // B: its K points nearest p at m, within the search radius. The tree holds B at the
-        // mounting used: the query moves back by the displacement of B's point nearest p, so
-        // the neighbours found are those at m up to the displacement's variation across a
-        // neighbourhood (a rotation of a few 1e-3 rad over a few metres: millimetres).
-        tree.nearest(p, 1, 1e300, &found);
-        if (found.empty()) {
-          ++st.rejected_sparse;
-          continue;
-        }
-        const Vec3 q = p - (xb[found[0]] - pr.points_b[found[0]].x0_m);
-        tree.nearest(q, K, 1e300, &found);
-        nb.clear();
-        for (std::size_t t : found)
-          if ((xb[t] - p).squaredNorm() <= search_r * search_r) nb.push_back(static_cast<std::uint32_t>(t));
-        if (static_cast<int>(nb.size()) < o_.min_neighbours) {
-          ++st.rejected_sparse;
-          continue;
-        }
-        const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t j) { return xb[nb[j]]; });
-        if (fb.sigma_m > o_.max_roughness_factor * r || fb.spread_ratio < o_.min_spread_ratio) {
-          ++st.rejected_rough;
-          continue;
-        }
-        const double d = fb.normal.dot(p - fb.centroid);
-        if (std::abs(d) > gate_m) {
-          ++st.rejected_far;
-          continue;
-        }
-        // A's own plane (at the mounting used: A's points move together).
-        if (pr.spread_a[k] < o_.min_spread_ratio) {
-          ++st.rejected_rough;
-          continue;
-        }
-        if (angleDeg(pr.normal_a[k], fb.normal) > o_.max_normal_angle_deg) {
-          ++st.rejected_normal;
-          continue;
-        }
-        Candidate c;
-        c.ref.pair = static_cast<int>(pi);
-        c.ref.a = static_cast<std::uint32_t>(k);
-        c.ref.b = nb;
-        c.c.strip_a = index_[pi].first;
-        c.c.strip_b = index_[pi].second;
-        c.c.point_a = static_cast<std::size_t>(qa.index);
-        for (std::uint32_t t : nb) c.c.points_b.push_back(static_cast<std::size_t>(pr.points_b[t].index));
-        c.c.normal = fb.normal;
-        c.c.distance_m = d;
-        c.c.roughness_m = fb.sigma_m;
-        per_pair[pi].push_back(std::move(c));
-      }
-    });
+    parallelFor(pairs_.size(), threads_,
+                [&](std::size_t pi) { gates[pi] = matchPair(pi, motion, first_round, &out.pairs[pi], &per_pair[pi]); });
     std::vector<Candidate> cand;
     for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
       out.points_searched += pairs_[pi].overlap_points;
       out.max_distance_m = std::max(out.max_distance_m, gates[pi]);
       for (Candidate& c : per_pair[pi]) cand.push_back(std::move(c));
     }
-    auto pairOf = [](const Candidate& c) { return static_cast<std::size_t>(c.ref.pair); };
-    // Rough relative to the typical plane: neighbourhoods across a ridge, an eave or a wall
-    // edge fit a plane with a σ well above the noise (and a distance biased by the edge).
+    rejectRough(&cand, &out);
+    out.sigma_m = distanceSigma(cand);
+    if (!cand.empty() && !first_round) rejectOutliersPerSurfaceClass(out.sigma_m, &cand, &out);
+    keepWithinBudget(&cand, &out);
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+ private:
+  struct Candidate {
+    Correspondence c;
+    Ref ref;
+  };
+  static std::size_t pairOf(const Candidate& c) { return static_cast<std::size_t>(c.ref.pair); }
+
+  /// The candidates of pair pi at the mounting of `motion`, with its statistics; returns the
+  /// pair's distance gate [m].
+  double matchPair(std::size_t pi, const MountingMotion& motion, bool first_round, CorrespondencePairStats* stats,
+                   std::vector<Candidate>* candidates) {
+    CorrespondencePairStats& st = *stats;
+    const PairCandidates& pr = pairs_[pi];
+    st.strip_a = pr.strip_a;
+    st.strip_b = pr.strip_b;
+    st.samples = static_cast<int>(pr.samples());
+    st.rejected_sparse = pr.sparse_samples;
+    const double r = pr.radius_m;
+    const double gate_m = first_round ? firstGate(o_, r) : o_.max_distance_factor * r;
+    const double search_r = std::max(r, gate_m);
+    PointTree& tree = *trees_[pi];
+    std::vector<std::size_t> found;
+    std::vector<Vec3> xb(pr.points_b.size());
+    for (std::size_t k = 0; k < xb.size(); ++k)
+      xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
+    const auto K = static_cast<std::size_t>(o_.max_neighbours);
+    std::vector<std::uint32_t> nb;
+    for (std::size_t k = 0; k < pr.samples_a.size(); ++k) {
+      const PairPoint& qa = pr.samples_a[k];
+      const Vec3 p = qa.x0_m + motion.displacement(qa.R_mb, qa.r_s_m);
+      // B: its K points nearest p at m, within the search radius. The tree holds B at the
+      // mounting used: the query moves back by the displacement of B's point nearest p, so
+      // the neighbours found are those at m up to the displacement's variation across a
+      // neighbourhood (a rotation of a few 1e-3 rad over a few metres: millimetres).
+      tree.nearest(p, 1, 1e300, &found);
+      if (found.empty()) {
+        ++st.rejected_sparse;
+        continue;
+      }
+      const Vec3 q = p - (xb[found[0]] - pr.points_b[found[0]].x0_m);
+      tree.nearest(q, K, 1e300, &found);
+      nb.clear();
+      for (std::size_t t : found)
+        if ((xb[t] - p).squaredNorm() <= search_r * search_r) nb.push_back(static_cast<std::uint32_t>(t));
+      if (static_cast<int>(nb.size()) < o_.min_neighbours) {
+        ++st.rejected_sparse;
+        continue;
+      }
+      const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t j) { return xb[nb[j]]; });
+      if (fb.sigma_m > o_.max_roughness_factor * r || fb.spread_ratio < o_.min_spread_ratio) {
+        ++st.rejected_rough;
+        continue;
+      }
+      const double d = fb.normal.dot(p - fb.centroid);
+      if (std::abs(d) > gate_m) {
+        ++st.rejected_far;
+        continue;
+      }
+      // A's own plane (at the mounting used: A's points move together).
+      if (pr.spread_a[k] < o_.min_spread_ratio) {
+        ++st.rejected_rough;
+        continue;
+      }
+      if (angleDeg(pr.normal_a[k], fb.normal) > o_.max_normal_angle_deg) {
+        ++st.rejected_normal;
+        continue;
+      }
+      Candidate c;
+      c.ref.pair = static_cast<int>(pi);
+      c.ref.a = static_cast<std::uint32_t>(k);
+      c.ref.b = nb;
+      c.c.strip_a = index_[pi].first;
+      c.c.strip_b = index_[pi].second;
+      c.c.point_a = static_cast<std::size_t>(qa.index);
+      for (std::uint32_t t : nb) c.c.points_b.push_back(static_cast<std::size_t>(pr.points_b[t].index));
+      c.c.normal = fb.normal;
+      c.c.distance_m = d;
+      c.c.roughness_m = fb.sigma_m;
+      candidates->push_back(std::move(c));
+    }
+    return gate_m;
+  }
+
+  /// Rough relative to the typical plane: neighbourhoods across a ridge, an eave or a wall
+  /// edge fit a plane with a σ well above the noise (and a distance biased by the edge).
+  void rejectRough(std::vector<Candidate>* candidates, CorrespondenceSet* out) const {
+    std::vector<Candidate>& cand = *candidates;
     std::vector<double> rough;
     for (const auto& c : cand) rough.push_back(c.c.roughness_m);
     if (!rough.empty()) {
@@ -388,15 +410,18 @@ class Matcher {
       std::vector<Candidate> kept;
       for (auto& c : cand) {
         if (c.c.roughness_m > limit)
-          ++out.pairs[pairOf(c)].rejected_rough;
+          ++out->pairs[pairOf(c)].rejected_rough;
         else
           kept.push_back(std::move(c));
       }
       cand.swap(kept);
-      rough.clear();
-      for (const auto& c : cand) rough.push_back(c.c.roughness_m);
     }
-    // σ of a distance: stated, or from the planes' roughness (median, both sides' noise).
+  }
+
+  /// σ of a distance: stated, or from the planes' roughness (median, both sides' noise).
+  double distanceSigma(const std::vector<Candidate>& cand) const {
+    std::vector<double> rough;
+    for (const auto& c : cand) rough.push_back(c.c.roughness_m);
     double sigma = o_.sigma_m;
     if (!(sigma > 0)) {
       sigma = 0.002;
@@ -408,12 +433,16 @@ class Matcher {
         sigma = std::max(0.002, rough[rough.size() / 2] * std::sqrt(k / (k - 3.0)) * std::sqrt(1.0 + 1.0 / k));
       }
     }
-    out.sigma_m = sigma;
-    // Beyond mad_factor × σ_MAD of the distances (never tighter than 3σ): rejected — per
-    // class of surface (level, sloped, steep), since a sloped surface shows what is left of a
-    // horizontal misalignment and level ground does not: gated by the ground's spread, the
-    // roofs that still disagree would go, and with them what pulls the mounting back.
-    if (!cand.empty() && !first_round) {
+    return sigma;
+  }
+
+  /// Beyond mad_factor × σ_MAD of the distances (never tighter than 3σ): rejected — per
+  /// class of surface (level, sloped, steep), since a sloped surface shows what is left of a
+  /// horizontal misalignment and level ground does not: gated by the ground's spread, the
+  /// roofs that still disagree would go, and with them what pulls the mounting back.
+  void rejectOutliersPerSurfaceClass(double sigma, std::vector<Candidate>* candidates, CorrespondenceSet* out) const {
+    std::vector<Candidate>& cand = *candidates;
+    {
       auto tiltClass = [](const Vec3& n) {
         const double tilt = rad2deg(std::acos(std::min(1.0, std::abs(n.z()))));
         return tilt < 10 ? 0 : (tilt < 60 ? 1 : 2);
@@ -444,14 +473,18 @@ class Matcher {
       for (auto& c : cand) {
         const auto k = static_cast<std::size_t>(tiltClass(c.c.normal));
         if (std::abs(c.c.distance_m - med[k]) > lim[k])
-          ++out.pairs[pairOf(c)].rejected_mad;
+          ++out->pairs[pairOf(c)].rejected_mad;
         else
           kept.push_back(std::move(c));
       }
       cand.swap(kept);
     }
-    // Normal-space thinning to the budget: round robin over orientation bins (level, sloped
-    // and steep by aspect octant), evenly spread within each bin.
+  }
+
+  /// Normal-space thinning to the budget: round robin over orientation bins (level, sloped
+  /// and steep by aspect octant), evenly spread within each bin; the kept go into `out`.
+  void keepWithinBudget(std::vector<Candidate>* candidates, CorrespondenceSet* out) {
+    std::vector<Candidate>& cand = *candidates;
     std::map<int, std::vector<std::size_t>> bins;
     for (std::size_t i = 0; i < cand.size(); ++i) {
       const Vec3& n = cand[i].c.normal;
@@ -481,20 +514,17 @@ class Matcher {
       }
     }
     for (std::size_t i = 0; i < cand.size(); ++i) {
-      CorrespondencePairStats& st = out.pairs[pairOf(cand[i])];
+      CorrespondencePairStats& st = out->pairs[pairOf(cand[i])];
       if (take[i]) {
         ++st.kept;
-        out.correspondences.push_back(std::move(cand[i].c));
+        out->correspondences.push_back(std::move(cand[i].c));
         refs_.push_back(std::move(cand[i].ref));
       } else {
         ++st.rejected_budget;
       }
     }
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return out;
   }
 
- private:
   /// Pair files: each pair's strips by id, in strip order, once.
   void takeGiven(const std::vector<PairCandidates>& given) {
     std::map<std::string, int> by_id;
@@ -624,12 +654,12 @@ CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& da
 
 bool CorrespondenceObservations::settled() const { return !options_.dense || !coarse_; }
 
-void CorrespondenceObservations::solved(const AdjustmentProblem& P) {
-  (void)P;
+void CorrespondenceObservations::solved(const AdjustmentProblem& problem) {
+  (void)problem;
   if (laser_block_) std::copy(laser_block_, laser_block_ + static_cast<long>(laser_dl_.size()), laser_dl_.begin());
 }
 
-void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (!dense_) {
     dense_ = std::make_unique<detail::DenseMatcher>(data_, options_);
     if (options_.laser_elevation_sigma_deg > 0) laser_dl_.assign(static_cast<std::size_t>(dense_->laserCount()), 0.0);
@@ -671,19 +701,19 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   const int L = static_cast<int>(laser_dl_.size());
   laser_block_ = nullptr;
   if (L > 0) {
-    laser_block_ = P->addNuisanceBlock(L, laser_dl_.data(), nullptr, false);
+    laser_block_ = problem->addNuisanceBlock(L, laser_dl_.data(), nullptr, false);
     // Priors: each offset N(0, σ_prior); their mean held at 0 (the boresight pitch's direction).
     const double sp = deg2rad(options_.laser_elevation_sigma_deg);
     for (int i = 0; i < L; ++i) {
       auto* prior = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{i, L, sp, false});
       prior->AddParameterBlock(L);
       prior->SetNumResiduals(1);
-      P->addResidualBlock(prior, 0.0, {laser_block_});
+      problem->addResidualBlock(prior, 0.0, {laser_block_});
     }
     auto* mean = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{0, L, 1e-6, true});
     mean->AddParameterBlock(L);
     mean->SetNumResiduals(1);
-    P->addResidualBlock(mean, 0.0, {laser_block_});
+    problem->addResidualBlock(mean, 0.0, {laser_block_});
   }
   const Mat3& R_nom = data_.mounting_used.R_nom;
   const double loss_scale = coarse_ ? 0.3 * set_.radius_m : -1.0;
@@ -702,17 +732,17 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     add(c.strip_a, c.point_a, 1.0);
     for (std::size_t j : c.points_b) add(c.strip_b, j, -1.0 / static_cast<double>(c.points_b.size()));
     auto* cost = new detail::DenseResidual(pts, c.normal, R_nom, set_.sigma_m, L);
-    std::vector<double*> blocks = {P->mounting(), P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
-                                   P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)};
+    std::vector<double*> blocks = {problem->mounting(), problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
+                                   problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)};
     if (L > 0) blocks.push_back(laser_block_);
-    blocks_.push_back(loss_scale > 0 ? P->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
-                                     : P->addResidualBlock(cost, set_.sigma_m, blocks));
+    blocks_.push_back(loss_scale > 0 ? problem->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
+                                     : problem->addResidualBlock(cost, set_.sigma_m, blocks));
   }
 }
 
-void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (options_.dense) {
-    addDenseBlocks(mounting, P);
+    addDenseBlocks(mounting, problem);
     return;
   }
   if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
@@ -725,7 +755,7 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   const Mat3 R_bs_used = used.R_bs();
   const double inv_sigma = 1.0 / set_.sigma_m;
   ceres::NumericDiffOptions nd;
-  nd.relative_step_size = P->numericDiffRelativeStep();
+  nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.clear();
   for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
     const Correspondence& c = set_.correspondences[k];
@@ -755,16 +785,17 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
     f->R_bs_used = R_bs_used;
     f->inv_sigma = inv_sigma;
     auto* cost = new ceres::NumericDiffCostFunction<CorrespondenceResidual, ceres::CENTRAL, 1, 6, 3, 3>(f, ceres::TAKE_OWNERSHIP, 1, nd);
-    blocks_.push_back(P->addResidualBlock(cost, set_.sigma_m,
-                                          {P->mounting(), P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
-                                           P->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)}));
+    blocks_.push_back(
+        problem->addResidualBlock(cost, set_.sigma_m,
+                                  {problem->mounting(), problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
+                                   problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)}));
   }
 }
 
-void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& P,
+void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const std::array<double, 6>& m, const AdjustmentProblem& problem,
                                         const AnalysisOptions& analysis) {
   if (options_.dense) {
-    finishDense(m0, m, P, analysis);
+    finishDense(m0, m, problem, analysis);
     return;
   }
   // Before: each correspondence's distance at the mounting used (its points' x0).
@@ -778,10 +809,10 @@ void CorrespondenceObservations::finish(const std::array<double, 6>& m0, const s
     cb /= static_cast<double>(ref.b.size());
     before[k] = std::abs(set_.correspondences[k].normal.dot(pr.samples_a[ref.a].x0_m - cb));
   }
-  fillSection(P, before);
+  fillSection(problem, before);
 }
 
-void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const std::vector<double>& distance_before_m) {
+void CorrespondenceObservations::fillSection(const AdjustmentProblem& problem, const std::vector<double>& distance_before_m) {
   section_.used = static_cast<int>(set_.correspondences.size());
   section_.radius_m = set_.radius_m;
   section_.sigma_m = set_.sigma_m;
@@ -792,7 +823,7 @@ void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const s
   for (std::size_t k = 0; k < set_.correspondences.size(); ++k) {
     const Correspondence& c = set_.correspondences[k];
     const double d_before = distance_before_m[k];
-    const double d_after = std::abs(P.residual(blocks_[k])[0] * set_.sigma_m);
+    const double d_after = std::abs(problem.residual(blocks_[k])[0] * set_.sigma_m);
     dist[{c.strip_a, c.strip_b}].first.push_back(d_before);
     dist[{c.strip_a, c.strip_b}].second.push_back(d_after);
     all_b.push_back(d_before);
@@ -819,7 +850,7 @@ void CorrespondenceObservations::fillSection(const AdjustmentProblem& P, const s
 }
 
 void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/,
-                                             const AdjustmentProblem& P, const AnalysisOptions& /*analysis*/) {
+                                             const AdjustmentProblem& adjustment, const AnalysisOptions& /*analysis*/) {
   // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
   dense_->place(m0, {});
   std::vector<double> before;
@@ -829,7 +860,7 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
     cb /= static_cast<double>(c.points_b.size());
     before.push_back(std::abs(c.normal.dot(dense_->x(c.strip_a, c.point_a) - cb)));
   }
-  fillSection(P, before);
+  fillSection(adjustment, before);
   // Per-laser elevation offsets: values, σ and correlation with the boresight (a-priori σ of
   // the distances; the mounting's own σ in the summary eliminates these offsets).
   const int L = static_cast<int>(laser_dl_.size());
@@ -847,8 +878,8 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
       if (lb >= 0) ++section_.laser_points[static_cast<std::size_t>(lb)];
     }
   }
-  ceres::Problem& problem = const_cast<AdjustmentProblem&>(P).ceresProblem();
-  double* mount = const_cast<AdjustmentProblem&>(P).mounting();
+  ceres::Problem& problem = const_cast<AdjustmentProblem&>(adjustment).ceresProblem();
+  double* mount = const_cast<AdjustmentProblem&>(adjustment).mounting();
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = -1;

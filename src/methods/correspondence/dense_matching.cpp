@@ -31,7 +31,7 @@ std::array<Mat3, 3> dRzyx(const Vec3& b) {
 
 }  // namespace
 
-DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& o) : data_(data), o_(o) {
+DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& options) : data_(data), o_(options) {
   data.requirePoses();
   const std::size_t n = data.strips.size();
   x_.resize(n);
@@ -55,7 +55,7 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
       R_mb_[s][i] = pose.R_mb;
     }
   }
-  if (o.laser_elevation_sigma_deg > 0 && !all_laser) {
+  if (options.laser_elevation_sigma_deg > 0 && !all_laser) {
     throw InvalidInput(any_laser ? "per-laser elevation offsets: some strips have laser ids and some do not"
                                  : "per-laser elevation offsets need each point's laser id (job key sensor.laser_field)");
   }
@@ -68,7 +68,7 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
     const std::vector<Vec3> x0 = referencePoints(data, data.strips[s], data.mounting_used);
     spacing_ = std::max(spacing_, planSpacing(x0));
     std::unordered_set<std::int64_t> cells;
-    const double cell = o.thin_cell_m;
+    const double cell = options.thin_cell_m;
     for (std::size_t i = 0; i < x0.size(); ++i) {
       if (cell > 0) {
         const Vec3 q = (x0[i] - origin_) / cell;
@@ -100,23 +100,69 @@ void DenseMatcher::place(const std::array<double, 6>& m, const std::vector<doubl
   }
 }
 
-CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
-  const auto t0 = std::chrono::steady_clock::now();
-  CorrespondenceSet out;
+/// k-d trees of every strip's kept points where they are now (none for a strip of fewer than k).
+void DenseMatcher::buildTrees(std::size_t k, CorrespondenceSet* out) {
   const std::size_t n = x_.size();
-  // Coordinates relative to one origin in the k-d trees: no kilometre-size values.
-  const std::size_t k_fine = static_cast<std::size_t>(o_.max_neighbours), k = coarse ? std::max<std::size_t>(30, k_fine) : k_fine;
-  // k-d trees of every strip's points where they are now.
   tree_.clear();
   tree_.resize(n);
   for (std::size_t s = 0; s < n; ++s) {
-    out.points_searched += x_[s].size();
+    out->points_searched += x_[s].size();
     const std::vector<std::size_t>& kept = keep_[s];
     if (kept.size() < k) continue;
     std::vector<float> coords(3 * kept.size());
     for (std::size_t j = 0; j < kept.size(); ++j) Eigen::Map<Eigen::Vector3f>{&coords[3 * j]} = (x_[s][kept[j]] - origin_).cast<float>();
     tree_[s] = KdTree<float, 3>(std::move(coords));
   }
+}
+
+/// The σ of a distance, then (fine stage) the candidates beyond mad_factor × σ_MAD of the
+/// distances rejected; the rest into `out`.
+void DenseMatcher::keepConsistent(bool coarse, std::size_t k, std::vector<DenseCandidate>* candidates, CorrespondenceSet* out) const {
+  std::vector<DenseCandidate>& cand = *candidates;
+  // σ of a distance: from the planes' roughness (as the sparse matching), at least 2 mm.
+  std::vector<double> v;
+  for (const auto& c : cand) v.push_back(c.c.roughness_m);
+  double sigma = o_.sigma_m;
+  if (!(sigma > 0)) {
+    sigma = 0.002;
+    if (!v.empty()) {
+      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+      const double kk = static_cast<double>(k);
+      sigma = std::max(0.002, v[v.size() / 2] * std::sqrt(kk / (kk - 3.0)) * std::sqrt(1.0 + 1.0 / kk));
+    }
+  }
+  out->sigma_m = sigma;
+  // Fine stage: beyond mad_factor × σ_MAD of the distances (never tighter than 3 σ) rejected.
+  if (!coarse && !cand.empty()) {
+    v.clear();
+    for (const auto& c : cand) v.push_back(c.c.distance_m);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    const double med = v[v.size() / 2];
+    for (double& x : v) x = std::abs(x - med);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    const double limit = std::max(o_.mad_factor * 1.4826 * v[v.size() / 2], 3.0 * sigma);
+    std::vector<DenseCandidate> kept;
+    for (auto& c : cand) {
+      if (std::abs(c.c.distance_m - med) > limit)
+        ++out->pairs[c.pair].rejected_mad;
+      else
+        kept.push_back(std::move(c));
+    }
+    cand.swap(kept);
+  }
+  for (auto& c : cand) {
+    ++out->pairs[c.pair].kept;
+    out->correspondences.push_back(std::move(c.c));
+  }
+}
+
+CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CorrespondenceSet out;
+  const std::size_t n = x_.size();
+  // Coordinates relative to one origin in the k-d trees: no kilometre-size values.
+  const std::size_t k_fine = static_cast<std::size_t>(o_.max_neighbours), k = coarse ? std::max<std::size_t>(30, k_fine) : k_fine;
+  buildTrees(k, &out);
   const auto& tree = tree_;
   const double spacing = spacing_;
   const double r_fine = o_.radius_m > 0 ? o_.radius_m : std::max(0.25, 2.5 * spacing);
@@ -135,11 +181,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
     for (std::size_t& j : *I) j = keep_[s][j];  // tree index → strip index
     return static_cast<double>(dist[0]);
   };
-  struct Candidate {
-    Correspondence c;
-    std::size_t pair;
-  };
-  std::vector<Candidate> cand;
+  std::vector<DenseCandidate> cand;
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = 0; b < n; ++b) {
       if (a == b) continue;
@@ -183,7 +225,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
           ++st.rejected_normal;
           continue;
         }
-        Candidate c;
+        DenseCandidate c;
         c.pair = out.pairs.size();
         c.c.strip_a = static_cast<int>(a);
         c.c.strip_b = static_cast<int>(b);
@@ -198,41 +240,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
       out.pairs.push_back(st);
     }
   }
-  // σ of a distance: from the planes' roughness (as the sparse matching), at least 2 mm.
-  std::vector<double> v;
-  for (const auto& c : cand) v.push_back(c.c.roughness_m);
-  double sigma = o_.sigma_m;
-  if (!(sigma > 0)) {
-    sigma = 0.002;
-    if (!v.empty()) {
-      std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-      const double kk = static_cast<double>(k);
-      sigma = std::max(0.002, v[v.size() / 2] * std::sqrt(kk / (kk - 3.0)) * std::sqrt(1.0 + 1.0 / kk));
-    }
-  }
-  out.sigma_m = sigma;
-  // Fine stage: beyond mad_factor × σ_MAD of the distances (never tighter than 3 σ) rejected.
-  if (!coarse && !cand.empty()) {
-    v.clear();
-    for (const auto& c : cand) v.push_back(c.c.distance_m);
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    const double med = v[v.size() / 2];
-    for (double& x : v) x = std::abs(x - med);
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    const double limit = std::max(o_.mad_factor * 1.4826 * v[v.size() / 2], 3.0 * sigma);
-    std::vector<Candidate> kept;
-    for (auto& c : cand) {
-      if (std::abs(c.c.distance_m - med) > limit)
-        ++out.pairs[c.pair].rejected_mad;
-      else
-        kept.push_back(std::move(c));
-    }
-    cand.swap(kept);
-  }
-  for (auto& c : cand) {
-    ++out.pairs[c.pair].kept;
-    out.correspondences.push_back(std::move(c.c));
-  }
+  keepConsistent(coarse, k, &cand, &out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -15,12 +15,18 @@
 
 namespace mountcal::detail {
 
+/// A correspondence found by DenseMatcher and the index of its strip pair's statistics.
+struct DenseCandidate {
+  Correspondence c;
+  std::size_t pair;
+};
+
 /// Matches every strip pair in both directions at the current estimate.
 class DenseMatcher {
  public:
   /// Throws InvalidInput for strips without per-point poses or a trajectory, inconsistent
   /// lengths, or laser ids on some strips only.
-  DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& o);
+  DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& options);
 
   /// The positions of every point at mounting m (MountingIndex order) and laser offsets dl.
   void place(const std::array<double, 6>& m, const std::vector<double>& dl);
@@ -38,6 +44,9 @@ class DenseMatcher {
   CorrespondenceSet match(bool coarse, double fine_gate_m);
 
  private:
+  void buildTrees(std::size_t k, CorrespondenceSet* out);
+  void keepConsistent(bool coarse, std::size_t k, std::vector<DenseCandidate>* candidates, CorrespondenceSet* out) const;
+
   const CalibrationData& data_;
   CorrespondenceOptions o_;
   int lasers_ = 0;

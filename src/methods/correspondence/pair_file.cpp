@@ -151,7 +151,7 @@ bool sameMatchingOptions(const CorrespondenceOptions& x, const CorrespondenceOpt
          x.voxel_size_m == y.voxel_size_m && x.min_neighbours == y.min_neighbours && x.max_neighbours == y.max_neighbours;
 }
 
-void writePairCandidates(const std::string& path, const PairCandidates& p, const CorrespondenceOptions& o,
+void writePairCandidates(const std::string& path, const PairCandidates& p, const CorrespondenceOptions& options,
                          const std::array<double, 6>& mounting_used) {
   Out out;
   out.bytes(kMagic, 8);
@@ -163,12 +163,12 @@ void writePairCandidates(const std::string& path, const PairCandidates& p, const
   out.f64(p.spacing_b_m);
   out.u64(p.overlap_points);
   out.u32(static_cast<std::uint32_t>(p.sparse_samples));
-  out.f64(o.apriori_misalignment_m);
-  out.f64(o.radius_m);
-  out.f64(o.sample_spacing_m);
-  out.f64(o.voxel_size_m);
-  out.i32(o.min_neighbours);
-  out.i32(o.max_neighbours);
+  out.f64(options.apriori_misalignment_m);
+  out.f64(options.radius_m);
+  out.f64(options.sample_spacing_m);
+  out.f64(options.voxel_size_m);
+  out.i32(options.min_neighbours);
+  out.i32(options.max_neighbours);
   for (double v : mounting_used) out.f64(v);
   out.u64(p.samples_a.size());
   for (std::size_t k = 0; k < p.samples_a.size(); ++k) {
@@ -202,15 +202,15 @@ PairCandidates parsePairCandidates(const std::string& name, const std::uint8_t* 
   const std::uint32_t sparse = in.u32("the sparse sample count");
   if (sparse > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) in.fail("a sparse sample count of " + std::to_string(sparse));
   p.sparse_samples = static_cast<int>(sparse);
-  CorrespondenceOptions o;
-  o.apriori_misalignment_m = in.f64("the options");
-  o.radius_m = in.f64("the options");
-  o.sample_spacing_m = in.f64("the options");
-  o.voxel_size_m = in.f64("the options");
-  o.min_neighbours = in.i32("the options");
-  o.max_neighbours = in.i32("the options");
+  CorrespondenceOptions opts;
+  opts.apriori_misalignment_m = in.f64("the options");
+  opts.radius_m = in.f64("the options");
+  opts.sample_spacing_m = in.f64("the options");
+  opts.voxel_size_m = in.f64("the options");
+  opts.min_neighbours = in.i32("the options");
+  opts.max_neighbours = in.i32("the options");
   std::string why;
-  if (!o.IsValid(&why)) in.fail("matching options: " + why);
+  if (!opts.IsValid(&why)) in.fail("matching options: " + why);
   std::array<double, 6> m{};
   for (double& v : m) v = in.f64("the mounting used");
   const bool att = p.attitudes_stored;
@@ -229,7 +229,7 @@ PairCandidates parsePairCandidates(const std::string& name, const std::uint8_t* 
   in.magic(kEnd, "the end mark MCPAIREN (a truncated or corrupt pair file: rerun mountcal match)");
   if (!in.done()) in.fail("bytes after the end mark");
   if (!p.overlap && (!p.samples_a.empty() || p.sparse_samples)) in.fail("samples in a pair without overlap");
-  if (options) *options = o;
+  if (options) *options = opts;
   if (mounting_used) *mounting_used = m;
   return p;
 }

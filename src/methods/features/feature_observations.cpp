@@ -189,8 +189,9 @@ void setPlatform(const CalibrationData& data, const StripData& strip, const std:
   v->time_s = t / n;
 }
 
-std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& clouds, const PlaneRegion& region, const FeatureOptions& o,
-                                     std::vector<RejectedFeature>* rejected, std::vector<std::vector<std::uint32_t>>* indices) {
+std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& clouds, const PlaneRegion& region,
+                                     const FeatureOptions& options, std::vector<RejectedFeature>* rejected,
+                                     std::vector<std::vector<std::uint32_t>>* indices) {
   auto reject = [&](const std::string& strip, const std::string& why) {
     if (rejected) rejected->push_back({region.id, strip, why});
   };
@@ -204,15 +205,15 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     reject("", "no strip has points in the region");
     return {};
   }
-  double threshold = o.intensity_threshold;
+  double threshold = options.intensity_threshold;
   if (threshold <= 0) {
     std::vector<float> sorted = values;
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
     const double median = sorted[sorted.size() / 2];
     const double brightest = *std::max_element(values.begin(), values.end());
-    if (!(brightest >= o.min_contrast * std::max(median, 1e-9)) || brightest <= 0) {
+    if (!(brightest >= options.min_contrast * std::max(median, 1e-9)) || brightest <= 0) {
       reject("", fmt("no high-intensity points: the brightest is %.0f, the median %.0f (a target needs %.1f times the median)", brightest,
-                     median, o.min_contrast));
+                     median, options.min_contrast));
       return {};
     }
     threshold = otsuThreshold(values);
@@ -226,17 +227,17 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     std::vector<std::uint32_t> bright;
     for (std::uint32_t i : in_box[s])
       if (strip.intensity[i] >= threshold) bright.push_back(i);
-    if (static_cast<int>(bright.size()) < o.min_points) {
+    if (static_cast<int>(bright.size()) < options.min_points) {
       reject(strip.id, fmt("%.0f high-intensity points (at least %.0f needed): the strip does not see the target",
-                           static_cast<double>(bright.size()), o.min_points));
+                           static_cast<double>(bright.size()), options.min_points));
       continue;
     }
     const double area = std::max((region.xmax - region.xmin) * (region.ymax - region.ymin), 1e-6);
     const double spacing = std::sqrt(area / static_cast<double>(in_box[s].size()));
-    const double d = o.growing_distance_m > 0 ? o.growing_distance_m : std::max(1.0, 2.5 * spacing);
+    const double d = options.growing_distance_m > 0 ? options.growing_distance_m : std::max(1.0, 2.5 * spacing);
     const auto groups = growRegions(X, bright, d);
-    if (groups.size() > 1 && static_cast<int>(groups[1].size()) >= o.min_points &&
-        static_cast<double>(groups[1].size()) >= o.second_group_fraction * static_cast<double>(groups[0].size())) {
+    if (groups.size() > 1 && static_cast<int>(groups[1].size()) >= options.min_points &&
+        static_cast<double>(groups[1].size()) >= options.second_group_fraction * static_cast<double>(groups[0].size())) {
       // Two targets in one region: which one the others' strips matched is unknowable.
       if (rejected) {
         // Drop whatever this region already produced: the whole region goes.
@@ -249,9 +250,9 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
       return {};
     }
     const auto& group = groups[0];
-    if (static_cast<int>(group.size()) < o.min_points) {
+    if (static_cast<int>(group.size()) < options.min_points) {
       reject(strip.id, "its largest group of high-intensity points has " + std::to_string(group.size()) + " points (at least " +
-                           std::to_string(o.min_points) + " needed)");
+                           std::to_string(options.min_points) + " needed)");
       continue;
     }
     // A target lies inside its region; a bright surface that runs to the region's edge is a road
@@ -268,11 +269,11 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
       continue;
     }
     detail::PlaneFit fit;
-    const std::vector<std::uint32_t> inl = ransacPlane(X, group, o.ransac_threshold_m, o.ransac_iterations, &fit);
+    const std::vector<std::uint32_t> inl = ransacPlane(X, group, options.ransac_threshold_m, options.ransac_iterations, &fit);
     const double fraction = static_cast<double>(inl.size()) / static_cast<double>(group.size());
-    if (static_cast<int>(inl.size()) < o.min_points || fraction < o.min_inlier_fraction) {
+    if (static_cast<int>(inl.size()) < options.min_points || fraction < options.min_inlier_fraction) {
       reject(strip.id, fmt("not planar: %.0f %% of its %.0f points lie within %.3f m of one plane", 100 * fraction,
-                           static_cast<double>(group.size()), o.ransac_threshold_m));
+                           static_cast<double>(group.size()), options.ransac_threshold_m));
       continue;
     }
     // The feature is the whole group: the intensity (a property of the surface hit) chose its
@@ -288,7 +289,7 @@ std::vector<FeatureView> extractWith(const CalibrationData& data, const Clouds& 
     v.plane_sigma_m = fit.sigma_m;
     const double n = static_cast<double>(group.size());
     v.sigma_normal_m = std::max(fit.sigma_m, 0.002) / std::sqrt(n);
-    v.sigma_in_plane_m = o.sigma_in_plane_m > 0 ? o.sigma_in_plane_m : 1.5 * spacing / std::sqrt(n);
+    v.sigma_in_plane_m = options.sigma_in_plane_m > 0 ? options.sigma_in_plane_m : 1.5 * spacing / std::sqrt(n);
     v.threshold = threshold;
     setPlatform(data, strip, group, &v);
     views.push_back(v);
@@ -457,7 +458,7 @@ std::string closedFormMessage(const std::array<bool, 5>& use, bool pitch_lever_a
 }  // namespace
 
 FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pairs, const MountingParameters& used,
-                                      const FeatureOptions& o) {
+                                      const FeatureOptions& options) {
   FeatureClosedForm C;
   C.mounting = used;
   // Unknowns u = (ε_ω, ε_φ, ε_κ, η_x, η_y). SPEC §2 "Closed-form boresight" (seed 002 eqs. 8–10)
@@ -514,7 +515,7 @@ FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pair
   if (!heights.empty()) {
     const auto [lo, hi] = std::minmax_element(heights.begin(), heights.end());
     const double mean = std::accumulate(heights.begin(), heights.end(), 0.0) / static_cast<double>(heights.size());
-    if (*hi - *lo >= o.min_height_spread * mean) {
+    if (*hi - *lo >= options.min_height_spread * mean) {
       use[3] = use[4] = true;
       C.lever_arm_estimated = true;
     } else {
@@ -740,25 +741,25 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
   selected_ = true;
 }
 
-void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (!selected_ || mounting != selected_at_) select(mounting);
   const Mat3 R_bs_used = used_.R_bs();
   ceres::NumericDiffOptions nd;
-  nd.relative_step_size = P->numericDiffRelativeStep();
+  nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.assign(targets_.size(), {});
   for (std::size_t k = 0; k < targets_.size(); ++k) {
     Target& T = targets_[k];
     const double zero[3] = {0, 0, 0};
-    T.block = P->addNuisanceBlock(3, zero);
+    T.block = problem->addNuisanceBlock(3, zero);
     for (const View& v : T.views) {
       auto* cost = new ceres::NumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL, 3, 6, 3, 3>(
           new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, 3, nd);
-      blocks_[k].push_back(P->addResidualBlock(cost, sigma_t_, {P->mounting(), T.block, P->stripOffset(v.strip_id)}));
+      blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, {problem->mounting(), T.block, problem->stripOffset(v.strip_id)}));
     }
   }
 }
 
-void FeatureObservations::solved(const AdjustmentProblem& P) {
+void FeatureObservations::solved(const AdjustmentProblem& problem) {
   settled_ = true;
   if (options_.sigma_in_plane_m > 0) return;
   // Variance components (after Förstner): σ² = Σ r² / redundancy per component, the redundancy
@@ -767,7 +768,7 @@ void FeatureObservations::solved(const AdjustmentProblem& P) {
   for (std::size_t k = 0; k < targets_.size(); ++k) {
     const Target& T = targets_[k];
     for (std::size_t j = 0; j < T.views.size(); ++j) {
-      const Vec3 e = T.views[j].sqrt_info.inverse() * P.residual(blocks_[k][j]);
+      const Vec3 e = T.views[j].sqrt_info.inverse() * problem.residual(blocks_[k][j]);
       const Vec3 n = points_[k][j].normal.normalized();
       const double en = n.dot(e);
       ss_n += en * en;
@@ -783,7 +784,7 @@ void FeatureObservations::solved(const AdjustmentProblem& P) {
   selected_ = false;  // rebuild the weights with the new σ
 }
 
-void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& problem,
                                  const AnalysisOptions& /*analysis*/) {
   section_.residuals.clear();
   section_.sigma_normal_m = sigma_n_;
@@ -802,7 +803,7 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
       r.target_id = T.id;
       r.strip_id = v.strip_id;
       r.before_m = v.c0_rel - mean0;
-      r.after_m = v.sqrt_info.inverse() * P.residual(blocks_[k][j]);
+      r.after_m = v.sqrt_info.inverse() * problem.residual(blocks_[k][j]);
       ss_before += r.before_m.cwiseAbs2();
       ss_after += r.after_m.cwiseAbs2();
       ++n;

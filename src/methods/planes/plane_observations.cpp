@@ -118,13 +118,13 @@ struct PlanePointResidual {
 
 }  // namespace
 
-std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& o) {
+std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& opts) {
   std::string why;
-  if (!o.IsValid(&why)) throw InvalidInput("plane options: " + why);
+  if (!opts.IsValid(&why)) throw InvalidInput("plane options: " + why);
   std::vector<StripCloud> probe = makeClouds(data, 2.0);
   double spacing = 1e300;
   for (const auto& c : probe) spacing = std::min(spacing, detail::planSpacing(c.x0));
-  const double cell = o.cell_size_m > 0 ? o.cell_size_m : std::max(1.5, 5.0 * spacing);
+  const double cell = opts.cell_size_m > 0 ? opts.cell_size_m : std::max(1.5, 5.0 * spacing);
   std::vector<StripCloud> clouds = makeClouds(data, cell);
   probe.clear();
   // Per cell, the plane of every strip that sees it (planar ones only).
@@ -144,7 +144,7 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
     for (const auto& [key, idx] : clouds[s].grid->cells()) {
       if (static_cast<int>(idx.size()) < min_pts) continue;
       const detail::PlaneFit f = detail::fitPlane(idx.size(), [&](std::size_t k) { return clouds[s].x0[idx[k]]; });
-      if (f.sigma_m > o.max_roughness_m) continue;
+      if (f.sigma_m > opts.max_roughness_m) continue;
       const Vec3& c = f.centroid;
       per_cell[{clouds[s].grid->cellIndex(c.x()), clouds[s].grid->cellIndex(c.y())}].push_back({s, f});
       (void)key;
@@ -157,7 +157,7 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
     std::vector<CellPlane> agree;
     Vec3 nsum = Vec3::Zero();
     for (const auto& p : planes)
-      if (detail::angleDeg(p.fit.normal, n0) <= o.max_normal_angle_deg) {
+      if (detail::angleDeg(p.fit.normal, n0) <= opts.max_normal_angle_deg) {
         agree.push_back(p);
         nsum += p.fit.normal.dot(n0) < 0 ? -p.fit.normal : p.fit.normal;
       }
@@ -171,7 +171,7 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
     std::vector<std::pair<std::int64_t, std::int64_t>> members;
   };
   std::vector<Region> regions;
-  const int half = std::max(0, static_cast<int>(std::floor(0.5 * o.max_patch_size_m / cell)));
+  const int half = std::max(0, static_cast<int>(std::floor(0.5 * opts.max_patch_size_m / cell)));
   for (const auto& [k, seed] : cells) {
     if (used.count(k)) continue;
     Region reg{seed.normal, {k}};
@@ -185,13 +185,13 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
           const std::pair<std::int64_t, std::int64_t> nb{cur.first + dx, cur.second + dy};
           if (used.count(nb) || std::abs(nb.first - k.first) > half || std::abs(nb.second - k.second) > half) continue;
           auto it = cells.find(nb);
-          if (it == cells.end() || detail::angleDeg(it->second.normal, seed.normal) > o.growing_angle_deg) continue;
+          if (it == cells.end() || detail::angleDeg(it->second.normal, seed.normal) > opts.growing_angle_deg) continue;
           bool coplanar = false, common = false;
           for (const auto& a : seed.planes)
             for (const auto& b : it->second.planes)
               if (a.strip == b.strip) {
                 common = true;
-                coplanar |= std::abs(a.fit.normal.dot(b.fit.centroid - a.fit.centroid)) < std::max(0.1, 3 * o.max_roughness_m);
+                coplanar |= std::abs(a.fit.normal.dot(b.fit.centroid - a.fit.centroid)) < std::max(0.1, 3 * opts.max_roughness_m);
               }
           if (!common || !coplanar) continue;
           used.insert(nb);
@@ -207,10 +207,10 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
   for (auto& [b, list] : bins)
     std::stable_sort(list.begin(), list.end(), [](const Region* a, const Region* c) { return a->members.size() > c->members.size(); });
   std::vector<PlanarPatch> out;
-  for (std::size_t round = 0; static_cast<int>(out.size()) < o.max_patches; ++round) {
+  for (std::size_t round = 0; static_cast<int>(out.size()) < opts.max_patches; ++round) {
     bool any = false;
     for (auto& [b, list] : bins) {
-      if (round >= list.size() || static_cast<int>(out.size()) >= o.max_patches) continue;
+      if (round >= list.size() || static_cast<int>(out.size()) >= opts.max_patches) continue;
       any = true;
       const Region& r = *list[round];
       std::int64_t x0 = r.members[0].first, x1 = x0, y0 = r.members[0].second, y1 = y0;
@@ -222,8 +222,8 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
       }
       // The cells' box, less a margin: edge cells may reach the next surface on a strip that is
       // still misaligned.
-      const double mx = std::min(o.edge_margin_m, 0.25 * static_cast<double>(x1 - x0 + 1) * cell);
-      const double my = std::min(o.edge_margin_m, 0.25 * static_cast<double>(y1 - y0 + 1) * cell);
+      const double mx = std::min(opts.edge_margin_m, 0.25 * static_cast<double>(x1 - x0 + 1) * cell);
+      const double my = std::min(opts.edge_margin_m, 0.25 * static_cast<double>(y1 - y0 + 1) * cell);
       PlanarPatch p;
       p.region = {"auto_" + std::to_string(out.size() + 1), static_cast<double>(x0) * cell + mx, static_cast<double>(y0) * cell + my,
                   static_cast<double>(x1 + 1) * cell - mx, static_cast<double>(y1 + 1) * cell - my};
@@ -394,28 +394,29 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
   for (const Patch& p : patches_) section_.points_used += static_cast<int>(p.points.size());
 }
 
-void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* P) {
+void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (mounting != selected_at_) select(mounting);
   selected_at_ = mounting;
   const Mat3 R_bs_used = used_.R_bs();
   const double inv_sigma = 1.0 / section_.sigma_m;
   ceres::NumericDiffOptions nd;
-  nd.relative_step_size = P->numericDiffRelativeStep();
+  nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.assign(patches_.size(), {});
   for (std::size_t q = 0; q < patches_.size(); ++q) {
     Patch& patch = patches_[q];
     // One plane per patch: unit normal on the sphere × offset (a nuisance block).
     auto* manifold = new ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>>();
-    patch.block = P->addNuisanceBlock(4, patch.plane0.data(), manifold);
+    patch.block = problem->addNuisanceBlock(4, patch.plane0.data(), manifold);
     for (const PatchPoint& pp : patch.points) {
       auto* cost = new ceres::NumericDiffCostFunction<PlanePointResidual, ceres::CENTRAL, 1, 6, 4, 3>(
           new PlanePointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
-      blocks_[q].push_back(P->addResidualBlock(cost, section_.sigma_m, {P->mounting(), patch.block, P->stripOffset(pp.strip_id)}));
+      blocks_[q].push_back(
+          problem->addResidualBlock(cost, section_.sigma_m, {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id)}));
     }
   }
 }
 
-void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& P,
+void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& problem,
                                const AnalysisOptions& analysis) {
   section_.patches.clear();
   double ss_before = 0, ss_after = 0;
@@ -439,7 +440,7 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
     pr.rms_before_m = std::sqrt(sb / std::max<double>(1.0, static_cast<double>(patch.points.size()) - 3.0));
     double sa = 0;
     for (int b : blocks_[q]) {
-      const double d = P.residual(b)[0] * section_.sigma_m;
+      const double d = problem.residual(b)[0] * section_.sigma_m;
       sa += d * d;
     }
     ss_after += sa;

@@ -15,8 +15,8 @@ namespace {
 class VtpmRun final : public MethodRun {
  public:
   explicit VtpmRun(const MethodContext& c) {
-    const VtpmOptions& o = std::any_cast<const VtpmOptions&>(c.options);
-    ties_ = std::make_unique<TieObservations>(c.data, c.data.ties, c.data.gcps, o, o.vtp, "ties", c.threads);
+    const VtpmOptions& opts = std::any_cast<const VtpmOptions&>(c.options);
+    ties_ = std::make_unique<TieObservations>(c.data, c.data.ties, c.data.gcps, opts, opts.vtp, "ties", c.threads);
   }
   std::vector<ObservationSource*> sources() override {
     if (ties_->observationCount() == 0) return {};
@@ -52,14 +52,14 @@ MethodInput VtpmMethod::input() const { return {"ties", "", "the ties CSV (tie_i
 std::any VtpmMethod::defaultOptions() const { return VtpmOptions{}; }
 const std::vector<OptionSpec>& VtpmMethod::options() const { return vtpmOptionSpecs(); }
 bool VtpmMethod::validate(const std::any& options, std::string* error) const {
-  const VtpmOptions& o = std::any_cast<const VtpmOptions&>(options);
-  return o.IsValid(error) && detail::vtpOptionsValid(o.vtp, error);
+  const VtpmOptions& opts = std::any_cast<const VtpmOptions&>(options);
+  return opts.IsValid(error) && detail::vtpOptionsValid(opts.vtp, error);
 }
 void VtpmMethod::adoptNoise(const NoiseHint& noise, std::any* options) const {
-  VtpmOptions& o = std::any_cast<VtpmOptions&>(*options);
-  o.tie_sigma_xy_m = noise.pick_sigma_xy_m;
-  o.tie_sigma_z_m = noise.pick_sigma_z_m;
-  o.estimate_tie_sigma = false;
+  VtpmOptions& opts = std::any_cast<VtpmOptions&>(*options);
+  opts.tie_sigma_xy_m = noise.pick_sigma_xy_m;
+  opts.tie_sigma_z_m = noise.pick_sigma_z_m;
+  opts.estimate_tie_sigma = false;
 }
 std::set<std::string> VtpmMethod::claimedGcps(const CalibrationData& data) const {
   std::set<std::string> ids;
