@@ -189,13 +189,18 @@ TEST(FeatureMethod, OneHeightNamesThePitchLeverArmCouplingTwoHeightsDetermineBot
   EXPECT_TRUE(S1.section<FeatureSection>().closed_form.pitch_lever_arm_coupled);
   EXPECT_NE(S1.section<FeatureSection>().closed_form.message.find("coupled"), std::string::npos)
       << S1.section<FeatureSection>().closed_form.message;
-  const bool lever_x_named = std::find(S1.unobservable.begin(), S1.unobservable.end(), "lever_arm_x") != S1.unobservable.end() ||
-                             std::find(S1.unobservable.begin(), S1.unobservable.end(), "boresight_pitch") != S1.unobservable.end();
-  EXPECT_TRUE(lever_x_named || std::abs(S1.correlation(0, 4)) > 0.99) << S1.FullReport();
-
   const Uav& two = uav(1, false);
   const auto S2 = calibrate(toCalibrationData(two.survey), featureOptions(true));
   ASSERT_TRUE(S2.IsSolutionUsable());
+  // One height: the closed form cannot separate lever x from pitch (above), but the rigorous
+  // adjustment still can, through the targets' spread in range and beam elevation: lever x is
+  // determined (an absolute rule holds only what the data do not determine), with less
+  // information than from two heights and a σ that covers its error — or it is held.
+  const bool lever_x_named = std::find(S1.unobservable.begin(), S1.unobservable.end(), "lever_arm_x") != S1.unobservable.end();
+  if (!lever_x_named) {
+    EXPECT_GT(S1.sigma[0], S2.sigma[0]) << S1.FullReport();
+    EXPECT_LT(std::abs(S1.mounting.a_b.x() - one.config.true_mounting.a_b.x()), 3 * S1.sigma[0]) << S1.FullReport();
+  }
   EXPECT_FALSE(S2.section<FeatureSection>().closed_form.pitch_lever_arm_coupled);
   EXPECT_TRUE(S2.unobservable.empty()) << S2.FullReport();
   EXPECT_TRUE(S2.estimated[0] && S2.estimated[4]);

@@ -439,7 +439,7 @@ TEST(Adjustment, OptionsGroupsValidateTheirFields) {
   o.max_rematch_rounds = 0;
   EXPECT_FALSE(static_cast<const SolverOptions&>(o).IsValid(&why));
   o = {};
-  o.observability_threshold = 2;
+  o.rank_tolerance = 2;
   EXPECT_FALSE(static_cast<const AnalysisOptions&>(o).IsValid(&why));
   o = {};
   o.method<PlaneOptions>().max_points_per_strip = 1;

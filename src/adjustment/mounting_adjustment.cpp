@@ -96,7 +96,7 @@ bool SolverOptions::IsValid(std::string* error) const {
 }
 
 bool AnalysisOptions::IsValid(std::string* error) const {
-  if (!(observability_threshold > 0) || observability_threshold >= 1) return failWith(error, "observability_threshold must be in (0, 1)");
+  if (!(rank_tolerance > 0) || rank_tolerance >= 1e-3) return failWith(error, "rank_tolerance must be in (0, 1e-3)");
   if (!(outlier_factor > 0)) return failWith(error, "outlier_factor must be positive");
   if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0))
     return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
@@ -414,6 +414,13 @@ Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
   return out;
 }
 
+/// A σ for the report: [m] or [deg] as given, three significant digits.
+std::string fmtSigma(int /*j*/, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
 std::string fmtParam(int j, double v) {
   char buf[64];
   if (j < 3)
@@ -488,39 +495,135 @@ class Estimation {
     return true;
   }
 
-  /// Observability (SPEC §3 step 5): while the reduced normal matrix of the estimated block
-  /// has a direction below the threshold that the data do not fix absolutely, hold one of its
-  /// parameters (named in the summary with the reason). True when something was held.
+  /// Observability (SPEC §3 step 5) by an absolute rule: while an estimated parameter's
+  /// marginal σ exceeds its physical bound (AnalysisOptions), hold the most undetermined one
+  /// (named in the summary with its σ and what it cannot be separated from). True when
+  /// something was held.
   bool holdUndeterminable(std::array<bool, 6>* est, Mat6* N_red, Vec6* diag) {
     reducedNormalMatrix(*P_, N_red, diag);
     bool refixed = false;
     for (int pass = 0; pass < 6; ++pass) {
-      std::vector<int> idx;
-      for (int j = 0; j < 6; ++j)
-        if ((*est)[j]) idx.push_back(j);
-      if (idx.empty()) break;
-      const int n = static_cast<int>(idx.size());
-      Eigen::MatrixXd Sn(n, n);
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b)
-          Sn(a, b) = (*N_red)(idx[a], idx[b]) / std::sqrt(std::max((*diag)[idx[a]], 1e-300) * std::max((*diag)[idx[b]], 1e-300));
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Sn);
-      const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(n - 1);
-      S_.condition_number = lmin > 0 ? lmax / lmin : std::numeric_limits<double>::infinity();
-      if (lmin >= o_.observability_threshold) break;
-      const int pick = weakestParameter(idx, eig.eigenvectors().col(0), lmin, *diag);
-      if (pick < 0) break;  // every member of the weak direction is fixed absolutely
+      const MarginalSigmas ms = marginalSigmas(*N_red, *est);
+      if (ms.idx.empty()) break;
+      S_.condition_number = ms.condition_number;
+      int pick = -1;
+      double worst = 1.0;
+      for (std::size_t a = 0; a < ms.idx.size(); ++a) {
+        if (ms.ratio[a] > worst) {
+          worst = ms.ratio[a];
+          pick = ms.idx[a];
+        }
+      }
+      if (pick < 0) break;
+      reportHeld(pick, ms);
       (*est)[pick] = false;
       refixed = true;
-      reportHeld(pick, idx, eig.eigenvectors().col(0), lmin);
     }
     return refixed;
+  }
+
+  /// Each estimated parameter's marginal σ against its bound, from the eigen-decomposition of
+  /// the bound-scaled reduced normal matrix (directions below rank_tolerance: infinite σ).
+  struct MarginalSigmas {
+    std::vector<int> idx;
+    std::vector<double> ratio;      // σ / bound (infinite along a rank deficiency)
+    Eigen::VectorXd weakest;        // the weakest scaled direction over idx
+    double condition_number = 0.0;  // of the correlation-scaled block
+  };
+  MarginalSigmas marginalSigmas(const Mat6& N, const std::array<bool, 6>& est) const {
+    MarginalSigmas out;
+    for (int j = 0; j < 6; ++j)
+      if (est[j]) out.idx.push_back(j);
+    const int n = static_cast<int>(out.idx.size());
+    if (n == 0) return out;
+    auto bound = [&](int j) { return j < 3 ? o_.undeterminable_sigma_m : deg2rad(o_.undeterminable_sigma_deg); };
+    Eigen::MatrixXd Ns(n, n), Nc(n, n);
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const int i = out.idx[a], k = out.idx[b];
+        Ns(a, b) = N(i, k) * bound(i) * bound(k);
+        Nc(a, b) = N(i, k) / std::sqrt(std::max(N(i, i), 1e-300) * std::max(N(k, k), 1e-300));
+      }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Ns);
+    const double lmax = std::max(eig.eigenvalues()(n - 1), 0.0);
+    out.ratio.assign(out.idx.size(), 0.0);
+    for (int k = 0; k < n; ++k) {
+      const double l = eig.eigenvalues()(k);
+      const bool deficient = !(l > o_.rank_tolerance * lmax) || lmax == 0.0;
+      for (int a = 0; a < n; ++a) {
+        const double v2 = eig.eigenvectors()(a, k) * eig.eigenvectors()(a, k);
+        if (deficient && v2 > 1e-6)
+          out.ratio[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
+        else if (!deficient)
+          out.ratio[static_cast<std::size_t>(a)] += v2 / l;  // squared, until the square root below
+      }
+    }
+    for (double& r : out.ratio) r = std::sqrt(r);
+    out.weakest = eig.eigenvectors().col(0);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_c(Nc, Eigen::EigenvaluesOnly);
+    const double cmin = eig_c.eigenvalues()(0), cmax = eig_c.eigenvalues()(n - 1);
+    out.condition_number = cmin > 0 ? cmax / cmin : std::numeric_limits<double>::infinity();
+    return out;
+  }
+
+  /// The summary's account of a held parameter: its σ against the bound, the parameters of its
+  /// weak direction, and (Summary::held_sensitivity) how far each other estimated parameter
+  /// moves per unit error of the held value: −N_ee⁻¹ N_eh.
+  void reportHeld(int pick, const MarginalSigmas& ms) {
+    const auto& names = mountingParameterNames();
+    S_.unobservable.push_back(names[pick]);
+    std::size_t at = 0;
+    while (ms.idx[at] != pick) ++at;
+    const double bound = pick < 3 ? o_.undeterminable_sigma_m : o_.undeterminable_sigma_deg;
+    const char* unit = pick < 3 ? " m" : "°";
+    report_ << names[pick] << " cannot be determined from these observations (";
+    if (std::isfinite(ms.ratio[at]))
+      report_ << "its σ would be " << fmtSigma(pick, ms.ratio[at] * bound) << unit << ", beyond the bound of " << bound << unit;
+    else
+      report_ << "no observation fixes it once the tie positions, planes and strip offsets are eliminated";
+    report_ << ")";
+    std::vector<int> group;
+    for (std::size_t a = 0; a < ms.idx.size(); ++a)
+      if (std::abs(ms.weakest[static_cast<int>(a)]) > 0.3 && ms.idx[a] != pick) group.push_back(ms.idx[a]);
+    if (!group.empty()) {
+      report_ << "; it cannot be separated from";
+      for (int g : group) report_ << " " << names[g];
+    }
+    report_ << "; held at its used value " << fmtParam(pick, m0_[pick]) << ".\n";
+  }
+
+  /// Summary::held_sensitivity at the final estimate: each estimated parameter's shift per
+  /// unit error of each held one, −N_ee⁻¹ N_eh (exact for the linearised problem), and a line
+  /// of the report per held parameter with the shifts a 1 cm / 0.01° error causes.
+  void heldSensitivity(const Mat6& N, const std::array<bool, 6>& est) {
+    const auto& names = mountingParameterNames();
+    const Mat6 C = inverseOnEstimated(N, est);
+    for (const std::string& held : S_.unobservable) {
+      const int h = static_cast<int>(std::find(names.begin(), names.end(), held) - names.begin());
+      if (h >= 6) continue;
+      Vec6 shift = Vec6::Zero();
+      for (int e = 0; e < 6; ++e)
+        if (est[e])
+          for (int k = 0; k < 6; ++k)
+            if (est[k]) shift[e] -= C(e, k) * N(k, h);
+      S_.held_sensitivity.col(h) = shift;
+      const double unit_error = h < 3 ? 0.01 : deg2rad(0.01);
+      bool first = true;
+      for (int e = 0; e < 6; ++e) {
+        if (!est[e] || std::abs(shift[e] * unit_error) < (e < 3 ? 1e-4 : deg2rad(1e-5))) continue;
+        report_ << (first ? std::string(h < 3 ? "A 1 cm error in the held " : "A 0.01° error in the held ") + held + " moves " : ", ")
+                << names[e] << " by " << fmtParam(e, shift[e] * unit_error);
+        first = false;
+      }
+      if (!first) report_ << " (not in their σ).\n";
+    }
   }
 
   /// σ₀², degrees of freedom, covariance and correlations, the per-kind counts and strip
   /// offsets, and each source's residual section.
   void analyse(const std::array<bool, 6>& est, const Mat6& N_red, const MountingParameters& mounting_used) {
     S_.reduced_normal_matrix = N_red;
+    heldSensitivity(N_red, est);
     S_.observability_report = report_.str();
     S_.estimated = est;
     S_.iterations = iterations_;
@@ -660,51 +763,6 @@ class Estimation {
     for (const auto& earlier : history)
       if (changeFrom(earlier) < 1.0) change = 0.0;
     return change;
-  }
-
-  /// The parameter of the weakest direction `v` (over the estimated `idx`) to hold: a lever-arm
-  /// component first (it can be taped; a boresight cannot), else the largest member; −1 when
-  /// every member's σ along the direction is below the absolute limits.
-  int weakestParameter(const std::vector<int>& idx, const Eigen::VectorXd& v, double lmin, const Vec6& diag) const {
-    const int n = static_cast<int>(idx.size());
-    bool absolutely_fixed = true;
-    for (int a = 0; a < n; ++a) {
-      if (std::abs(v[a]) <= 0.3) continue;
-      const double sigma_dir = std::abs(v[a]) / std::sqrt(std::max(lmin, 1e-300) * std::max(diag[idx[a]], 1e-300));
-      absolutely_fixed &= idx[a] < 3 ? sigma_dir <= o_.undeterminable_sigma_m : sigma_dir <= deg2rad(o_.undeterminable_sigma_deg);
-    }
-    if (absolutely_fixed) return -1;
-    int pick = -1;
-    double best = 0;
-    for (int a = 0; a < n; ++a) {
-      const double w = std::abs(v[a]) + (idx[a] < 3 ? 1.0 : 0.0);
-      if (std::abs(v[a]) > 0.3 && w > best) {
-        best = w;
-        pick = idx[a];
-      }
-    }
-    if (pick < 0) {
-      int a_max = 0;
-      v.cwiseAbs().maxCoeff(&a_max);
-      pick = idx[a_max];
-    }
-    return pick;
-  }
-
-  void reportHeld(int pick, const std::vector<int>& idx, const Eigen::VectorXd& v, double lmin) {
-    const auto& names = mountingParameterNames();
-    S_.unobservable.push_back(names[pick]);
-    report_ << names[pick] << " cannot be determined from these observations (it keeps " << std::max(lmin, 0.0) * 100
-            << " % of its information once the tie positions, planes and strip offsets are eliminated)";
-    std::vector<int> group;
-    for (std::size_t a = 0; a < idx.size(); ++a)
-      if (std::abs(v[static_cast<int>(a)]) > 0.3) group.push_back(idx[a]);
-    if (group.size() > 1) {
-      report_ << "; it cannot be separated from";
-      for (int g : group)
-        if (g != pick) report_ << " " << names[g];
-    }
-    report_ << "; held at its used value " << fmtParam(pick, m0_[pick]) << ".\n";
   }
 
   void varianceFactor(const std::array<bool, 6>& est) {

@@ -384,6 +384,19 @@ void readSettings(const Fields& top, Job* job) {
 
 }  // namespace
 
+/// "mounting_used.lever_arm_sigma_m": the lever arm was measured on the aircraft (tape, total
+/// station) with these σ per axis: a prior observation of the used value, not a hard hold (0:
+/// no prior on that axis).
+void readMeasuredLeverArm(const Fields& used, Job* job) {
+  if (!used.has("lever_arm_sigma_m")) return;
+  const Vec3 sigma = used.vec3("lever_arm_sigma_m");
+  for (int i = 0; i < 3; ++i) {
+    if (sigma[i] < 0 || sigma[i] > 100) used.fail("lever_arm_sigma_m", "each σ must be in [0, 100] m (0: no prior on that axis)");
+    job->options.prior_value[static_cast<std::size_t>(i)] = job->mounting_used.a_b[i];
+    job->options.prior_sigma[static_cast<std::size_t>(i)] = sigma[i];
+  }
+}
+
 Job readJob(const std::string& path) {
   const json j = detail::parseJsonFile(path, "job");
   Job job;
@@ -392,12 +405,13 @@ Job readJob(const std::string& path) {
   readFrame(top, &job);
   readPoseSource(path, top, &job);
   readSensor(path, top, &job);
-  const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg"});
+  const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg", "lever_arm_sigma_m"});
   job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
   readStrips(path, top, &job);
   readInputs(path, top, j, &job);
   readMethods(top, &job);
   readSettings(top, &job);
+  readMeasuredLeverArm(used, &job);
   std::string why;
   if (!job.options.IsValid(&why)) throw FileError(path, "", "invalid calibration settings: " + why);
   if (top.has("output")) {
@@ -470,6 +484,8 @@ std::string jobJson(const Job& job) {
   const Vec3 b = job.mounting_used.boresightDeg();
   j["mounting_used"] = {{"lever_arm_m", {job.mounting_used.a_b.x(), job.mounting_used.a_b.y(), job.mounting_used.a_b.z()}},
                         {"boresight_deg", {b.x(), b.y(), b.z()}}};
+  if (opts.prior_sigma[0] > 0 || opts.prior_sigma[1] > 0 || opts.prior_sigma[2] > 0)
+    j["mounting_used"]["lever_arm_sigma_m"] = {opts.prior_sigma[0], opts.prior_sigma[1], opts.prior_sigma[2]};
   json strips = json::array();
   for (const JobStrip& s : job.strips) {
     json e = {{"id", s.id}, {"path", rel(s.path)}};

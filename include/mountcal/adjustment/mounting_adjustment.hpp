@@ -139,14 +139,18 @@ struct SolverOptions {
 
 /// What is computed after the solve.
 struct AnalysisOptions {
-  /// A direction of the mounting that keeps less than this fraction of its information once
-  /// every nuisance block is eliminated cannot be determined by the data [-].
-  double observability_threshold = 1e-3;
-  /// …unless the data still fix it absolutely: a weak direction whose parameters all have a
-  /// standard deviation along it below these is estimated (weakly determined, e.g. by the
-  /// strip offsets' prior), not held [m, deg].
-  double undeterminable_sigma_m = 0.05;
-  double undeterminable_sigma_deg = 0.01;
+  /// Observability by an absolute rule: a parameter is held (not estimated) only when the data
+  /// do not determine it — its marginal standard deviation, every nuisance block eliminated
+  /// and every other estimated parameter free, exceeds its physical bound below, or the reduced
+  /// normal matrix is rank deficient along it. The most undetermined parameter (σ / bound) is
+  /// held first and the rule applied again. Adding observations can only lower a marginal σ, so
+  /// it never turns a determined parameter into a held one. A lever-arm component measured on
+  /// the aircraft belongs in MountingBlockOptions::prior_sigma instead of being held.
+  double undeterminable_sigma_m = 0.3;    ///< bound of a lever-arm component's σ [m]
+  double undeterminable_sigma_deg = 1.0;  ///< bound of a boresight angle's σ [deg]
+  /// Eigenvalues of the bound-scaled reduced normal matrix below this fraction of the largest
+  /// are a rank deficiency (infinite σ along their direction) [-].
+  double rank_tolerance = 1e-12;
   /// Scale the covariance by the a-posteriori variance factor σ₀². Off by default: the
   /// covariance then follows the stated a-priori sigmas, and variance_factor tells how well
   /// they match the residuals (≈ 1 when they do).
@@ -301,6 +305,10 @@ struct AdjustmentSummary {
 
   /// Parameters that were asked for but that the data cannot determine, and why.
   std::vector<std::string> unobservable;
+  /// Column h (a held parameter): how far each estimated parameter moves per unit error of the
+  /// held value (m/m, rad/m, m/rad or rad/rad; zero elsewhere). The estimated σ do not contain
+  /// the held value's error: this says what it costs.
+  Mat6 held_sensitivity = Mat6::Zero();
   std::string observability_report;
   double condition_number = 0.0;  ///< of the reduced normal matrix of the estimated block
 

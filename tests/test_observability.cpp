@@ -1,0 +1,113 @@
+// Observability by an absolute rule (issue 26, item 4): a parameter is held only when the data
+// do not determine it; adding observations never turns a determined parameter into a held one;
+// a measured lever arm enters as a prior observation instead of a hard hold.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mountcal/mountcal.hpp"
+
+namespace mountcal {
+namespace {
+
+using namespace simulation;
+
+constexpr double kDeg = kPi / 180.0;
+
+/// The crossing field at two heights, noise-free, with the picks and the roof regions.
+const SimulatedSurvey& noiseFreeField(SurveyConfig* config_out = nullptr) {
+  static SurveyConfig config;
+  static const SimulatedSurvey survey = [] {
+    Scene scene;
+    makePreset("paper-calibration-field", 3, &config, &scene);
+    config.noise = NoiseModel::none();
+    config.roi_radius_m = 10.0;
+    return simulate(config, scene);
+  }();
+  if (config_out) *config_out = config;
+  return survey;
+}
+
+MountingCalibrator::Summary run(const std::vector<std::string>& methods) {
+  MountingCalibrator::Options options;
+  options.methods = methods;
+  options.estimate = {true, true, false, true, true, true};
+  return calibrate(toCalibrationData(noiseFreeField()), options);
+}
+
+std::set<std::string> held(const MountingCalibrator::Summary& s) { return {s.unobservable.begin(), s.unobservable.end()}; }
+
+// A test per pair of methods: what either component determines, the combination determines.
+class CombinationKeepsWhatAComponentDetermines : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+
+TEST_P(CombinationKeepsWhatAComponentDetermines, NoParameterAComponentDeterminesIsHeld) {
+  const auto [a, b] = GetParam();
+  const auto only_a = run({a}), only_b = run({b}), both = run({a, b});
+  ASSERT_TRUE(only_a.IsSolutionUsable() && only_b.IsSolutionUsable() && both.IsSolutionUsable());
+  for (const std::string& name : held(both)) {
+    EXPECT_TRUE(held(only_a).count(name)) << name << " is held in " << a << "+" << b << " but determined by " << a << "\n"
+                                          << both.observability_report;
+    EXPECT_TRUE(held(only_b).count(name)) << name << " is held in " << a << "+" << b << " but determined by " << b << "\n"
+                                          << both.observability_report;
+  }
+  // Information only grows: no σ of the combination above its components' (1 % for rounding
+  // and the re-matched sets of the automatic methods).
+  for (int j = 0; j < 6; ++j) {
+    if (!both.estimated[j]) continue;
+    for (const auto* one : {&only_a, &only_b})
+      if (one->estimated[j]) {
+        EXPECT_LE(both.sigma[j], 1.01 * one->sigma[j]) << mountingParameterNames()[j];
+      }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Pairs, CombinationKeepsWhatAComponentDetermines,
+                         ::testing::Values(std::make_pair("vtpm", "planes"), std::make_pair("vtpm", "correspondences"),
+                                           std::make_pair("planes", "correspondences")),
+                         [](const auto& info) { return std::string(info.param.first) + "_" + info.param.second; });
+
+TEST(Observability, VtpmDeterminesTheAlongTrackLeverArmAndPlanesDoNotTakeItAway) {
+  // The case measured in issue 26: vtpm alone determined lever_arm_x; with planes added the
+  // old relative rule held it, and pitch absorbed its error.
+  SurveyConfig config;
+  noiseFreeField(&config);
+  const auto vtpm = run({"vtpm"}), both = run({"vtpm", "planes"});
+  ASSERT_TRUE(vtpm.estimated[kLeverX]) << vtpm.observability_report;
+  ASSERT_TRUE(both.estimated[kLeverX]) << both.observability_report;
+  const auto t = config.true_mounting.toArray(), e = both.mounting.toArray();
+  EXPECT_LT(std::abs(e[kLeverX] - t[kLeverX]), 0.02);
+  EXPECT_LT(std::abs(e[kBoresightPitch] - t[kBoresightPitch]), 0.002 * kDeg);
+}
+
+TEST(Observability, AMeasuredLeverArmIsAPriorNotAHold) {
+  // Flat ground only: the horizontal lever arm is seen only through the aircraft's small roll
+  // and pitch (σ of decimetres). Against a bound of 5 cm it is held; with the taped value's σ
+  // it is estimated, its σ no larger than the tape's, and no held-value sensitivity is left.
+  const SimulatedSurvey& s = noiseFreeField();
+  CalibrationData data = toCalibrationData(s);
+  data.plane_regions = flatGroundRegions(s);
+  MountingCalibrator::Options options;
+  options.methods = {"planes"};
+  options.estimate = {true, true, false, true, true, true};
+  options.undeterminable_sigma_m = 0.05;
+  const auto free = calibrate(data, options);
+  ASSERT_FALSE(free.estimated[kLeverX]) << free.FullReport();
+  EXPECT_FALSE(free.held_sensitivity.col(kLeverX).isZero()) << "the held lever arm moves the boresight";
+  for (int j : {kLeverX, kLeverY}) {
+    options.prior_value[static_cast<std::size_t>(j)] = data.mounting_used.toArray()[static_cast<std::size_t>(j)];
+    options.prior_sigma[static_cast<std::size_t>(j)] = 0.02;
+  }
+  const auto taped = calibrate(data, options);
+  EXPECT_TRUE(taped.unobservable.empty()) << taped.observability_report;
+  for (int j : {kLeverX, kLeverY}) {
+    ASSERT_TRUE(taped.estimated[j]);
+    EXPECT_LE(taped.sigma[j], 0.02 * 1.0001);
+  }
+  EXPECT_GT(taped.sigma[kLeverX], 0.02 * 0.5);  // flat ground adds little to the tape along x
+  EXPECT_TRUE(taped.held_sensitivity.isZero());
+}
+
+}  // namespace
+}  // namespace mountcal
