@@ -253,3 +253,64 @@ TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {
   c.lines.clear();
   EXPECT_THROW(simulate(c, scene), InvalidInput);
 }
+
+namespace mountcal::simulation {
+namespace {
+
+// Issue 26: navigation drift of realistic spectra, in a form unlike the calibrator's models.
+TEST(SimulationNoise, NavigationDriftHasItsRmsAndItsPeriods) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 4, &c, &scene);
+  c.noise = NoiseModel::none();
+  c.noise.drift_position_sigma_m = 0.02;
+  c.noise.drift_attitude_sigma_rad = deg2rad(0.002);
+  c.roi_radius_m = 1.0;
+  const SimulatedSurvey s = simulate(c, scene);
+  // Measured − true trajectory, sampled at the trajectory's rate over every line (both share
+  // their sample times).
+  const auto& measured = s.measured_trajectory->samples();
+  const auto& truth = s.true_trajectory->samples();
+  ASSERT_EQ(measured.size(), truth.size());
+  std::vector<double> dx, times;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    dx.push_back(measured[i].p_m.x() - truth[i].p_m.x());
+    times.push_back(measured[i].time_s);
+  }
+  ASSERT_GT(dx.size(), 1000u);
+  double ss = 0;
+  for (double v : dx) ss += v * v;
+  const double rms = std::sqrt(ss / static_cast<double>(dx.size()));
+  EXPECT_GT(rms, 0.02 * 0.5);  // eight sinusoids per line: the sample RMS scatters about σ
+  EXPECT_LT(rms, 0.02 * 1.6);
+  // Smooth over a second (periods ≥ 10 s): successive samples 1 s apart nearly equal.
+  const std::size_t lag = static_cast<std::size_t>(std::lround(c.trajectory_rate_hz));
+  double diff2 = 0;
+  std::size_t n = 0;
+  for (std::size_t i = lag; i < dx.size(); ++i) {
+    if (times[i] - times[i - lag] > 1.01) continue;  // across a line gap
+    diff2 += (dx[i] - dx[i - lag]) * (dx[i] - dx[i - lag]);
+    ++n;
+  }
+  ASSERT_GT(n, 100u);
+  // For a sinusoid of period P, RMS of the 1 s difference / RMS = 2 sin(π/P) ≤ 0.63 at P = 10 s.
+  EXPECT_LT(std::sqrt(diff2 / static_cast<double>(n)) / rms, 0.63);
+  EXPECT_GT(std::sqrt(diff2 / static_cast<double>(n)) / rms, 0.06);  // ≥ 2 sin(π/100): not constant
+}
+
+TEST(SimulationNoise, WithoutDriftTheSurveyIsUnchanged) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("paper-calibration-field", 4, &c, &scene);
+  c.noise = NoiseModel::realistic();
+  c.roi_radius_m = 1.0;
+  const SimulatedSurvey a = simulate(c, scene);
+  c.noise.drift_position_period_max_s = 50;  // a setting of a drift that is off: no effect
+  const SimulatedSurvey b = simulate(c, scene);
+  ASSERT_EQ(a.measured_trajectory->samples().size(), b.measured_trajectory->samples().size());
+  for (std::size_t i = 0; i < a.measured_trajectory->samples().size(); i += 97)
+    EXPECT_EQ(a.measured_trajectory->samples()[i].p_m, b.measured_trajectory->samples()[i].p_m);
+}
+
+}  // namespace
+}  // namespace mountcal::simulation

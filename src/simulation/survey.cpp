@@ -29,6 +29,13 @@ NoiseModel NoiseModel::realistic() {
   return n;
 }
 
+NoiseModel NoiseModel::withNavigationDrift() {
+  NoiseModel n = realistic();
+  n.drift_position_sigma_m = 0.02;
+  n.drift_attitude_sigma_rad = deg2rad(0.002);
+  return n;
+}
+
 namespace {
 
 /// Per-line geometry helpers.
@@ -97,6 +104,43 @@ double gaussMarkov(double e, double dt, double tau, double sigma, detail::Rng& r
   return phi * e + sigma * std::sqrt(1.0 - phi * phi) * rng.normal();
 }
 
+/// One axis of NoiseModel's navigation drift: Σ_k a sin(2π t / P_k + φ_k) with 8 terms, P_k
+/// log-uniform in [p_min, p_max], a = σ √(2/8) so that the RMS is σ.
+struct BandLimitedDrift {
+  static constexpr int kTerms = 8;
+  std::array<double, kTerms> omega{}, phase{};
+  double amplitude = 0.0;
+  BandLimitedDrift() = default;
+  BandLimitedDrift(double sigma, double p_min, double p_max, detail::Rng& rng) : amplitude(sigma * std::sqrt(2.0 / kTerms)) {
+    for (int k = 0; k < kTerms; ++k) {
+      const double period = p_min * std::pow(p_max / p_min, rng.uniform());
+      omega[static_cast<std::size_t>(k)] = 2 * kPi / period;
+      phase[static_cast<std::size_t>(k)] = 2 * kPi * rng.uniform();
+    }
+  }
+  double operator()(double t) const {
+    if (amplitude == 0.0) return 0.0;
+    double v = 0;
+    for (int k = 0; k < kTerms; ++k) v += std::sin(omega[static_cast<std::size_t>(k)] * t + phase[static_cast<std::size_t>(k)]);
+    return amplitude * v;
+  }
+};
+
+/// The drift of the six navigation axes (position x, y, z; roll, pitch, heading) of one line;
+/// all zero (and no random number drawn) when the model has none.
+std::array<BandLimitedDrift, 6> lineDrift(const NoiseModel& noise, detail::Rng& rng) {
+  std::array<BandLimitedDrift, 6> d;
+  if (noise.drift_position_sigma_m > 0)
+    for (int a = 0; a < 3; ++a)
+      d[static_cast<std::size_t>(a)] =
+          BandLimitedDrift(noise.drift_position_sigma_m, noise.drift_position_period_min_s, noise.drift_position_period_max_s, rng);
+  if (noise.drift_attitude_sigma_rad > 0)
+    for (int a = 0; a < 3; ++a)
+      d[static_cast<std::size_t>(3 + a)] = BandLimitedDrift((a == 2 ? 2.0 : 1.0) * noise.drift_attitude_sigma_rad,
+                                                            noise.drift_attitude_period_min_s, noise.drift_attitude_period_max_s, rng);
+  return d;
+}
+
 }  // namespace
 
 namespace {
@@ -118,6 +162,7 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
     const LineFrame f = lineFrame(line, t_line);
     frames->push_back(f);
     const double pr = phase(rng), pp = phase(rng), ph = phase(rng), pz = phase(rng);
+    const std::array<BandLimitedDrift, 6> drift = lineDrift(noise, rng);
     const long n0 = -static_cast<long>(std::ceil(lead_s / dt));
     const long n1 = static_cast<long>(std::ceil((f.t1 - f.t0 + lead_s) / dt));
     for (long k = n0; k <= n1; ++k) {
@@ -136,10 +181,10 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
         att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s, (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
       }
       TrajectorySample m = s;
-      m.p_m += gnss_err;
-      m.roll += att_err[0];
-      m.pitch += att_err[1];
-      m.heading += att_err[2];
+      m.p_m += gnss_err + Vec3(drift[0](t), drift[1](t), drift[2](t));
+      m.roll += att_err[0] + drift[3](t);
+      m.pitch += att_err[1] + drift[4](t);
+      m.heading += att_err[2] + drift[5](t);
       measured.push_back(m);
     }
     t_line = f.t1 + config.line_gap_s;

@@ -55,8 +55,10 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
           config->noise = NoiseModel::none();
         else if (n == "realistic")
           config->noise = NoiseModel::realistic();
+        else if (n == "navigation_drift")
+          config->noise = NoiseModel::withNavigationDrift();
         else
-          throw FileError(path, "field 'noise'", "expected \"none\", \"realistic\" or an object");
+          throw FileError(path, "field 'noise'", "expected \"none\", \"realistic\", \"navigation_drift\" or an object");
       } else if (n.is_object()) {
         NoiseModel& m = config->noise;
         for (auto it = n.begin(); it != n.end(); ++it) {
@@ -77,9 +79,24 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
             m.attitude_correlation_s = v;
           else if (k == "pick_sigma_m")
             m.pick_sigma_m = v;
+          else if (k == "drift_position_sigma_m")
+            m.drift_position_sigma_m = v;
+          else if (k == "drift_position_period_min_s")
+            m.drift_position_period_min_s = v;
+          else if (k == "drift_position_period_max_s")
+            m.drift_position_period_max_s = v;
+          else if (k == "drift_attitude_sigma_deg")
+            m.drift_attitude_sigma_rad = deg2rad(v);
+          else if (k == "drift_attitude_period_min_s")
+            m.drift_attitude_period_min_s = v;
+          else if (k == "drift_attitude_period_max_s")
+            m.drift_attitude_period_max_s = v;
           else
             throw FileError(path, "field 'noise." + k + "'", "unknown noise field");
         }
+        if (!(m.drift_position_period_min_s > 0 && m.drift_position_period_min_s <= m.drift_position_period_max_s) ||
+            !(m.drift_attitude_period_min_s > 0 && m.drift_attitude_period_min_s <= m.drift_attitude_period_max_s))
+          throw FileError(path, "field 'noise'", "drift periods need 0 < period_min_s <= period_max_s");
       } else {
         throw FileError(path, "field 'noise'", "expected a string or an object");
       }

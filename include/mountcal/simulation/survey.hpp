@@ -71,8 +71,23 @@ struct NoiseModel {
   double attitude_sigma_rad = 0.0;      ///< roll and pitch [rad]; heading gets twice this
   double attitude_correlation_s = 1.0;  ///< [s]
   double pick_sigma_m = 0.0;            ///< tie picking, per horizontal axis [m]
+  /// Navigation drift within a strip, as a GNSS/INS solution carries it, in a form unlike the
+  /// calibrator's models (a constant offset per strip, a first-order Gauss–Markov attitude): a
+  /// band-limited process, per axis the sum of 8 sinusoids of random phase whose periods are
+  /// spread log-uniformly over [period_min_s, period_max_s], redrawn for every line. RMS per
+  /// axis; the heading's attitude drift is twice the roll/pitch value. 0: off (the other
+  /// noise then draws the same numbers as without this field).
+  double drift_position_sigma_m = 0.0;         ///< [m]
+  double drift_position_period_min_s = 10.0;   ///< [s]
+  double drift_position_period_max_s = 100.0;  ///< [s]
+  double drift_attitude_sigma_rad = 0.0;       ///< roll and pitch [rad]
+  double drift_attitude_period_min_s = 1.0;    ///< [s]
+  double drift_attitude_period_max_s = 30.0;   ///< [s]
 
   static NoiseModel none() { return {}; }
+  /// realistic() plus survey-grade navigation drift: position 2 cm RMS (periods 10–100 s),
+  /// attitude 0.002° roll/pitch and 0.004° heading RMS (periods 1–30 s) — issue 26's spectra.
+  static NoiseModel withNavigationDrift();
   /// A post-processed airborne survey: 2 cm range, 0.001° scan-angle encoder, 1.5 cm
   /// strip-to-strip GNSS (PPK, Gauss–Markov 100 s), 0.001° roll/pitch and 0.002° heading
   /// noise (Gauss–Markov 0.1 s), 5 cm tie picking.
