@@ -205,7 +205,53 @@ std::string MountingCalibrator::Summary::FullReport() const {
     r << "   " << names[a] << "\n";
   }
   for (const auto& s : sections) r << s->text(*this);
+  const Verdict v = verdict();
+  r << "\nVerdict: " << v.name();
+  for (std::size_t i = 0; i < v.reasons.size(); ++i) r << (i ? "; " : " — ") << v.reasons[i];
+  r << "\n";
   return r.str();
+}
+
+MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
+  Verdict v;
+  auto reject = [&](const std::string& why) {
+    v.kind = Verdict::Kind::kReject;
+    v.reasons.push_back(why);
+  };
+  auto doubt = [&](const std::string& why) {
+    if (v.kind == Verdict::Kind::kAccept) v.kind = Verdict::Kind::kDoubtful;
+    v.reasons.push_back(why);
+  };
+  char buf[200];
+  if (!IsSolutionUsable()) reject(std::string("the solve is not usable (") + toString(termination) + ")");
+  int asked = static_cast<int>(unobservable.size()), determined = 0;
+  for (int j = 0; j < 6; ++j) determined += estimated[j];
+  asked += determined;
+  if (asked > 0 && determined == 0) reject("nothing asked for could be determined from these observations");
+  if (degrees_of_freedom <= 0) {
+    doubt("no redundancy (" + std::to_string(degrees_of_freedom) + " degrees of freedom): nothing checks the result");
+  } else {
+    if (variance_factor > 10.0) {
+      std::snprintf(buf, sizeof buf, "σ₀² = %.3g: the residuals are %.1f times the stated σ (outliers, a wrong model or wrong σ)",
+                    variance_factor, std::sqrt(variance_factor));
+      reject(buf);
+    } else if (variance_factor > 2.0) {
+      std::snprintf(buf, sizeof buf, "σ₀² = %.3g: the stated σ are smaller than the residuals show, so the σ are optimistic",
+                    variance_factor);
+      doubt(buf);
+    } else if (variance_factor < 0.3) {
+      std::snprintf(buf, sizeof buf, "σ₀² = %.3g: the stated σ are larger than the residuals show", variance_factor);
+      doubt(buf);
+    }
+    if (degrees_of_freedom < 10) doubt("few observations: " + std::to_string(degrees_of_freedom) + " degrees of freedom");
+  }
+  for (const std::string& held : unobservable) doubt(held + " was asked for but held at its used value (not determined by the data)");
+  int outliers = 0, observations = 0;
+  for (const auto& s : sections) outliers += s->outliers();
+  for (const auto& k : kinds) observations += k.residuals;
+  if (observations > 0 && outliers > 0.05 * observations)
+    doubt(std::to_string(outliers) + " of " + std::to_string(observations) + " observations are flagged as outliers");
+  return v;
 }
 
 MountingCalibrator::Summary calibrate(const CalibrationData& data, const MountingCalibrator::Options& options) {

@@ -326,6 +326,8 @@ struct HonestyResult {
   std::array<double, 6> z2{};
   double variance_factor_sum = 0, redundancy_sum = 0;
   int seeds = 0;
+  int accepted = 0;                 // verdict accept
+  std::vector<std::string> doubts;  // the reasons of the others
 };
 
 HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correlation_s, double model_attitude_correlation_s) {
@@ -362,6 +364,9 @@ HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correl
     }
     h.variance_factor_sum += S.variance_factor;
     h.redundancy_sum += S.degrees_of_freedom;
+    const auto verdict = S.verdict();
+    h.accepted += verdict.kind == MountingCalibrator::Verdict::Kind::kAccept;
+    for (const std::string& r : verdict.reasons) h.doubts.push_back("seed " + std::to_string(seed) + ": " + r);
   }
   return h;
 }
@@ -385,6 +390,10 @@ void expectHonest(const HonestyResult& h) {
   const double band = 2.576 * std::sqrt(2.0 / h.redundancy_sum);  // σ₀² of the pooled redundancy
   std::printf("mean variance factor %.4f (chi-square 99 %% range 1 +- %.4f), mean redundancy %.1f\n", vf, band, h.redundancy_sum / h.seeds);
   EXPECT_NEAR(vf, 1.0, band);
+  // A survey whose σ are honest is accepted: the verdict's doubts are not raised by chance.
+  std::string doubts;
+  for (const std::string& d : h.doubts) doubts += d + "\n";
+  EXPECT_EQ(h.accepted, h.seeds) << doubts;
 }
 
 }  // namespace

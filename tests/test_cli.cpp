@@ -377,3 +377,28 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
   EXPECT_EQ(res["methods"], nlohmann::json({"vtpm", "planes"}));
   fs::remove_all(base);
 }
+
+// Issue 26: a calibration that should not be used exits 1 with the reason; the result file and
+// the report carry the verdict. The job states a tie σ 30× too small (1 mm for picks that
+// scatter 5 cm), so σ₀² is far above 10.
+TEST(Cli, ACalibrationThatShouldNotBeUsedExits1WithTheReason) {
+  const std::string base = (fs::temp_directory_path() / ("mountcal_verdict_" + std::to_string(::getpid()))).string();
+  ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 4 --out " + base).code, 0);
+  const CliRun good = runCli("calibrate --quiet " + base + "/job.json");
+  ASSERT_EQ(good.code, 0) << good.err;
+  EXPECT_NE(resultOf(base)["verdict"]["kind"].get<std::string>(), "reject");
+  nlohmann::json job = nlohmann::json::parse(slurp(base + "/job.json"));
+  job["vtpm"]["tie_sigma_xy_m"] = 0.001;
+  job["vtpm"]["tie_sigma_z_m"] = 0.001;
+  job["vtpm"]["estimate_tie_sigma"] = false;
+  job["output"]["report"] = "report.html";
+  std::ofstream(base + "/bad.json") << job.dump(2);
+  const CliRun bad = runCli("calibrate --quiet " + base + "/bad.json");
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.err.find("should not be used: σ₀²"), std::string::npos) << bad.err;
+  const auto result = resultOf(base);
+  EXPECT_EQ(result["verdict"]["kind"], "reject");
+  EXPECT_NE(result["verdict"]["reasons"][0].get<std::string>().find("σ₀²"), std::string::npos);
+  EXPECT_NE(slurp(base + "/report.html").find("Verdict: reject"), std::string::npos);
+  fs::remove_all(base);
+}

@@ -109,5 +109,30 @@ TEST(Observability, AMeasuredLeverArmIsAPriorNotAHold) {
   EXPECT_TRUE(taped.held_sensitivity.isZero());
 }
 
+// The verdict's reject over seeds: picks that scatter 3 cm stated as 1 mm give σ₀² far above
+// 10 in every seed, and the verdict says so (the accept side: VtpmCalibration.
+// SigmasAreHonestOverThirtySeeds accepts all 30 honest surveys).
+TEST(Verdict, StatedSigmasFarTooSmallAreRejectedInEverySeed) {
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    Scene scene;
+    SurveyConfig c;
+    makePreset("paper-calibration-field", seed, &c, &scene);
+    c.noise = NoiseModel::realistic();
+    c.noise.pick_sigma_m = 0.03;
+    c.roi_radius_m = 8.0;
+    const SimulatedSurvey s = simulate(c, scene);
+    MountingCalibrator::Options options;
+    options.method<VtpmOptions>().tie_sigma_xy_m = 0.001;
+    options.method<VtpmOptions>().tie_sigma_z_m = 0.001;
+    const auto summary = calibrate(toCalibrationData(s), options);
+    ASSERT_TRUE(summary.IsSolutionUsable());
+    const auto verdict = summary.verdict();
+    EXPECT_EQ(verdict.kind, MountingCalibrator::Verdict::Kind::kReject) << "seed " << seed << ": σ₀² " << summary.variance_factor;
+    ASSERT_FALSE(verdict.reasons.empty());
+    EXPECT_NE(verdict.reasons[0].find("σ₀²"), std::string::npos) << verdict.reasons[0];
+    EXPECT_NE(summary.FullReport().find("Verdict: reject"), std::string::npos);
+  }
+}
+
 }  // namespace
 }  // namespace mountcal

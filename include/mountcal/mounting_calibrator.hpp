@@ -48,6 +48,23 @@ class MountingCalibrator {
     bool IsValid(std::string* error) const;
   };
 
+  /// Whether a calibration should be used (issue 26): the verdict and its reasons, each a
+  /// sentence a user can act on. Rules (Summary::verdict):
+  ///  - reject: the solve is not usable; σ₀² above 10 (the residuals are
+  ///    over three times the stated σ: outliers, a wrong model, or a wrong stochastic model);
+  ///    nothing asked for could be determined;
+  ///  - doubtful: a parameter asked for was held; σ₀² above 2 or below 0.3 (the σ do not match
+  ///    the residuals — above 2, the stated σ are optimistic); fewer than 10 degrees of freedom
+  ///    (none: nothing checks the result); more than 5 % of the observations flagged as outliers;
+  ///  - accept otherwise. A strong correlation is not a doubt by itself: the σ carry it (the
+  ///    report's warnings name it).
+  struct Verdict {
+    enum class Kind { kAccept, kDoubtful, kReject };
+    Kind kind = Kind::kAccept;
+    std::vector<std::string> reasons;  ///< empty for kAccept
+    const char* name() const { return kind == Kind::kAccept ? "accept" : kind == Kind::kDoubtful ? "doubtful" : "reject"; }
+  };
+
   struct Summary : AdjustmentSummary {
     std::vector<std::string> methods;  ///< the methods that were run
     /// One section per module that ran (the named methods, and ground control when used), in
@@ -73,7 +90,9 @@ class MountingCalibrator {
     /// Per-laser elevation offsets a method estimated [rad] (empty: none).
     std::vector<double> laserElevationOffsetsRad() const;
     std::string BriefReport() const;
+    /// Ends with the verdict and its reasons.
     std::string FullReport() const;
+    Verdict verdict() const;
   };
 
   MountingCalibrator() = default;

@@ -150,6 +150,13 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
     std::fprintf(stderr, "mountcal calibrate: the solve is not usable: %s (%s)\n", toString(summary.termination), summary.message.c_str());
     return 1;
   }
+  const MountingCalibrator::Verdict verdict = summary.verdict();
+  if (verdict.kind == MountingCalibrator::Verdict::Kind::kReject) {
+    std::string why;
+    for (const std::string& r : verdict.reasons) why += (why.empty() ? "" : "; ") + r;
+    std::fprintf(stderr, "mountcal calibrate: the calibration should not be used: %s\n", why.c_str());
+    return 1;
+  }
   return 0;
 }
 

@@ -104,6 +104,10 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
   for (const auto& k : summary.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
   j["kinds"] = kinds;
   j["covariance_source"] = summary.covariance_source;
+  {
+    const MountingCalibrator::Verdict verdict = summary.verdict();
+    j["verdict"] = {{"kind", verdict.name()}, {"reasons", verdict.reasons}};
+  }
   j["condition_number"] = numOrNull(summary.condition_number);
   // SPEC §4's tie keys are in every result file: null unless a method fills them (method "vtpm").
   for (const char* key : {"ties", "rms_before_m", "rms_after_m", "residuals"}) j[key] = nullptr;

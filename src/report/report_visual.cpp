@@ -336,6 +336,10 @@ std::string warningsSection(const MountingCalibrator::Summary& summary) {
   if (outliers) warn.push_back(std::to_string(outliers) + " observations flagged as outliers");
   if (!summary.IsSolutionUsable())
     warn.push_back(std::string("the solve is not usable: ") + toString(summary.termination) + " — " + summary.message);
+  const MountingCalibrator::Verdict verdict = summary.verdict();
+  v << "<h2>Verdict: " << verdict.name() << "</h2>";
+  if (verdict.reasons.empty()) v << "<p class=ok>Nothing speaks against using this calibration.</p>";
+  for (const auto& r : verdict.reasons) v << "<p class=warn>" << detail::htmlEscape(r) << "</p>";
   v << "<h2>Warnings</h2>";
   if (warn.empty()) v << "<p class=ok>None.</p>";
   for (const auto& w : warn) v << "<p class=warn>" << detail::htmlEscape(w) << "</p>";
