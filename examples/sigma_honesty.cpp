@@ -4,6 +4,7 @@
 //
 //   sigma_honesty [--method vtpm|planes|planes_auto|correspondences|features|vtpm+planes]
 //                 [--seeds N] [--first-seed S] [--noise realistic|navigation_drift]
+//                 [--model-attitude-drift]   (state the attitude drift as PulseNoise's random effect)
 //
 // The field is the first paper's crossing field (two heights, roofs of several aspects; pulses
 // cast within 12 m of every feature), or the VLP-16 UAV preset for `features`. Noise
@@ -25,6 +26,7 @@ using namespace mountcal::simulation;
 int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift";
   int seeds = 10, first_seed = 1;
+  bool model_drift = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--method" && i + 1 < argc)
@@ -35,8 +37,10 @@ int main(int argc, char** argv) {
       first_seed = std::atoi(argv[++i]);
     else if (a == "--noise" && i + 1 < argc)
       noise = argv[++i];
+    else if (a == "--model-attitude-drift")
+      model_drift = true;
     else {
-      std::fprintf(stderr, "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n", argv[0]);
       return 2;
     }
   }
@@ -78,6 +82,11 @@ int main(int argc, char** argv) {
     o.method<PlaneOptions>().automatic = automatic;
     o.strip_offset_sigma_m = 0.02;
     o.estimate = {true, true, false, true, true, true};
+    if (model_drift) {  // the attitude drift as the calibrator's random effect (ties only, today)
+      o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.drift_attitude_sigma_rad);
+      o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.drift_attitude_sigma_rad);
+      o.pulse_noise.attitude_correlation_s = 5.0;
+    }
     const auto summary = calibrate(toCalibrationData(s), o);
     if (!summary.IsSolutionUsable()) {
       std::printf("seed %d: not usable (%s)\n", seed, summary.message.c_str());
