@@ -40,7 +40,9 @@ int main(int argc, char** argv) {
     else if (a == "--model-attitude-drift")
       model_drift = true;
     else {
-      std::fprintf(stderr, "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n",
+                   argv[0]);
       return 2;
     }
   }
