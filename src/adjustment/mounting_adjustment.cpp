@@ -415,7 +415,7 @@ Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
 }
 
 /// A σ for the report: [m] or [deg] as given, three significant digits.
-std::string fmtSigma(int /*j*/, double v) {
+std::string fmtSigma(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
@@ -578,7 +578,7 @@ class Estimation {
     const char* unit = pick < 3 ? " m" : "°";
     report_ << names[pick] << " cannot be determined from these observations (";
     if (std::isfinite(ms.ratio[at]))
-      report_ << "its σ would be " << fmtSigma(pick, ms.ratio[at] * bound) << unit << ", beyond the bound of " << bound << unit;
+      report_ << "its σ would be " << fmtSigma(ms.ratio[at] * bound) << unit << ", beyond the bound of " << bound << unit;
     else
       report_ << "no observation fixes it once the tie positions, planes and strip offsets are eliminated";
     report_ << ")";

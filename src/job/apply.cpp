@@ -103,14 +103,9 @@ class FileApplier {
   std::uint64_t rewriteRecords(ApplyStats* stats_out) {
     ApplyStats& stats = *stats_out;
     const io::LasHeader& h = reader_.header();
-    io::LasReader& reader = reader_;
-    io::LasWriter& writer = writer_;
-    const JobFrame& frame = frame_;
-    const std::string& in_path = in_path_;
-    const std::size_t chunk_points = chunk_points_;
     const Trajectory* T = loaded_.data.trajectory.get();
-    const auto used_model = std::make_unique<GeoreferenceModel>(loaded_.data.trajectory, job_.mounting_used);
-    const auto new_model = std::make_unique<GeoreferenceModel>(loaded_.data.trajectory, mounting_);
+    const GeoreferenceModel used_model(loaded_.data.trajectory, job_.mounting_used);
+    const GeoreferenceModel new_model(loaded_.data.trajectory, mounting_);
     std::uint64_t record = 0;
     std::vector<std::uint8_t> records;
     std::vector<double> times, xyz_crs, xyz, r_s_batch, xyz_new;
@@ -125,7 +120,7 @@ class FileApplier {
     // chunks of a million records made each record travel through memory three times, and two
     // threads then waited on the memory bus).
     constexpr std::size_t kBatch = 1u << 16;
-    while (reader.readRaw(&records, std::min(chunk_points, kBatch)) > 0) {
+    while (reader_.readRaw(&records, std::min(chunk_points_, kBatch)) > 0) {
       const std::size_t in_chunk = records.size() / len;
       for (std::size_t k0 = 0; k0 < in_chunk; k0 += kBatch) {
         const std::size_t n = std::min(kBatch, in_chunk - k0);
@@ -147,24 +142,24 @@ class FileApplier {
         }
         for (std::size_t k = 0; k < n; ++k) {
           if (!(times[k] >= t_start && times[k] <= t_end)) {
-            throw FileError(in_path, "record " + std::to_string(record + k),
+            throw FileError(in_path_, "record " + std::to_string(record + k),
                             "GPS time " + std::to_string(times[k]) + " s is outside the trajectory");
           }
         }
         const double* x_local = xyz_crs.data();
-        if (!frame.isLocal()) {
+        if (!frame_.isLocal()) {
           xyz.resize(3 * n);
           for (std::size_t k = 0; k < n; ++k) {
-            const Vec3 x = frame.toLocal(Vec3(xyz_crs[3 * k], xyz_crs[3 * k + 1], xyz_crs[3 * k + 2]));
+            const Vec3 x = frame_.toLocal(Vec3(xyz_crs[3 * k], xyz_crs[3 * k + 1], xyz_crs[3 * k + 2]));
             xyz[3 * k] = x.x(), xyz[3 * k + 1] = x.y(), xyz[3 * k + 2] = x.z();
           }
           x_local = xyz.data();
         }
-        used_model->inverse(times.data(), x_local, r_s_batch.data(), n);
-        new_model->forward(times.data(), r_s_batch.data(), xyz_new.data(), n);
-        if (!frame.isLocal()) {
+        used_model.inverse(times.data(), x_local, r_s_batch.data(), n);
+        new_model.forward(times.data(), r_s_batch.data(), xyz_new.data(), n);
+        if (!frame_.isLocal()) {
           for (std::size_t k = 0; k < n; ++k) {
-            const Vec3 x = frame.fromLocal(Vec3(xyz_new[3 * k], xyz_new[3 * k + 1], xyz_new[3 * k + 2]));
+            const Vec3 x = frame_.fromLocal(Vec3(xyz_new[3 * k], xyz_new[3 * k + 1], xyz_new[3 * k + 2]));
             xyz_new[3 * k] = x.x(), xyz_new[3 * k + 1] = x.y(), xyz_new[3 * k + 2] = x.z();
           }
         }
@@ -173,9 +168,9 @@ class FileApplier {
                        dz = xyz_new[3 * k + 2] - xyz_crs[3 * k + 2];
           max_shift2 = std::max(max_shift2, dx * dx + dy * dy + dz * dz);
         }
-        writer.quantize(xyz_new.data(), XYZ_new.data(), n, record);
+        writer_.quantize(xyz_new.data(), XYZ_new.data(), n, record);
         for (std::size_t k = 0; k < n; ++k) io::LasRecordLayout::setIntegers(block + k * len, &XYZ_new[3 * k]);
-        writer.writeRaw(block, n);
+        writer_.writeRaw(block, n);
         record += n;
       }
     }
@@ -186,49 +181,39 @@ class FileApplier {
   /// Point by point, through per-point poses or per-laser offsets. Returns the points written.
   std::uint64_t rewritePoints(ApplyStats* stats_out) {
     ApplyStats& stats = *stats_out;
-    io::LasReader& reader = reader_;
-    io::LasWriter& writer = writer_;
-    const JobFrame& frame = frame_;
-    const std::string& in_path = in_path_;
-    const std::size_t chunk_points = chunk_points_;
-    const std::unique_ptr<io::PoseFieldReader>& poses = poses_;
-    const std::unique_ptr<io::PointFieldReader>& laser = laser_;
-    const std::vector<double>& laser_elevation_rad = laser_elevation_rad_;
-    const Job& job = job_;
-    const MountingParameters& mounting = mounting_;
     const Trajectory* T = loaded_.data.trajectory.get();
-    const Mat3 R_bs0 = job.mounting_used.R_bs(), R_bs1 = mounting.R_bs();
+    const Mat3 R_bs0 = job_.mounting_used.R_bs(), R_bs1 = mounting_.R_bs();
     std::vector<io::LasPoint> chunk;
     std::size_t cursor = 0;
     std::uint64_t record = 0;
-    while (reader.read(&chunk, chunk_points) > 0) {
+    while (reader_.read(&chunk, chunk_points_) > 0) {
       for (io::LasPoint& p : chunk) {
         Pose pose;
-        if (poses) {
-          pose = poses->pose(p, record);
+        if (poses_) {
+          pose = poses_->pose(p, record);
         } else {
           if (!(p.gps_time >= T->startTime() && p.gps_time <= T->endTime())) {
-            throw FileError(in_path, "record " + std::to_string(record),
+            throw FileError(in_path_, "record " + std::to_string(record),
                             "GPS time " + std::to_string(p.gps_time) + " s is outside the trajectory");
           }
           pose = T->pose(p.gps_time, &cursor);
         }
-        const Vec3 x_crs(reader.x(p), reader.y(p), reader.z(p));
-        Vec3 r_s = inverseGeoreference(pose, R_bs0, job.mounting_used.a_b, frame.toLocal(x_crs));
-        if (laser) {
-          const double id = laser->value(p);
-          if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad.size()))) {
-            throw FileError(in_path, "record " + std::to_string(record),
+        const Vec3 x_crs(reader_.x(p), reader_.y(p), reader_.z(p));
+        Vec3 r_s = inverseGeoreference(pose, R_bs0, job_.mounting_used.a_b, frame_.toLocal(x_crs));
+        if (laser_) {
+          const double id = laser_->value(p);
+          if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad_.size()))) {
+            throw FileError(in_path_, "record " + std::to_string(record),
                             "laser id " + std::to_string(id) + " has no elevation offset in the result");
           }
-          r_s = elevateLaserVector(r_s, laser_elevation_rad[static_cast<std::size_t>(id)]);
+          r_s = elevateLaserVector(r_s, laser_elevation_rad_[static_cast<std::size_t>(id)]);
         }
-        const Vec3 x_new = frame.fromLocal(georeference(pose, R_bs1, mounting.a_b, r_s));
+        const Vec3 x_new = frame_.fromLocal(georeference(pose, R_bs1, mounting_.a_b, r_s));
         stats.max_shift_m = std::max(stats.max_shift_m, (x_new - x_crs).norm());
-        p.X = writer.quantize(0, x_new.x());
-        p.Y = writer.quantize(1, x_new.y());
-        p.Z = writer.quantize(2, x_new.z());
-        writer.write(p);
+        p.X = writer_.quantize(0, x_new.x());
+        p.Y = writer_.quantize(1, x_new.y());
+        p.Z = writer_.quantize(2, x_new.z());
+        writer_.write(p);
         ++record;
       }
     }
