@@ -26,7 +26,8 @@ using namespace mountcal::simulation;
 int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift";
   int seeds = 10, first_seed = 1;
-  bool model_drift = false;
+  bool model_drift = false, trajectory_none = false;
+  double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--method" && i + 1 < argc)
@@ -39,6 +40,12 @@ int main(int argc, char** argv) {
       noise = argv[++i];
     else if (a == "--model-attitude-drift")
       model_drift = true;
+    else if (a == "--trajectory-none")
+      trajectory_none = true;
+    else if (a == "--attitude-tau" && i + 1 < argc)
+      attitude_tau = std::atof(argv[++i]);
+    else if (a == "--position-tau" && i + 1 < argc)
+      position_tau = std::atof(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n",
@@ -80,10 +87,14 @@ int main(int argc, char** argv) {
     MountingCalibrator::Options o;
     o.methods = methods;
     o.method<VtpmOptions>().tie_sigma_xy_m = 0.03;
-    o.method<VtpmOptions>().tie_sigma_z_m = 0.03;
+    o.method<VtpmOptions>().tie_sigma_z_m = 0.01;  // picks are 2-D; a tie's height comes from its triangle
+    o.method<VtpmOptions>().estimate_tie_sigma = true;
     o.method<PlaneOptions>().automatic = automatic;
     o.strip_offset_sigma_m = 0.02;
     o.estimate = {true, true, false, true, true, true};
+    o.trajectory.attitude_correlation_s = attitude_tau;
+    o.trajectory.position_correlation_s = position_tau;
+    if (trajectory_none) o.trajectory = TrajectoryAccuracy::none();
     if (model_drift) {  // the attitude drift as the calibrator's random effect (ties only, today)
       o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.drift_attitude_sigma_rad);
       o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.drift_attitude_sigma_rad);

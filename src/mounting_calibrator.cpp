@@ -172,7 +172,7 @@ std::string MountingCalibrator::Summary::FullReport() const {
   for (const auto& k : kinds) r << "  " << k.kind << ": " << k.blocks << " residual blocks, " << k.residuals << " residuals\n";
   std::snprintf(buf, sizeof buf, "Degrees of freedom %d, variance factor %.4g\n\n", degrees_of_freedom, variance_factor);
   r << buf;
-  r << "parameter            used            estimated       sigma\n";
+  r << "parameter            used            estimated       sigma             formal sigma\n";
   const auto& names = mountingParameterNames();
   const auto used = mounting_used.toArray(), est = mounting.toArray();
   for (int j = 0; j < 6; ++j) {
@@ -181,7 +181,7 @@ std::string MountingCalibrator::Summary::FullReport() const {
     const char* unit = lin ? "m  " : "deg";
     std::string sig = estimated[j] ? "" : "fixed";
     if (estimated[j]) {
-      std::snprintf(buf, sizeof buf, "%.6f %s", sigma[j] * k, unit);
+      std::snprintf(buf, sizeof buf, "%.6f %s      %.6f %s", sigma[j] * k, unit, formal_sigma[j] * k, unit);
       sig = buf;
     } else if (std::find(unobservable.begin(), unobservable.end(), names[j]) != unobservable.end()) {
       sig = "undeterminable";
@@ -189,6 +189,8 @@ std::string MountingCalibrator::Summary::FullReport() const {
     std::snprintf(buf, sizeof buf, "%-18s %+12.6f %s %+12.6f %s  %s\n", names[j].c_str(), used[j] * k, unit, est[j] * k, unit, sig.c_str());
     r << buf;
   }
+  r << "sigma: " << sigma_model
+    << (sigma_model == "formal" ? "\n" : " (the stated trajectory accuracy; formal: observations taken as independent)\n");
   if (!observability_report.empty()) r << "\nObservability:\n" << observability_report;
   std::snprintf(buf, sizeof buf, "\nCondition number of the estimated block (normalised): %.3g\n", condition_number);
   r << buf;

@@ -173,6 +173,39 @@ TEST(Registry, EarlierJobKeysAreStillReadWithANotice) {
   EXPECT_THROW(readJob(path), FileError);
 }
 
+TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
+  const fs::path dir = freshDir("trajectory_accuracy");
+  json j = {{"frame", {{"type", "local"}}},
+            {"trajectory", {{"path", "t.csv"}}},
+            {"sensor", {{"type", "line"}}},
+            {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
+            {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
+            {"ties", "ties.csv"},
+            {"stochastic", {{"trajectory", {{"position_sigma_m", 0.05}, {"heading_sigma_deg", 0.02}}}}}};
+  const std::string path = (dir / "job.json").string();
+  writeJson(path, j);
+  const Job job = readJob(path);
+  EXPECT_EQ(job.options.trajectory.position_sigma_m, 0.05);
+  EXPECT_EQ(job.options.trajectory.heading_sigma_deg, 0.02);
+  EXPECT_EQ(job.options.trajectory.roll_pitch_sigma_deg, TrajectoryAccuracy().roll_pitch_sigma_deg);  // the default kept
+  const std::string again = (dir / "again.json").string();
+  std::ofstream(again) << jobJson(job);
+  const Job back = readJob(again);
+  EXPECT_EQ(back.options.trajectory.position_sigma_m, 0.05);
+  EXPECT_EQ(back.options.trajectory.heading_sigma_deg, 0.02);
+  j["stochastic"]["trajectory"] = "none";
+  writeJson(path, j);
+  EXPECT_FALSE(readJob(path).options.trajectory.any());
+  j["stochastic"]["trajectory"] = {{"position_sigma_m", -1}};
+  writeJson(path, j);
+  try {
+    readJob(path);
+    ADD_FAILURE() << "a negative σ was accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("position_sigma_m"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {
   const std::string cli = MOUNTCAL_CLI_WITH_TEST_METHODS;
   const CliRun listing = run(cli, "methods");

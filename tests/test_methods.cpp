@@ -81,6 +81,7 @@ MountingCalibrator::Options noisy(MountingCalibrator::Options o) {
   o.method<ControlOptions>().tie_sigma_xy_m = 0.03;  // the control points are picked as the ties are
   o.method<ControlOptions>().tie_sigma_z_m = 0.03;
   o.strip_offset_sigma_m = 0.005;
+  o.trajectory = TrajectoryAccuracy::none();  // the simulated trajectories carry no drift in time
   return o;
 }
 

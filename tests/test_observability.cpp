@@ -52,13 +52,15 @@ TEST_P(CombinationKeepsWhatAComponentDetermines, NoParameterAComponentDetermines
     EXPECT_TRUE(held(only_b).count(name)) << name << " is held in " << a << "+" << b << " but determined by " << b << "\n"
                                           << both.observability_report;
   }
-  // Information only grows: no σ of the combination above its components' (1 % for rounding
-  // and the re-matched sets of the automatic methods).
+  // Information only grows: no formal σ of the combination above its components' (1 % for
+  // rounding and the re-matched sets of the automatic methods). The σ with trajectory errors in
+  // time may grow: observations weighted as independent that share a trajectory error are not
+  // combined optimally — what that costs is what those σ state.
   for (int j = 0; j < 6; ++j) {
     if (!both.estimated[j]) continue;
     for (const auto* one : {&only_a, &only_b})
       if (one->estimated[j]) {
-        EXPECT_LE(both.sigma[j], 1.01 * one->sigma[j]) << mountingParameterNames()[j];
+        EXPECT_LE(both.formal_sigma[j], 1.01 * one->formal_sigma[j]) << mountingParameterNames()[j];
       }
   }
 }
@@ -103,9 +105,12 @@ TEST(Observability, AMeasuredLeverArmIsAPriorNotAHold) {
   EXPECT_TRUE(taped.unobservable.empty()) << taped.observability_report;
   for (int j : {kLeverX, kLeverY}) {
     ASSERT_TRUE(taped.estimated[j]);
-    EXPECT_LE(taped.sigma[j], 0.02 * 1.0001);
+    EXPECT_LE(taped.formal_sigma[j], 0.02 * 1.0001);  // the tape's information, and the data's on top
+    // Trajectory errors in time (2 cm vertical drift) pull the flat-ground estimate through the
+    // aircraft's small pitch and roll: the σ that include them say so.
+    EXPECT_GT(taped.sigma[j], taped.formal_sigma[j]);
   }
-  EXPECT_GT(taped.sigma[kLeverX], 0.02 * 0.5);  // flat ground adds little to the tape along x
+  EXPECT_GT(taped.formal_sigma[kLeverX], 0.02 * 0.5);  // flat ground adds little to the tape along x
   EXPECT_TRUE(taped.held_sensitivity.isZero());
 }
 

@@ -45,12 +45,20 @@ bool MountingBlockOptions::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+/// [u]×, the cross-product matrix: [u]× v = u × v.
+Mat3 skew(const Vec3& u) {
+  Mat3 U;
+  U << 0, -u.z(), u.y(), u.z(), 0, -u.x(), -u.y(), u.x(), 0;
+  return U;
+}
+}  // namespace
+
 Mat3 PulseNoise::pointCovariance(const Vec3& u_m, const Vec3& beam_m, double independent_weight) const {
   Mat3 S = Mat3::Identity() * (position_m * position_m);
   const bool white_attitude = !attitudeRandomEffect();
   const double t = white_attitude ? deg2rad(roll_pitch_deg) : 0.0, k = white_attitude ? deg2rad(heading_deg) : 0.0;
-  Mat3 U;  // [u]×: δx = δψ × u = −[u]× δψ
-  U << 0, -u_m.z(), u_m.y(), u_m.z(), 0, -u_m.x(), -u_m.y(), u_m.x(), 0;
+  const Mat3 U = skew(u_m);  // δx = δψ × u = −[u]× δψ
   S += U * Vec3(t * t, t * t, k * k).asDiagonal() * U.transpose();
   const double rho = beam_m.norm();
   if (rho > 0 && (range_m > 0 || beam_deg > 0)) {
@@ -72,8 +80,24 @@ bool PulseNoise::IsValid(std::string* error) const {
   return true;
 }
 
+bool TrajectoryAccuracy::IsValid(std::string* error) const {
+  const double v[5] = {position_sigma_m, position_correlation_s, roll_pitch_sigma_deg, heading_sigma_deg, attitude_correlation_s};
+  const char* names[5] = {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
+                          "attitude_correlation_s"};
+  const double upper[5] = {100.0, 86400.0, 10.0, 10.0, 86400.0};
+  for (int i = 0; i < 5; ++i)
+    if (!(v[i] >= 0 && v[i] <= upper[i]))
+      return failWith(error, std::string("trajectory.") + names[i] + " must be in [0, " + std::to_string(static_cast<int>(upper[i])) + "]");
+  if (position_sigma_m > 0 && !(position_correlation_s > 0))
+    return failWith(error, "trajectory.position_correlation_s must be positive when position_sigma_m is");
+  if ((roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0) && !(attitude_correlation_s > 0))
+    return failWith(error, "trajectory.attitude_correlation_s must be positive when an attitude sigma is");
+  return true;
+}
+
 bool StochasticOptions::IsValid(std::string* error) const {
   if (!pulse_noise.IsValid(error)) return false;
+  if (!trajectory.IsValid(error)) return false;
   if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m))
     return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
   if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
@@ -288,8 +312,20 @@ int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_s
       loss = new ceres::CauchyLoss(scale);
   }
   problem_->AddResidualBlock(cost, loss, blocks);
-  records_.push_back({cost, blocks, source_, loss_sigma_m});
+  records_.push_back({cost, blocks, source_, loss_sigma_m, {}});
   return static_cast<int>(records_.size()) - 1;
+}
+
+void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m) {
+  Record& rec = records_.at(static_cast<std::size_t>(record));
+  auto it = offsets_.find(strip_id);
+  if (it == offsets_.end()) return;
+  const double* offset = it->second.data();
+  for (std::size_t b = 0; b < rec.blocks.size(); ++b)
+    if (rec.blocks[b] == offset) {
+      rec.epochs.push_back({static_cast<int>(b), offset, time_s, u_m});
+      return;
+    }
 }
 
 Eigen::VectorXd AdjustmentProblem::residual(int index) const {
@@ -310,63 +346,82 @@ using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowM
 
 bool priorOn(const MountingBlockOptions& options, int j) { return options.prior_sigma[j] > 0 && std::isfinite(options.prior_sigma[j]); }
 
+/// The columns of the linearisation: 0..5 the mounting, then the tangent coordinates of every
+/// variable nuisance block (the sources' blocks, then the strip offsets when they are estimated).
+struct Columns {
+  std::map<const double*, std::pair<int, int>> col;  // block → (first column, tangent size)
+  std::map<const double*, const ceres::Manifold*> manifold;
+  int n = 6;
+};
+
+Columns columnsOf(const AdjustmentProblem& problem) {
+  Columns c;
+  for (const auto& b : problem.nuisanceBlocks()) {
+    const int t = b.manifold ? b.manifold->TangentSize() : b.size;
+    c.col[b.values] = {c.n, t};
+    if (b.manifold) c.manifold[b.values] = b.manifold;
+    c.n += t;
+  }
+  if (problem.stripOffsetSigma() > 0) {
+    for (const auto& entry : problem.stripOffsets()) {
+      c.col[entry.second.data()] = {c.n, 3};
+      c.n += 3;
+    }
+  }
+  return c;
+}
+
+/// The Jacobians of one residual block at the current values, each block's (constant ones
+/// too) — a nuisance block on a manifold in its tangent space.
+std::vector<RowMat> blockJacobians(const AdjustmentProblem::Record& rec, const Columns& cols) {
+  const int nr = rec.cost->num_residuals();
+  const auto& sizes = rec.cost->parameter_block_sizes();
+  std::vector<RowMat> J(rec.blocks.size());
+  std::vector<double*> jac(rec.blocks.size());
+  for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+    J[b].resize(nr, sizes[b]);
+    jac[b] = J[b].data();
+  }
+  std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
+  Eigen::VectorXd r(nr);
+  rec.cost->Evaluate(params.data(), r.data(), jac.data());
+  for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+    auto man = cols.manifold.find(rec.blocks[b]);
+    if (man == cols.manifold.end()) continue;
+    RowMat plus(man->second->AmbientSize(), man->second->TangentSize());
+    man->second->PlusJacobian(rec.blocks[b], plus.data());
+    J[b] = RowMat(J[b] * plus);
+  }
+  return J;
+}
+
 /// Reduced normal matrix of the full mounting block — every nuisance block (the sources'
 /// blocks and the strip offsets) eliminated by a Schur complement — and the unreduced
 /// diagonal, from the Jacobians of every residual block at the current values (SPEC §3 step 5:
 /// rank and condition). Nuisance blocks on a manifold enter in their tangent space.
-void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag) {
-  // Columns: 0..5 mounting, then the tangent coordinates of every variable nuisance block.
-  std::map<const double*, std::pair<int, int>> col;  // block → (first column, tangent size)
-  std::map<const double*, const AdjustmentProblem::Block*> info;
-  int n = 6;
-  for (const auto& b : problem.nuisanceBlocks()) {
-    const int t = b.manifold ? b.manifold->TangentSize() : b.size;
-    col[b.values] = {n, t};
-    info[b.values] = &b;
-    n += t;
-  }
-  if (problem.stripOffsetSigma() > 0) {
-    for (const auto& entry : problem.stripOffsets()) {
-      col[entry.second.data()] = {n, 3};
-      n += 3;
-    }
-  }
+/// `X` (optional): N_nn⁻¹ N_nm, the nuisance's response to the mounting (rows: columns 6.. of
+/// `cols`), for the reduced Jacobian J_m − J_n X of any residual.
+void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Eigen::MatrixXd* X_out = nullptr,
+                         Columns* cols_out = nullptr) {
+  const Columns cols = columnsOf(problem);
+  const int n = cols.n;
   std::vector<Eigen::Triplet<double>> trip;
   int row = 0;
   const double* m = problem.mounting();
   for (const auto& rec : problem.records()) {
     const int nr = rec.cost->num_residuals();
-    const auto& sizes = rec.cost->parameter_block_sizes();
-    std::vector<RowMat> J(rec.blocks.size());
-    std::vector<double*> jac(rec.blocks.size());
-    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
-      J[b].resize(nr, sizes[b]);
-      jac[b] = J[b].data();
-    }
-    std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
-    Eigen::VectorXd r(nr);
-    rec.cost->Evaluate(params.data(), r.data(), jac.data());
+    const std::vector<RowMat> J = blockJacobians(rec, cols);
     for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
       const double* blk = rec.blocks[b];
-      if (blk == m) {
-        for (int i = 0; i < nr; ++i)
-          for (int c = 0; c < 6; ++c)
-            if (J[b](i, c) != 0.0) trip.emplace_back(row + i, c, J[b](i, c));
-        continue;
-      }
-      auto it = col.find(blk);
-      if (it == col.end()) continue;  // a constant block
-      RowMat Jt = J[b];
-      auto inf = info.find(blk);
-      if (inf != info.end() && inf->second->manifold) {
-        const ceres::Manifold* man = inf->second->manifold;
-        RowMat plus(man->AmbientSize(), man->TangentSize());
-        man->PlusJacobian(blk, plus.data());
-        Jt = J[b] * plus;
+      int first = 0;
+      if (blk != m) {
+        auto it = cols.col.find(blk);
+        if (it == cols.col.end()) continue;  // a constant block
+        first = it->second.first;
       }
       for (int i = 0; i < nr; ++i)
-        for (int c = 0; c < Jt.cols(); ++c)
-          if (Jt(i, c) != 0.0) trip.emplace_back(row + i, it->second.first + c, Jt(i, c));
+        for (int c = 0; c < J[b].cols(); ++c)
+          if (J[b](i, c) != 0.0) trip.emplace_back(row + i, first + c, J[b](i, c));
     }
     row += nr;
   }
@@ -376,8 +431,10 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag) {
   const Eigen::SparseMatrix<double> N = Jt_s * Js;
   const Eigen::MatrixXd Nmm = Eigen::MatrixXd(N.topLeftCorner(6, 6));
   *diag = Nmm.diagonal();
+  if (cols_out) *cols_out = cols;
   if (n == 6) {
     *N_red = Nmm;
+    if (X_out) X_out->resize(0, 6);
     return;
   }
   const Eigen::SparseMatrix<double> Nnn = N.bottomRightCorner(n - 6, n - 6);
@@ -395,6 +452,79 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag) {
   }
   *N_red = Nmm - Nnm.transpose() * X;
   *N_red = 0.5 * (*N_red + N_red->transpose());
+  if (X_out) *X_out = std::move(X);
+}
+
+/// The trajectory errors' part of the mounting's covariance, in normal-matrix units (the
+/// "consider" term of TrajectoryAccuracy, before N_red⁻¹ on both sides):
+///
+///   M = Σ_strips Σ_{u,v} exp(−|t_u − t_v| / τ) H(u) Σ_c H(v)ᵀ,   H(u) = Σ_{epochs in bin u} Ĵᵀ J_c,
+///
+/// Ĵ = J_m − J_n X the residual block's reduced Jacobian (its nuisance eliminated), J_c its
+/// Jacobian with respect to the strip's position (the offset block) or attitude (the offset's
+/// times −[u]×). Epochs are binned at τ/20 (correlation > 0.95 within a bin); bins further apart
+/// than 10 τ (correlation < 5e-5) are skipped. Position and attitude separately; attitude only
+/// when `attitude` (not already estimated as PulseNoise's random effect).
+Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude) {
+  Mat6 N_red;
+  Vec6 diag;
+  Eigen::MatrixXd X;
+  Columns cols;
+  reducedNormalMatrix(problem, &N_red, &diag, &X, &cols);
+  using Mat63 = Eigen::Matrix<double, 6, 3>;
+  struct Group {
+    double tau, bin;
+    Vec3 var;
+    std::map<const double*, std::map<long long, Mat63>> H;  // strip offset → bin → H
+  };
+  const double t = deg2rad(acc.roll_pitch_sigma_deg), k = deg2rad(acc.heading_sigma_deg), p = acc.position_sigma_m;
+  Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}};
+  Group att{acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, Vec3(t * t, t * t, k * k), {}};
+  const bool use_pos = p > 0, use_att = attitude && (t > 0 || k > 0);
+  if (!use_pos && !use_att) return Mat6::Zero();
+  const double* m = problem.mounting();
+  for (const auto& rec : problem.records()) {
+    if (rec.epochs.empty()) continue;
+    const std::vector<RowMat> J = blockJacobians(rec, cols);
+    Eigen::MatrixXd Jr = Eigen::MatrixXd::Zero(rec.cost->num_residuals(), 6);  // reduced Jacobian Ĵ
+    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+      if (rec.blocks[b] == m) {
+        Jr += J[b];
+        continue;
+      }
+      auto it = cols.col.find(rec.blocks[b]);
+      if (it != cols.col.end()) Jr -= J[b] * X.middleRows(it->second.first - 6, it->second.second);
+    }
+    for (const auto& e : rec.epochs) {
+      const Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
+      if (use_pos) {
+        auto& cell = pos.H[e.offset].try_emplace(std::llround(e.time_s / pos.bin), Mat63::Zero()).first->second;
+        cell += hp;
+      }
+      if (use_att) {
+        auto& cell = att.H[e.offset].try_emplace(std::llround(e.time_s / att.bin), Mat63::Zero()).first->second;
+        cell -= hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
+      }
+    }
+  }
+  Mat6 M = Mat6::Zero();
+  for (const Group* g : {&pos, &att}) {
+    const Eigen::DiagonalMatrix<double, 3> C(g->var);
+    for (const auto& [strip, bins] : g->H) {
+      (void)strip;
+      const std::vector<std::pair<long long, Mat63>> v(bins.begin(), bins.end());
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        M += v[i].second * C * v[i].second.transpose();
+        for (std::size_t j = i + 1; j < v.size(); ++j) {
+          const double dt = static_cast<double>(v[j].first - v[i].first) * g->bin;
+          if (dt > 10.0 * g->tau) break;
+          const Mat6 term = std::exp(-dt / g->tau) * v[i].second * C * v[j].second.transpose();
+          M += term + term.transpose();
+        }
+      }
+    }
+  }
+  return 0.5 * (M + M.transpose());
 }
 
 /// The (pseudo-)inverse of the estimated parameters' block of a 6 × 6 normal matrix, placed
@@ -801,6 +931,20 @@ class Estimation {
         S_.covariance_source = "reduced normal matrix";
       }
     }
+    for (int j = 0; j < 6; ++j) S_.formal_sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
+    S_.sigma_model = "formal";
+    if (n_est > 0 && o_.trajectory.any()) {
+      // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
+      const Mat6 M = trajectoryErrorTerm(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
+      const Mat6 Pinv = inverseOnEstimated(N_red, est);
+      const Mat6 extra = Pinv * M * Pinv;
+      if (extra.allFinite() && extra.norm() > 0) {
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b)
+            if (est[a] && est[b]) cov(a, b) += extra(a, b);
+        S_.sigma_model = "formal + trajectory errors in time";
+      }
+    }
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
@@ -830,6 +974,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
   summary.mounting_used = mounting_used;
   summary.mounting = mounting_used;
   summary.sigma.fill(std::nan(""));
+  summary.formal_sigma.fill(std::nan(""));
   std::string why;
   if (!options_.IsValid(&why)) {
     summary.message = "invalid options: " + why;

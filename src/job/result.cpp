@@ -73,6 +73,14 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
     sb.push_back(numOrNull(rad2deg(summary.sigma[3 + i])));
   }
   j["sigma"] = {{"lever_arm_m", sl}, {"boresight_deg", sb}};
+  // The formal σ (observations independent, no trajectory errors in time), labelled as such.
+  json fl = json::array(), fb = json::array();
+  for (int i = 0; i < 3; ++i) {
+    fl.push_back(numOrNull(summary.formal_sigma[i]));
+    fb.push_back(numOrNull(rad2deg(summary.formal_sigma[3 + i])));
+  }
+  j["formal_sigma"] = {{"lever_arm_m", fl}, {"boresight_deg", fb}};
+  j["sigma_model"] = summary.sigma_model;
   json corr = json::array();
   for (int a = 0; a < 6; ++a) {
     json row = json::array();

@@ -145,8 +145,22 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
 void readStochastic(const Fields& top, const json& j, Job* job) {
   MountingCalibrator::Options& opts = job->options;
   if (top.has("stochastic")) {
-    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m"});
+    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m", "trajectory"});
     opts.strip_offset_sigma_m = st.num("strip_offset_sigma_m", opts.strip_offset_sigma_m, 0.0, 1000.0);
+    if (st.has("trajectory") && st.at("trajectory").is_string()) {
+      if (st.str("trajectory") != "none") st.fail("trajectory", "expected \"none\" or an object of σ and τ");
+      opts.trajectory = TrajectoryAccuracy::none();
+    } else if (st.has("trajectory")) {
+      // Trajectory errors in time: the GNSS/INS solution's accuracy (SBET smrmsg), τ its periods.
+      const Fields t = st.sub("trajectory", {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
+                                             "attitude_correlation_s"});
+      TrajectoryAccuracy& a = opts.trajectory;
+      a.position_sigma_m = t.num("position_sigma_m", a.position_sigma_m, 0.0, 100.0);
+      a.position_correlation_s = t.num("position_correlation_s", a.position_correlation_s, 0.01, 86400.0);
+      a.roll_pitch_sigma_deg = t.num("roll_pitch_sigma_deg", a.roll_pitch_sigma_deg, 0.0, 10.0);
+      a.heading_sigma_deg = t.num("heading_sigma_deg", a.heading_sigma_deg, 0.0, 10.0);
+      a.attitude_correlation_s = t.num("attitude_correlation_s", a.attitude_correlation_s, 0.01, 86400.0);
+    }
   }
   if (top.has("vtpm") && j.at("vtpm").is_object() && j.at("vtpm").contains("strip_offset_sigma_m")) {
     if (top.has("stochastic") && j.at("stochastic").contains("strip_offset_sigma_m"))
@@ -539,7 +553,17 @@ std::string jobJson(const Job& job) {
     }
     j[m->name()] = section;
   }
-  if (opts.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"] = {{"strip_offset_sigma_m", opts.strip_offset_sigma_m}};
+  if (opts.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"]["strip_offset_sigma_m"] = opts.strip_offset_sigma_m;
+  const TrajectoryAccuracy& ta = opts.trajectory;
+  const TrajectoryAccuracy& td = def.trajectory;
+  if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||
+      ta.roll_pitch_sigma_deg != td.roll_pitch_sigma_deg || ta.heading_sigma_deg != td.heading_sigma_deg ||
+      ta.attitude_correlation_s != td.attitude_correlation_s)
+    j["stochastic"]["trajectory"] = {{"position_sigma_m", ta.position_sigma_m},
+                                     {"position_correlation_s", ta.position_correlation_s},
+                                     {"roll_pitch_sigma_deg", ta.roll_pitch_sigma_deg},
+                                     {"heading_sigma_deg", ta.heading_sigma_deg},
+                                     {"attitude_correlation_s", ta.attitude_correlation_s}};
   if (opts.pulse_noise.any() || opts.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = opts.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},

@@ -127,7 +127,8 @@ void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
       if (name != "realistic") top.fail("noise", "expected \"realistic\" or an object of σ");
     } else {
       const Fields nf = top.sub("noise", {"range_sigma_m", "scan_angle_sigma_deg", "gnss_sigma_m", "gnss_correlation_s",
-                                          "attitude_sigma_deg", "attitude_correlation_s", "pick_sigma_m"});
+                                          "attitude_sigma_deg", "attitude_correlation_s", "pick_sigma_m", "drift_position_sigma_m",
+                                          "drift_position_correlation_s", "drift_attitude_sigma_deg", "drift_attitude_correlation_s"});
       n.range_sigma_m = nf.num("range_sigma_m", n.range_sigma_m, 1e-4, 1.0);
       n.scan_angle_sigma_rad = deg2rad(nf.num("scan_angle_sigma_deg", rad2deg(n.scan_angle_sigma_rad), 0.0, 1.0));
       n.gnss_sigma_m = nf.num("gnss_sigma_m", n.gnss_sigma_m, 0.0, 10.0);
@@ -135,8 +136,17 @@ void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
       n.attitude_sigma_rad = deg2rad(nf.num("attitude_sigma_deg", rad2deg(n.attitude_sigma_rad), 0.0, 1.0));
       n.attitude_correlation_s = nf.num("attitude_correlation_s", n.attitude_correlation_s, 1e-3, 1e4);
       n.pick_sigma_m = nf.num("pick_sigma_m", n.pick_sigma_m, 1e-3, 10.0);
+      // Trajectory errors in time (the calibrator's TrajectoryAccuracy): none unless stated.
+      TrajectoryAccuracy& t = p.options.trajectory;
+      t.position_sigma_m = nf.num("drift_position_sigma_m", 0.0, 0.0, 10.0);
+      t.position_correlation_s = nf.num("drift_position_correlation_s", t.position_correlation_s, 0.1, 1e5);
+      t.roll_pitch_sigma_deg = nf.num("drift_attitude_sigma_deg", 0.0, 0.0, 1.0);
+      t.heading_sigma_deg = 2.0 * t.roll_pitch_sigma_deg;
+      t.attitude_correlation_s = nf.num("drift_attitude_correlation_s", t.attitude_correlation_s, 0.1, 1e5);
+      return;
     }
   }
+  p.options.trajectory = TrajectoryAccuracy::none();  // "realistic": no drift
 }
 
 /// Mounting: nominal = truth.

@@ -35,7 +35,7 @@ std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultE
     << f(summary.final_cost, "%.5g") << ", " << f(summary.time_s, "%.3f")
     << " s; variance factor σ₀² = " << f(summary.variance_factor, "%.3g") << " (" << summary.degrees_of_freedom
     << " degrees of freedom)</p>";
-  h << "<h2>Mounting</h2><table><tr><th>parameter</th><th>used</th><th>calibrated</th><th>σ</th><th>status</th></tr>";
+  h << "<h2>Mounting</h2><table><tr><th>parameter</th><th>used</th><th>calibrated</th><th>σ</th><th>formal σ</th><th>status</th></tr>";
   const auto& names = mountingParameterNames();
   const auto used = summary.mounting_used.toArray(), est = summary.mounting.toArray();
   for (int j = 0; j < 6; ++j) {
@@ -44,13 +44,16 @@ std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultE
     const char* unit = lin ? " m" : "°";
     const bool unobs = std::find(summary.unobservable.begin(), summary.unobservable.end(), names[j]) != summary.unobservable.end();
     h << "<tr><td class=l>" << names[j] << "</td><td>" << f(used[j] * k, "%+.5f") << unit << "</td><td>" << f(est[j] * k, "%+.5f") << unit
-      << "</td><td>" << (summary.estimated[j] ? f(summary.sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
+      << "</td><td>" << (summary.estimated[j] ? f(summary.sigma[j] * k, "%.5f") + unit : "—") << "</td><td>"
+      << (summary.estimated[j] ? f(summary.formal_sigma[j] * k, "%.5f") + unit : "—") << "</td><td class=l>"
       << (summary.estimated[j] ? "estimated"
           : unobs              ? "<span class=bad>undeterminable</span>"
                                : "held fixed")
       << "</td></tr>";
   }
-  h << "</table>";
+  h << "</table><p>σ: " << esc(summary.sigma_model)
+    << (summary.sigma_model == "formal" ? "" : " (the stated trajectory accuracy; the formal σ take the observations as independent)")
+    << ".</p>";
   if (!summary.observability_report.empty()) h << "<h2>Observability</h2><pre>" << esc(summary.observability_report) << "</pre>";
   h << "<p>Condition number of the estimated block (normalised): " << f(summary.condition_number, "%.3g") << "</p>";
   h << "<h2>Correlations</h2><table><tr><th></th>";

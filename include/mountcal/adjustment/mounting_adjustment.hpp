@@ -97,6 +97,38 @@ struct PulseNoise {
   bool IsValid(std::string* error) const;
 };
 
+/// Trajectory errors in time: what a GNSS/INS solution carries within a strip (position and
+/// attitude errors that wander with periods of seconds to minutes). The adjustment does not
+/// estimate them; it states their effect on the mounting — *consider parameters* (Bierman
+/// 1977, ch. VI; Montenbruck & Gill 2000, §8.1.4): with the estimate linearised as
+/// δθ̂ = N⁻¹ Jᵀ W (ε + J_c c) and c the trajectory errors at the observations' times,
+///
+///   C_θ = N⁻¹ + N⁻¹ (Jᵀ W J_c) C_c (Jᵀ W J_c)ᵀ N⁻¹,
+///
+/// every nuisance block (tie positions, planes, strip offsets) eliminated. Each strip's errors
+/// are first-order Gauss–Markov processes, C_c(t, t') = σ² exp(−|t − t'| / τ), independent
+/// between strips and axes. An observation at time t of strip s moves by δp(t) + δψ(t) × u
+/// (u = x − p, IMU → point, mapping frame), so J_c is the residual's Jacobian with respect to
+/// the strip's offset, times (I, −[u]×).
+///
+/// Thousands of point-to-plane distances that share one trajectory error are not independent
+/// observations: without this term their σ are too small by the square root of how many share
+/// it. The defaults are a post-processed survey-grade GNSS/INS (Applanix POS AV / NovAtel SPAN
+/// class: position drift 2 cm, attitude 0.002° about the horizontal axes and 0.004° in heading);
+/// state yours (the SBET accuracy file's smoothed RMS) — the σ are as honest as these numbers.
+/// All zero: the formal σ (independent observations) alone.
+struct TrajectoryAccuracy {
+  double position_sigma_m = 0.02;        ///< per axis [m]; the constant part is the strip offset
+  double position_correlation_s = 30.0;  ///< τ of the position errors [s]
+  double roll_pitch_sigma_deg = 0.002;   ///< attitude about the horizontal axes [deg]
+  double heading_sigma_deg = 0.004;      ///< attitude about the vertical [deg]
+  double attitude_correlation_s = 5.0;   ///< τ of the attitude errors [s]
+  bool any() const { return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0; }
+  /// No trajectory errors in time (a simulated survey without them; the formal σ alone).
+  static TrajectoryAccuracy none() { return {0.0, 30.0, 0.0, 0.0, 5.0}; }
+  bool IsValid(std::string* error) const;
+};
+
 /// The stochastic model shared by every kind of observation.
 struct StochasticOptions {
   /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
@@ -108,6 +140,10 @@ struct StochasticOptions {
   double loss_scale_m = 0.5;  ///< where the robust loss starts to bend [m]
   /// Per-point noise propagated into each observation's covariance (off by default).
   PulseNoise pulse_noise;
+  /// Trajectory errors in time, in the mounting's covariance (on by default; see above). When
+  /// PulseNoise's attitude random effect is on, the attitude is estimated instead and only the
+  /// position part is considered here.
+  TrajectoryAccuracy trajectory;
   bool IsValid(std::string* error) const;
 };
 
@@ -204,6 +240,12 @@ class AdjustmentProblem {
   /// after every source's addBlocks).
   void addRandomEffectPriors();
 
+  /// States when and where residual block `record` saw strip `strip_id` (whose offset block it
+  /// holds): the pulse time [s] and u = x − p (IMU → point, mapping frame) [m]. The adjustment
+  /// uses it for the trajectory errors in time (TrajectoryAccuracy); a block without it is
+  /// taken as free of them. Call once per strip the block holds.
+  void setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m);
+
   /// Residual vector of block `index` at the current parameter values (unweighted by loss).
   Eigen::VectorXd residual(int index) const;
   int residualBlockCount() const { return static_cast<int>(records_.size()); }
@@ -211,11 +253,18 @@ class AdjustmentProblem {
   Vec3 stripOffsetValue(const std::string& strip_id) const;
 
   // ---- used by MountingAdjustment -------------------------------------------------------
+  struct Epoch {
+    int block = 0;                   ///< index of the strip's offset in Record::blocks
+    const double* offset = nullptr;  ///< the strip's offset block: names the strip
+    double time_s = 0.0;
+    Vec3 u_m = Vec3::Zero();
+  };
   struct Record {
     ceres::CostFunction* cost = nullptr;
     std::vector<double*> blocks;
     int source = -1;
     double loss_sigma_m = 0.0;
+    std::vector<Epoch> epochs;
   };
   struct Block {
     double* values = nullptr;
@@ -293,6 +342,11 @@ struct AdjustmentSummary {
   MountingParameters mounting;      ///< the complete mounting to use from now on
   std::array<bool, 6> estimated{};  ///< estimated (not fixed, not unobservable)
   std::array<double, 6> sigma{};    ///< std. deviation [m, rad]; NaN if not estimated
+  /// The formal σ: observations taken as independent, no trajectory errors in time (what
+  /// `sigma` was before TrajectoryAccuracy; equal to it when that is off) [m, rad].
+  std::array<double, 6> formal_sigma{};
+  /// What `sigma` contains: "formal" or "formal + trajectory errors in time".
+  std::string sigma_model = "formal";
   Mat6 correlation = Mat6::Constant(std::nan(""));
   Mat6 covariance = Mat6::Constant(std::nan(""));  ///< of the estimated parameters [m, rad]
   /// "ceres::Covariance", or "reduced normal matrix" when Ceres could not compute it.

@@ -333,11 +333,12 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
           auto* cost = new ceres::NumericDiffCostFunction<ControlAttitudeResidual, ceres::CENTRAL, 1, 6, 3, 3>(
               new ControlAttitudeResidual{residual, imuToPoint(v)}, ceres::TAKE_OWNERSHIP, 1, nd);
           blocks_.push_back(problem->addResidualBlock(cost, sigma, {problem->mounting(), problem->stripOffset(v.stripId()), dpsi}));
-          continue;
+        } else {
+          auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(new ControlResidual(residual),
+                                                                                                    ceres::TAKE_OWNERSHIP, 1, nd);
+          blocks_.push_back(problem->addResidualBlock(cost, sigma, {problem->mounting(), problem->stripOffset(v.stripId())}));
         }
-        auto* cost = new ceres::NumericDiffCostFunction<ControlResidual, ceres::CENTRAL, 1, 6, 3>(new ControlResidual(residual),
-                                                                                                  ceres::TAKE_OWNERSHIP, 1, nd);
-        blocks_.push_back(problem->addResidualBlock(cost, sigma, {problem->mounting(), problem->stripOffset(v.stripId())}));
+        problem->setEpoch(blocks_.back(), v.stripId(), vtpTime(v, *data_), imuToPoint(v));
       }
     }
     return;
@@ -360,11 +361,12 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
         ceres::CostFunction* cost = detail::makeVtpAttitudeCostFunction(&v, W, imuToPoint(v), problem->numericDiffRelativeStep());
         blocks_.push_back(problem->addResidualBlock(cost, options_.tie_sigma_xy_m,
                                                     {problem->mounting(), tie.X, problem->stripOffset(v.stripId()), dpsi}));
-        continue;
+      } else {
+        ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, W, problem->numericDiffRelativeStep());
+        blocks_.push_back(
+            problem->addResidualBlock(cost, options_.tie_sigma_xy_m, {problem->mounting(), tie.X, problem->stripOffset(v.stripId())}));
       }
-      ceres::CostFunction* cost = detail::makeVtpCostFunction(&v, W, problem->numericDiffRelativeStep());
-      blocks_.push_back(
-          problem->addResidualBlock(cost, options_.tie_sigma_xy_m, {problem->mounting(), tie.X, problem->stripOffset(v.stripId())}));
+      problem->setEpoch(blocks_.back(), v.stripId(), vtpTime(v, *data_), imuToPoint(v));
     }
     if (tie.gcp) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);

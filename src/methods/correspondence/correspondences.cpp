@@ -737,6 +737,22 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     if (L > 0) blocks.push_back(laser_block_);
     blocks_.push_back(loss_scale > 0 ? problem->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
                                      : problem->addResidualBlock(cost, set_.sigma_m, blocks));
+    // Trajectory errors in time: the point of A at its time, B's neighbourhood at its mean.
+    const Mat3 R_bs_used = data_.mounting_used.R_bs();
+    const Vec3& a_b = data_.mounting_used.a_b;
+    auto epochOf = [&](int s, const std::vector<std::size_t>& idx) {
+      const StripData& st = data_.strips[static_cast<std::size_t>(s)];
+      double t = 0;
+      Vec3 u = Vec3::Zero();
+      for (std::size_t i : idx) {
+        t += st.time_s[i];
+        u += dense_->R_mb(s, i) * (R_bs_used * st.r_s[i] + a_b);
+      }
+      const double k = static_cast<double>(idx.size());
+      problem->setEpoch(blocks_.back(), st.id, t / k, u / k);
+    };
+    epochOf(c.strip_a, {c.point_a});
+    epochOf(c.strip_b, c.points_b);
   }
 }
 
@@ -785,10 +801,19 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
     f->R_bs_used = R_bs_used;
     f->inv_sigma = inv_sigma;
     auto* cost = new ceres::NumericDiffCostFunction<CorrespondenceResidual, ceres::CENTRAL, 1, 6, 3, 3>(f, ceres::TAKE_OWNERSHIP, 1, nd);
+    const std::string& id_a = data_.strips[static_cast<std::size_t>(c.strip_a)].id;
+    const std::string& id_b = data_.strips[static_cast<std::size_t>(c.strip_b)].id;
     blocks_.push_back(
-        problem->addResidualBlock(cost, set_.sigma_m,
-                                  {problem->mounting(), problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
-                                   problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)}));
+        problem->addResidualBlock(cost, set_.sigma_m, {problem->mounting(), problem->stripOffset(id_a), problem->stripOffset(id_b)}));
+    // Trajectory errors in time: the point of A at its time, B's neighbourhood at its mean.
+    double tb = 0;
+    Vec3 ub = Vec3::Zero();
+    for (std::uint32_t j : ref.b) {
+      tb += pr.points_b[j].time_s;
+      ub += pr.points_b[j].R_mb * (R_bs_used * pr.points_b[j].r_s_m + used.a_b);
+    }
+    problem->setEpoch(blocks_.back(), id_a, qa.time_s, qa.R_mb * (R_bs_used * qa.r_s_m + used.a_b));
+    problem->setEpoch(blocks_.back(), id_b, tb / kb, ub / kb);
   }
 }
 

@@ -630,6 +630,7 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
         vp.R_mb.push_back(data.pose(strip, i, strip.poses.empty() ? &cursor : nullptr).R_mb);
         vp.r_s.push_back(strip.r_s[i]);
         vp.x0.push_back(clouds.x0[s][i]);
+        vp.time_s += strip.time_s[i] / static_cast<double>(idx[k].size());
       }
       Vec3 mean = Vec3::Zero();
       for (const Vec3& x : vp.x0) mean += x / static_cast<double>(vp.x0.size());
@@ -723,6 +724,9 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
       const OutlineCentre oc = outlineCentre(x, vp.normal, options_.edge_points);
       View V;
       V.strip_id = vp.strip_id;
+      V.time_s = vp.time_s;
+      for (std::size_t j = 0; j < vp.r_s.size(); ++j)
+        V.u_m += vp.R_mb[j] * (R_bs_used * vp.r_s[j] + used_.a_b) / static_cast<double>(vp.r_s.size());
       Vec3 c0 = Vec3::Zero();
       for (const auto& [j, W] : oc.weights) {
         c0 += W * (vp.x0[j] - T.reference_m);
@@ -755,6 +759,7 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
       auto* cost = new ceres::NumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL, 3, 6, 3, 3>(
           new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, 3, nd);
       blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, {problem->mounting(), T.block, problem->stripOffset(v.strip_id)}));
+      problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m);
     }
   }
 }

@@ -262,6 +262,7 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
         cand.x0 = c.x0[i];
         cand.r_s = c.strip->r_s[i];
         cand.R_mb = data.pose(*c.strip, i).R_mb;
+        cand.time_s = c.strip->time_s[i];
         region.candidates.push_back(cand);
       }
     }
@@ -358,12 +359,7 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
       for (std::size_t k = 0; k < keep; ++k) {
         const std::uint32_t i = in[k * in.size() / keep];
         const Candidate& c = region.candidates[i];
-        PatchPoint pp;
-        pp.strip_id = c.strip_id;
-        pp.x0_rel = c.x0;  // made relative below
-        pp.r_s = c.r_s;
-        pp.R_mb = c.R_mb;
-        patch.points.push_back(pp);
+        patch.points.push_back({c.strip_id, c.x0 /* made relative below */, c.R_mb, c.r_s, c.time_s});
         now.push_back(X[i]);
       }
     }
@@ -412,6 +408,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
           new PlanePointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
       blocks_[q].push_back(
           problem->addResidualBlock(cost, section_.sigma_m, {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id)}));
+      problem->setEpoch(blocks_[q].back(), pp.strip_id, pp.time_s, pp.R_mb * (R_bs_used * pp.r_s + used_.a_b));
     }
   }
 }

@@ -212,6 +212,8 @@ class FeatureObservations final : public ObservationSource {
     Eigen::Matrix<double, 3, 9> K = Eigen::Matrix<double, 3, 9>::Zero();
     Mat3 R_bar = Mat3::Zero();          ///< mean R_mb of the points [-]
     Mat3 sqrt_info = Mat3::Identity();  ///< W^½ [1/m]
+    double time_s = 0.0;                ///< mean time of the view's points [s]
+    Vec3 u_m = Vec3::Zero();            ///< mean IMU → point vector, mapping frame [m]
   };
   struct Target {
     std::string id;
@@ -227,6 +229,7 @@ class FeatureObservations final : public ObservationSource {
     std::vector<Vec3> x0, r_s;
     std::vector<Mat3> R_mb;
     Vec3 normal = Vec3::UnitZ();
+    double time_s = 0.0;  ///< mean time of the points [s]
   };
   void select(const std::array<double, 6>& m);
   std::vector<std::vector<ViewPoints>> points_;

@@ -129,6 +129,7 @@ class PlaneObservations final : public ObservationSource {
     Vec3 x0_rel = Vec3::Zero();  ///< position at M_used minus the patch centre [m]
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
+    double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
   };
   struct Patch {
     std::string id;
@@ -146,6 +147,7 @@ class PlaneObservations final : public ObservationSource {
     Vec3 x0 = Vec3::Zero();  ///< at M_used [m]
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
+    double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
   };
   struct Region {
     PlaneRegion box;

@@ -1,0 +1,219 @@
+// Trajectory errors in time (TrajectoryAccuracy): the consider term of the mounting's
+// covariance against closed forms — the variance of a mean of Gauss–Markov-correlated samples.
+#include <gtest/gtest.h>
+
+#include <ceres/sized_cost_function.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "mountcal/adjustment/mounting_adjustment.hpp"
+#include "mountcal/core/rotation.hpp"
+#include "mountcal/mountcal.hpp"
+
+namespace mountcal {
+namespace {
+
+/// r = (a_x + o_x − y) / σ: each observation measures the lever arm's x through its strip's
+/// offset (held at zero), at a time and an IMU → point vector u.
+class MeanResidual final : public ceres::SizedCostFunction<1, 6, 3> {
+ public:
+  MeanResidual(double y, double sigma) : y_(y), w_(1.0 / sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    r[0] = (p[0][0] + p[1][0] - y_) * w_;
+    if (J && J[0]) {
+      for (int k = 0; k < 6; ++k) J[0][k] = k == 0 ? w_ : 0.0;
+    }
+    if (J && J[1]) {
+      for (int k = 0; k < 3; ++k) J[1][k] = k == 0 ? w_ : 0.0;
+    }
+    return true;
+  }
+
+ private:
+  double y_, w_;
+};
+
+struct Sample {
+  std::string strip;
+  double time_s;
+  Vec3 u_m;
+};
+
+class MeanSource final : public ObservationSource {
+ public:
+  MeanSource(std::vector<Sample> samples, double sigma) : samples_(std::move(samples)), sigma_(sigma) {}
+  std::string kind() const override { return "mean"; }
+  void addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* problem) override {
+    for (const Sample& s : samples_) {
+      const int k = problem->addResidualBlock(new MeanResidual(0.0, sigma_), sigma_, {problem->mounting(), problem->stripOffset(s.strip)});
+      problem->setEpoch(k, s.strip, s.time_s, s.u_m);
+    }
+  }
+
+ private:
+  std::vector<Sample> samples_;
+  double sigma_;
+};
+
+MountingAdjustment::Options meanOptions(const TrajectoryAccuracy& accuracy) {
+  MountingAdjustment::Options o;
+  o.estimate = {true, false, false, false, false, false};
+  o.strip_offset_sigma_m = 0.0;  // offsets held: the closed form below has no nuisance
+  o.trajectory = accuracy;
+  return o;
+}
+
+/// Σ_ij exp(−|t_i − t_j| / τ) over the samples of one strip.
+double correlationSum(const std::vector<Sample>& s, const std::string& strip, double tau) {
+  double sum = 0;
+  for (const Sample& a : s)
+    for (const Sample& b : s)
+      if (a.strip == strip && b.strip == strip) sum += std::exp(-std::abs(a.time_s - b.time_s) / tau);
+  return sum;
+}
+
+TEST(TrajectoryErrors, PositionDriftGivesTheVarianceOfAMeanOfCorrelatedSamples) {
+  // n samples, 0.3 s apart, of two strips: Var(â) = σ²/n + σ_p²/n² Σ_strips Σ_ij exp(−|t_i − t_j|/τ)
+  // (hand derivation: â is the mean; the strips' drifts are independent).
+  std::vector<Sample> s;
+  for (int k = 0; k < 40; ++k) s.push_back({"1", 100.0 + 0.3 * k, Vec3(0, 0, -100)});
+  for (int k = 0; k < 20; ++k) s.push_back({"2", 500.0 + 0.3 * k, Vec3(0, 0, -100)});
+  const double sigma = 0.01, tau = 2.0;
+  TrajectoryAccuracy acc = TrajectoryAccuracy::none();
+  acc.position_sigma_m = 0.02;
+  acc.position_correlation_s = tau;
+  MeanSource source(s, sigma);
+  const auto S = MountingAdjustment(meanOptions(acc)).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  const double n = static_cast<double>(s.size());
+  const double formal = sigma * sigma / n;
+  const double drift = 0.02 * 0.02 / (n * n) * (correlationSum(s, "1", tau) + correlationSum(s, "2", tau));
+  EXPECT_NEAR(S.formal_sigma[0], std::sqrt(formal), 1e-9);
+  EXPECT_NEAR(S.sigma[0], std::sqrt(formal + drift), 1e-6 * std::sqrt(formal + drift));
+  EXPECT_EQ(S.sigma_model, "formal + trajectory errors in time");
+  EXPECT_GT(S.sigma[0], 2.0 * S.formal_sigma[0]);  // the drift dominates here
+}
+
+TEST(TrajectoryErrors, AttitudeDriftMovesAPointByTheRotationTimesItsArm) {
+  // δx = δψ × u. With u = (0, 0, −H) only pitch moves x: δx = −H δψ_y (σ_t); with u = (0, L, 0)
+  // only heading: δx = −L δψ_z (σ_κ). Var(â) = σ²/n + σ_t² H²/n² Σρ + σ_κ² L²/n² Σρ.
+  const double H = 120.0, L = 40.0, tau = 1.0;
+  std::vector<Sample> s;
+  for (int k = 0; k < 30; ++k) s.push_back({"a", 0.1 * k, k % 2 ? Vec3(0, 0, -H) : Vec3(0, L, 0)});
+  TrajectoryAccuracy acc = TrajectoryAccuracy::none();
+  acc.roll_pitch_sigma_deg = 0.003;
+  acc.heading_sigma_deg = 0.01;
+  acc.attitude_correlation_s = tau;
+  MeanSource source(s, 0.005);
+  const auto S = MountingAdjustment(meanOptions(acc)).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  const double n = static_cast<double>(s.size()), st = deg2rad(0.003), sk = deg2rad(0.01);
+  // Pitch and heading errors are independent axes: only pitch×pitch and heading×heading pairs.
+  double sum_pitch = 0, sum_heading = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    for (std::size_t j = 0; j < s.size(); ++j) {
+      const double rho = std::exp(-std::abs(s[i].time_s - s[j].time_s) / tau);
+      const bool pi = s[i].u_m.z() != 0, pj = s[j].u_m.z() != 0;
+      if (pi && pj) sum_pitch += rho;
+      if (!pi && !pj) sum_heading += rho;
+    }
+  const double expected = 0.005 * 0.005 / n + (st * st * H * H * sum_pitch + sk * sk * L * L * sum_heading) / (n * n);
+  EXPECT_NEAR(S.sigma[0], std::sqrt(expected), 1e-6 * std::sqrt(expected));
+}
+
+TEST(TrajectoryErrors, NoneLeavesTheFormalSigma) {
+  std::vector<Sample> s;
+  for (int k = 0; k < 10; ++k) s.push_back({"1", 0.5 * k, Vec3(0, 0, -100)});
+  MeanSource source(s, 0.01);
+  const auto S = MountingAdjustment(meanOptions(TrajectoryAccuracy::none())).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable());
+  EXPECT_EQ(S.sigma_model, "formal");
+  EXPECT_DOUBLE_EQ(S.sigma[0], S.formal_sigma[0]);
+  EXPECT_NEAR(S.sigma[0], 0.01 / std::sqrt(10.0), 1e-9);
+}
+
+TEST(TrajectoryErrors, InvalidAccuracyIsRefusedWithTheField) {
+  TrajectoryAccuracy acc;
+  acc.position_correlation_s = 0.0;
+  std::string why;
+  EXPECT_FALSE(acc.IsValid(&why));
+  EXPECT_NE(why.find("position_correlation_s"), std::string::npos) << why;
+  acc = TrajectoryAccuracy();
+  acc.heading_sigma_deg = -1.0;
+  EXPECT_FALSE(acc.IsValid(&why));
+  EXPECT_NE(why.find("heading_sigma_deg"), std::string::npos) << why;
+}
+
+// ---- statistical: σ under navigation drift ----------------------------------------------------
+
+struct Honesty {
+  std::array<double, 6> z2_total{}, z2_formal{};
+  std::array<int, 6> within{}, counted{};
+};
+
+/// `planes` on the crossing field over `seeds` surveys with navigation drift in time (band-limited
+/// sinusoids: a form the calibrator does not model), as examples/sigma_honesty does.
+Honesty planesUnderDrift(int seeds) {
+  Honesty h;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    simulation::Scene scene;
+    simulation::SurveyConfig c;
+    simulation::makePreset("paper-calibration-field", static_cast<std::uint64_t>(seed), &c, &scene);
+    c.noise = simulation::NoiseModel::withNavigationDrift();
+    c.noise.gnss_sigma_m = 0.005;
+    c.roi_radius_m = 12.0;
+    const simulation::SimulatedSurvey s = simulation::simulate(c, scene);
+    MountingCalibrator::Options o;
+    o.methods = {"planes"};
+    o.strip_offset_sigma_m = 0.02;
+    o.estimate = {true, true, false, true, true, true};
+    const auto S = calibrate(simulation::toCalibrationData(s), o);
+    EXPECT_TRUE(S.IsSolutionUsable()) << "seed " << seed;
+    const auto e = S.mounting.toArray(), t = c.true_mounting.toArray();
+    for (std::size_t j = 0; j < 6; ++j) {
+      if (!S.estimated[j]) continue;
+      const double z = (e[j] - t[j]) / S.sigma[j], zf = (e[j] - t[j]) / S.formal_sigma[j];
+      h.z2_total[j] += z * z;
+      h.z2_formal[j] += zf * zf;
+      h.within[j] += std::abs(z) <= 2.0;
+      ++h.counted[j];
+    }
+  }
+  return h;
+}
+
+// Issue 26's criterion on the plane method: over 30 surveys with navigation drift, RMS of
+// error/σ within [0.7, 1.4] for every estimated parameter and at least 85 % within 2σ (26 of 30:
+// 2.3 binomial σ below 95.4 %); the formal σ fail it (their RMS was 2.0–3.3). Measured
+// (2026-11-26): RMS 0.99–1.33, 87–97 % within 2σ. About 25 s in Release; the sanitizer build
+// runs 2 seeds for memory errors only.
+TEST(TrajectoryErrors, PlaneSigmasAreHonestUnderNavigationDrift) {
+#ifdef MOUNTCAL_SANITIZE_BUILD
+  const int seeds = 2;
+#else
+  const int seeds = 30;
+#endif
+  const Honesty h = planesUnderDrift(seeds);
+  bool formal_fails = false;
+  for (std::size_t j = 0; j < 6; ++j) {
+    if (h.counted[j] == 0) continue;
+    EXPECT_EQ(h.counted[j], seeds);
+    const double rms = std::sqrt(h.z2_total[j] / h.counted[j]), rms_formal = std::sqrt(h.z2_formal[j] / h.counted[j]);
+    const double frac = static_cast<double>(h.within[j]) / h.counted[j];
+    std::printf("%-20s RMS of error/sigma %.2f (formal %.2f), %.0f %% within 2 sigma\n", mountingParameterNames()[j].c_str(), rms,
+                rms_formal, 100 * frac);
+    formal_fails |= rms_formal > 1.4;
+    if (seeds < 30) continue;
+    EXPECT_GE(rms, 0.7) << mountingParameterNames()[j] << ": σ too large";
+    EXPECT_LE(rms, 1.4) << mountingParameterNames()[j] << ": σ too small";
+    EXPECT_GE(frac, 0.85) << mountingParameterNames()[j];
+  }
+  if (seeds >= 30) {
+    EXPECT_TRUE(formal_fails) << "the formal σ should fail this test: it would not discriminate";
+  }
+}
+
+}  // namespace
+}  // namespace mountcal
