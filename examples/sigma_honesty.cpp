@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift";
   int seeds = 10, first_seed = 1;
   bool model_drift = false, trajectory_none = false;
+  double offset_sigma = 0.02;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -46,6 +47,8 @@ int main(int argc, char** argv) {
       attitude_tau = std::atof(argv[++i]);
     else if (a == "--position-tau" && i + 1 < argc)
       position_tau = std::atof(argv[++i]);
+    else if (a == "--offset-sigma" && i + 1 < argc)
+      offset_sigma = std::atof(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n",
@@ -90,7 +93,7 @@ int main(int argc, char** argv) {
     o.method<VtpmOptions>().tie_sigma_z_m = 0.01;  // picks are 2-D; a tie's height comes from its triangle
     o.method<VtpmOptions>().estimate_tie_sigma = true;
     o.method<PlaneOptions>().automatic = automatic;
-    o.strip_offset_sigma_m = 0.02;
+    o.strip_offset_sigma_m = offset_sigma;
     o.estimate = {true, true, false, true, true, true};
     o.trajectory.attitude_correlation_s = attitude_tau;
     o.trajectory.position_correlation_s = position_tau;

@@ -132,6 +132,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   const std::vector<std::string> names = summary.methods;
   static_cast<AdjustmentSummary&>(summary) = MountingAdjustment(options).solve(data.mounting_used, sources, start);
   summary.methods = names;
+  summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
   fillSections();
   summary.time_s = elapsed();
@@ -192,6 +193,7 @@ std::string MountingCalibrator::Summary::FullReport() const {
   r << "sigma: " << sigma_model
     << (sigma_model == "formal" ? "\n" : " (the stated trajectory accuracy; formal: observations taken as independent)\n");
   if (!observability_report.empty()) r << "\nObservability:\n" << observability_report;
+  for (const auto& ms : model_sensitivity) r << "Model sensitivity: " << ms.text() << "\n";
   std::snprintf(buf, sizeof buf, "\nCondition number of the estimated block (normalised): %.3g\n", condition_number);
   r << buf;
   r << "\nCorrelations:\n";
@@ -248,6 +250,18 @@ MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
     if (degrees_of_freedom < 10) doubt("few observations: " + std::to_string(degrees_of_freedom) + " degrees of freedom");
   }
   for (const std::string& held : unobservable) doubt(held + " was asked for but held at its used value (not determined by the data)");
+  for (const auto& ms : model_sensitivity)
+    if (ms.model_dependent()) doubt(ms.text());
+  const auto& names = mountingParameterNames();
+  for (int j = 0; j < 3; ++j) {
+    const double moved = std::abs(mounting.a_b[j] - mounting_used.a_b[j]);
+    if (!estimated[j] || !(moved > lever_arm_change_warning_m)) continue;
+    std::snprintf(buf, sizeof buf,
+                  "%s moved %.2f m from its used value: mountings are not mis-measured by that much — it may absorb a model error "
+                  "(time offset, laser offsets); tape it and give its σ",
+                  names[j].c_str(), moved);
+    doubt(buf);
+  }
   int outliers = 0, observations = 0;
   for (const auto& s : sections) outliers += s->outliers();
   for (const auto& k : kinds) observations += k.residuals;

@@ -146,6 +146,78 @@ TEST(TrajectoryErrors, InvalidAccuracyIsRefusedWithTheField) {
   EXPECT_NE(why.find("heading_sigma_deg"), std::string::npos) << why;
 }
 
+// ---- model sensitivity: a free lever arm --------------------------------------------------------
+
+/// r = (a_x + h · pitch − y) / σ: the along-track lever arm and the pitch seen alike through
+/// heights h that hardly differ — the one-height coupling, linear.
+class CoupledResidual final : public ceres::SizedCostFunction<1, 6> {
+ public:
+  CoupledResidual(double h, double y, double sigma) : h_(h), y_(y), w_(1.0 / sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    r[0] = (p[0][0] + h_ * p[0][4] - y_) * w_;
+    if (J && J[0]) {
+      for (int k = 0; k < 6; ++k) J[0][k] = k == 0 ? w_ : k == 4 ? h_ * w_ : 0.0;
+    }
+    return true;
+  }
+
+ private:
+  double h_, y_, w_;
+};
+
+class CoupledSource final : public ObservationSource {
+ public:
+  std::string kind() const override { return "coupled"; }
+  void addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* problem) override {
+    for (int k = 0; k < 20; ++k) {
+      const double h = k % 2 ? 101.0 : 100.0;
+      problem->addResidualBlock(new CoupledResidual(h, 0.1, 0.005), 0.005, {problem->mounting()});  // truth a_x 0.1 m, pitch 0
+    }
+  }
+};
+
+TEST(ModelSensitivity, AFreeLeverArmTheDataCannotRejectButThatMovesThePitchIsModelDependent) {
+  // By hand (n = 20, h alternating 100 / 101, σ = 5 mm, noise-free y = 0.1): â = 0.1 m;
+  // N = [n Σh; Σh Σh²]/σ² with Σh = 2010, Σh² = 202010, det·σ⁴ = 100 → σ_a = σ √(Σh²/100) = 0.2247 m,
+  // so the used 0 is 0.45σ away (not rejected). Held at 0, pitch moves by â Σh / Σh² = 9.950e-4
+  // rad, and the held model states σ_pitch = σ / √Σh² = 1.112e-5 rad: 89σ.
+  CoupledSource source;
+  MountingAdjustment::Options o;
+  o.estimate = {true, false, false, false, true, false};
+  o.trajectory = TrajectoryAccuracy::none();
+  const auto S = MountingAdjustment(o).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  EXPECT_NEAR(S.mounting.a_b.x(), 0.1, 1e-9);
+  EXPECT_NEAR(S.sigma[0], 0.005 * std::sqrt(202010.0 / 100.0), 1e-6);
+  ASSERT_EQ(S.model_sensitivity.size(), 1u);
+  const auto& ms = S.model_sensitivity[0];
+  EXPECT_NEAR(ms.shift[4], 0.1 * 2010.0 / 202010.0, 1e-9);
+  EXPECT_NEAR(ms.shift_in_sigma[4], (0.1 * 2010.0 / 202010.0) / (0.005 / std::sqrt(202010.0)), 1e-3);
+  EXPECT_NEAR(ms.rejected_in_sigma, 0.1 / S.sigma[0], 1e-9);
+  EXPECT_TRUE(ms.model_dependent()) << ms.text();
+  EXPECT_NE(ms.text().find("model-dependent"), std::string::npos) << ms.text();
+}
+
+TEST(ModelSensitivity, ALeverArmTheDataRejectIsNotAnAmbiguity) {
+  // The same with heights 100 and 200: the lever arm is determined (σ_a ≈ 2 mm), the used 0 is
+  // rejected at ≈ 50σ, and holding it is a wrong model, not an alternative one.
+  class Separated final : public ObservationSource {
+   public:
+    std::string kind() const override { return "separated"; }
+    void addBlocks(const std::array<double, 6>& /*mounting*/, AdjustmentProblem* problem) override {
+      for (int k = 0; k < 20; ++k)
+        problem->addResidualBlock(new CoupledResidual(k % 2 ? 200.0 : 100.0, 0.1, 0.005), 0.005, {problem->mounting()});
+    }
+  } source;
+  MountingAdjustment::Options o;
+  o.estimate = {true, false, false, false, true, false};
+  o.trajectory = TrajectoryAccuracy::none();
+  const auto S = MountingAdjustment(o).solve(MountingParameters{}, {&source});
+  ASSERT_EQ(S.model_sensitivity.size(), 1u);
+  EXPECT_GT(S.model_sensitivity[0].rejected_in_sigma, 3.0);
+  EXPECT_FALSE(S.model_sensitivity[0].model_dependent()) << S.model_sensitivity[0].text();
+}
+
 // ---- statistical: σ under navigation drift ----------------------------------------------------
 
 struct Honesty {

@@ -56,6 +56,9 @@ class MountingCalibrator {
   ///  - doubtful: a parameter asked for was held; σ₀² above 2 or below 0.3 (the σ do not match
   ///    the residuals — above 2, the stated σ are optimistic); fewer than 10 degrees of freedom
   ///    (none: nothing checks the result); more than 5 % of the observations flagged as outliers;
+  ///    a model-dependent mounting (ModelSensitivity: switching off a free lever arm moves it by
+  ///    over 3σ although the data cannot reject that); an estimated lever arm that moved further
+  ///    than lever_arm_change_warning_m from its used value;
   ///  - accept otherwise. A strong correlation is not a doubt by itself: the σ carry it (the
   ///    report's warnings name it).
   struct Verdict {
@@ -67,6 +70,8 @@ class MountingCalibrator {
 
   struct Summary : AdjustmentSummary {
     std::vector<std::string> methods;  ///< the methods that were run
+    /// AnalysisOptions::lever_arm_change_warning_m of the run, for the verdict [m].
+    double lever_arm_change_warning_m = 0.5;
     /// One section per module that ran (the named methods, and ground control when used), in
     /// registry order.
     std::vector<std::shared_ptr<const MethodSection>> sections;

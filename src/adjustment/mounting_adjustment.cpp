@@ -124,6 +124,7 @@ bool AnalysisOptions::IsValid(std::string* error) const {
   if (!(outlier_factor > 0)) return failWith(error, "outlier_factor must be positive");
   if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0))
     return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
+  if (!(lever_arm_change_warning_m > 0)) return failWith(error, "lever_arm_change_warning_m must be positive");
   return true;
 }
 
@@ -316,14 +317,14 @@ int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_s
   return static_cast<int>(records_.size()) - 1;
 }
 
-void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m) {
+void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m, bool in_sigma) {
   Record& rec = records_.at(static_cast<std::size_t>(record));
   auto it = offsets_.find(strip_id);
   if (it == offsets_.end()) return;
   const double* offset = it->second.data();
   for (std::size_t b = 0; b < rec.blocks.size(); ++b)
     if (rec.blocks[b] == offset) {
-      rec.epochs.push_back({static_cast<int>(b), offset, time_s, u_m});
+      rec.epochs.push_back({static_cast<int>(b), offset, time_s, u_m, in_sigma});
       return;
     }
 }
@@ -464,7 +465,8 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Ei
 /// Jacobian with respect to the strip's position (the offset block) or attitude (the offset's
 /// times −[u]×). Epochs are binned at τ/20 (correlation > 0.95 within a bin); bins further apart
 /// than 10 τ (correlation < 5e-5) are skipped. Position and attitude separately; attitude only
-/// when `attitude` (not already estimated as PulseNoise's random effect).
+/// when `attitude` (not already estimated as PulseNoise's random effect). An epoch whose own
+/// variance is in its block's estimated σ (Epoch::in_sigma) adds its correlations only.
 Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude) {
   Mat6 N_red;
   Vec6 diag;
@@ -476,6 +478,7 @@ Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& a
     double tau, bin;
     Vec3 var;
     std::map<const double*, std::map<long long, Mat63>> H;  // strip offset → bin → H
+    Mat6 self = Mat6::Zero();                               // Σ h C hᵀ of the epochs whose own variance is in their σ
   };
   const double t = deg2rad(acc.roll_pitch_sigma_deg), k = deg2rad(acc.heading_sigma_deg), p = acc.position_sigma_m;
   Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}};
@@ -497,19 +500,21 @@ Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& a
     }
     for (const auto& e : rec.epochs) {
       const Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
+      const Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
       if (use_pos) {
-        auto& cell = pos.H[e.offset].try_emplace(std::llround(e.time_s / pos.bin), Mat63::Zero()).first->second;
-        cell += hp;
+        pos.H[e.offset].try_emplace(std::llround(e.time_s / pos.bin), Mat63::Zero()).first->second += hp;
+        if (e.in_sigma) pos.self += hp * pos.var.asDiagonal() * hp.transpose();
       }
       if (use_att) {
-        auto& cell = att.H[e.offset].try_emplace(std::llround(e.time_s / att.bin), Mat63::Zero()).first->second;
-        cell -= hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
+        att.H[e.offset].try_emplace(std::llround(e.time_s / att.bin), Mat63::Zero()).first->second += ha;
+        if (e.in_sigma) att.self += ha * att.var.asDiagonal() * ha.transpose();
       }
     }
   }
   Mat6 M = Mat6::Zero();
   for (const Group* g : {&pos, &att}) {
     const Eigen::DiagonalMatrix<double, 3> C(g->var);
+    M -= g->self;  // what the estimated σ already hold
     for (const auto& [strip, bins] : g->H) {
       (void)strip;
       const std::vector<std::pair<long long, Mat63>> v(bins.begin(), bins.end());
@@ -775,6 +780,7 @@ class Estimation {
     S_.message = cs_.message;
     varianceFactor(est);
     covariance(est, N_red);
+    modelSensitivity(est, N_red);
     for (std::size_t k = 0; k < sources_.size(); ++k) S_.kinds.push_back({sources_[k]->kind(), 0, 0});
     for (const auto& r : P_->records()) {
       if (r.source < 0) continue;
@@ -952,6 +958,48 @@ class Estimation {
       for (int b = 0; b < 6; ++b) S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
   }
 
+  /// The mounting's first-order move when a free lever arm (estimated, no prior) is held at its
+  /// used value instead: the boresight re-solved, −N_bb⁻¹ N_ba (a_used − â), against the σ the
+  /// held model states (conditional on the lever arm).
+  void modelSensitivity(const std::array<bool, 6>& est, const Mat6& N_red) {
+    std::array<bool, 6> rest = est;
+    std::vector<int> free_lever;
+    for (int j = 0; j < 3; ++j)
+      if (est[j] && !priorOn(o_, j)) {
+        free_lever.push_back(j);
+        rest[j] = false;
+      }
+    bool others = false;
+    for (bool r : rest) others |= r;
+    if (free_lever.empty() || !others) return;
+    const std::array<double, 6> m = P_->mountingValues();
+    Vec6 delta = Vec6::Zero();  // a_used − â on the free lever arm
+    for (int j : free_lever) delta[j] = m0_[static_cast<std::size_t>(j)] - m[static_cast<std::size_t>(j)];
+    const Mat6 C = inverseOnEstimated(N_red, rest);
+    const Vec6 shift = -C * (N_red * delta);
+    // The σ the held model states: conditional on the lever arm, Σ_bb − Σ_ba Σ_aa⁻¹ Σ_ab — the
+    // smaller of the two models' σ, so that "moves by k σ" is against what either one claims.
+    const int nl = static_cast<int>(free_lever.size());
+    Eigen::MatrixXd Saa(nl, nl);
+    for (int a = 0; a < nl; ++a)
+      for (int b = 0; b < nl; ++b) Saa(a, b) = S_.covariance(free_lever[a], free_lever[b]);
+    const Eigen::MatrixXd Saa_inv = Saa.completeOrthogonalDecomposition().pseudoInverse();
+    AdjustmentSummary::ModelSensitivity ms;
+    ms.change = "the lever arm held at its used value";
+    for (int j : free_lever)
+      if (S_.sigma[j] > 0) ms.rejected_in_sigma = std::max(ms.rejected_in_sigma, std::abs(delta[j]) / S_.sigma[j]);
+    for (int j = 0; j < 6; ++j) {
+      if (!rest[j]) continue;
+      Eigen::VectorXd Sja(nl);
+      for (int a = 0; a < nl; ++a) Sja[a] = S_.covariance(j, free_lever[a]);
+      const double var_held = S_.covariance(j, j) - Sja.dot(Saa_inv * Sja);
+      const double sigma_held = std::sqrt(std::max(var_held, 1e-6 * S_.covariance(j, j)));
+      ms.shift[static_cast<std::size_t>(j)] = shift[j];
+      ms.shift_in_sigma[static_cast<std::size_t>(j)] = sigma_held > 0 ? std::abs(shift[j]) / sigma_held : 0.0;
+    }
+    S_.model_sensitivity.push_back(ms);
+  }
+
   const MountingAdjustment::Options& o_;
   const std::vector<ObservationSource*>& sources_;
   const std::array<double, 6>* start_;
@@ -967,6 +1015,30 @@ class Estimation {
 };
 
 }  // namespace
+
+bool AdjustmentSummary::ModelSensitivity::model_dependent() const {
+  if (rejected_in_sigma >= 2.0) return false;
+  for (double z : shift_in_sigma)
+    if (z > 3.0) return true;
+  return false;
+}
+
+std::string AdjustmentSummary::ModelSensitivity::text() const {
+  std::string t = change + " moves ";
+  bool first = true;
+  const auto& names = mountingParameterNames();
+  for (int j = 0; j < 6; ++j) {
+    if (shift[j] == 0.0 || !(shift_in_sigma[j] >= 1.0)) continue;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, " by %s (%.1fσ)", fmtParam(j, shift[j]).c_str(), shift_in_sigma[j]);
+    t += (first ? "" : ", ") + names[j] + buf;
+    first = false;
+  }
+  if (first) return change + " moves no parameter by 1σ or more";
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "; the data %s it (%.1fσ)", rejected_in_sigma >= 2.0 ? "reject" : "cannot reject", rejected_in_sigma);
+  return t + buf + (model_dependent() ? ": model-dependent" : "");
+}
 
 AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_used, const std::vector<ObservationSource*>& sources,
                                             const std::array<double, 6>* start) const {

@@ -112,6 +112,20 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
   for (const auto& k : summary.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
   j["kinds"] = kinds;
   j["covariance_source"] = summary.covariance_source;
+  json sens = json::array();
+  for (const auto& ms : summary.model_sensitivity) {
+    json shift = json::array(), z = json::array();
+    for (int k = 0; k < 6; ++k) {
+      shift.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(k < 3 ? ms.shift[k] : rad2deg(ms.shift[k])));
+      z.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(ms.shift_in_sigma[k]));
+    }
+    sens.push_back({{"change", ms.change},
+                    {"shift_m_deg", shift},
+                    {"shift_in_sigma", z},
+                    {"model_dependent", ms.model_dependent()},
+                    {"text", ms.text()}});
+  }
+  j["model_sensitivity"] = sens;
   {
     const MountingCalibrator::Verdict verdict = summary.verdict();
     j["verdict"] = {{"kind", verdict.name()}, {"reasons", verdict.reasons}};

@@ -328,6 +328,8 @@ std::string warningsSection(const MountingCalibrator::Summary& summary) {
   if (summary.degrees_of_freedom > 0 && (summary.variance_factor < 0.5 || summary.variance_factor > 2.0))
     warn.push_back("the variance factor σ₀² = " + detail::formatNumber(summary.variance_factor, "%.3g") +
                    " is far from 1: the stated σ do not match the residuals");
+  for (const auto& ms : summary.model_sensitivity)
+    if (ms.model_dependent()) warn.push_back(ms.text());
   int outliers = 0;
   for (const auto& section : summary.sections) {
     for (const std::string& w : section->warnings()) warn.push_back(w);

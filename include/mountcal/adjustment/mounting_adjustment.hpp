@@ -184,6 +184,10 @@ struct AnalysisOptions {
   /// the aircraft belongs in MountingBlockOptions::prior_sigma instead of being held.
   double undeterminable_sigma_m = 0.3;    ///< bound of a lever-arm component's σ [m]
   double undeterminable_sigma_deg = 1.0;  ///< bound of a boresight angle's σ [deg]
+  /// An estimated lever-arm component that moves further than this from its used (measured)
+  /// value makes the verdict doubtful: mountings are not mis-measured by that much, so the
+  /// lever arm is more likely absorbing a model error (time offset, laser offsets) [m].
+  double lever_arm_change_warning_m = 0.5;
   /// Eigenvalues of the bound-scaled reduced normal matrix below this fraction of the largest
   /// are a rank deficiency (infinite σ along their direction) [-].
   double rank_tolerance = 1e-12;
@@ -243,8 +247,10 @@ class AdjustmentProblem {
   /// States when and where residual block `record` saw strip `strip_id` (whose offset block it
   /// holds): the pulse time [s] and u = x − p (IMU → point, mapping frame) [m]. The adjustment
   /// uses it for the trajectory errors in time (TrajectoryAccuracy); a block without it is
-  /// taken as free of them. Call once per strip the block holds.
-  void setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m);
+  /// taken as free of them. Call once per strip the block holds. `in_sigma`: the block's σ is
+  /// estimated from the residuals (variance components), which already hold its own trajectory
+  /// error — only its correlation with the other observations is added.
+  void setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m, bool in_sigma = false);
 
   /// Residual vector of block `index` at the current parameter values (unweighted by loss).
   Eigen::VectorXd residual(int index) const;
@@ -258,6 +264,7 @@ class AdjustmentProblem {
     const double* offset = nullptr;  ///< the strip's offset block: names the strip
     double time_s = 0.0;
     Vec3 u_m = Vec3::Zero();
+    bool in_sigma = false;  ///< its own variance is in the block's (estimated) σ already
   };
   struct Record {
     ceres::CostFunction* cost = nullptr;
@@ -365,6 +372,27 @@ struct AdjustmentSummary {
   Mat6 held_sensitivity = Mat6::Zero();
   std::string observability_report;
   double condition_number = 0.0;  ///< of the reduced normal matrix of the estimated block
+
+  /// How far the mounting moves when a part of the model that the user switched on is switched
+  /// off, against its σ (issue 26: "model-dependent" beyond 3σ). Today the one such part is a
+  /// free lever arm (estimated without a prior): the boresight is re-solved, to first order,
+  /// with the lever arm held at its used value — shift = −N_bb⁻¹ N_ba (a_used − â) from the
+  /// reduced normal matrix.
+  struct ModelSensitivity {
+    std::string change;             ///< e.g. "the lever arm held at its used value"
+    std::array<double, 6> shift{};  ///< of each estimated parameter [m, rad]; 0 elsewhere
+    /// |shift| / σ, the σ the switched-off model states (conditional on the part switched off:
+    /// the smaller of the two models' σ) [-]
+    std::array<double, 6> shift_in_sigma{};
+    /// How strongly the data reject the switched-off model: the largest |â − a_used| / σ of the
+    /// parts switched off [-]. From 2 on (95 %) the data tell the two models apart: the shift is
+    /// then the cost of a wrong model, not an ambiguity.
+    double rejected_in_sigma = 0.0;
+    /// Some |shift| > 3σ while the data cannot tell the two models apart (rejected_in_sigma < 2).
+    bool model_dependent() const;
+    std::string text() const;  ///< one line for reports and the verdict
+  };
+  std::vector<ModelSensitivity> model_sensitivity;
 
   /// Residual blocks and residuals per kind of observation, in the order of the sources.
   struct KindCount {

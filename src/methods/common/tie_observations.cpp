@@ -366,7 +366,7 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
         blocks_.push_back(
             problem->addResidualBlock(cost, options_.tie_sigma_xy_m, {problem->mounting(), tie.X, problem->stripOffset(v.stripId())}));
       }
-      problem->setEpoch(blocks_.back(), v.stripId(), vtpTime(v, *data_), imuToPoint(v));
+      problem->setEpoch(blocks_.back(), v.stripId(), vtpTime(v, *data_), imuToPoint(v), estimatesSigma());
     }
     if (tie.gcp) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);

@@ -759,7 +759,7 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
       auto* cost = new ceres::NumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL, 3, 6, 3, 3>(
           new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, 3, nd);
       blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, {problem->mounting(), T.block, problem->stripOffset(v.strip_id)}));
-      problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m);
+      problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m, options_.sigma_in_plane_m <= 0);
     }
   }
 }
