@@ -718,6 +718,19 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   const Mat3& R_nom = data_.mounting_used.R_nom;
   const double loss_scale = coarse_ ? 0.3 * set_.radius_m : -1.0;
   blocks_.clear();
+  const Mat3 R_bs_used = data_.mounting_used.R_bs();
+  const Vec3& a_b = data_.mounting_used.a_b;
+  auto epochOf = [&](int s, const std::vector<std::size_t>& idx) {
+    const StripData& st = data_.strips[static_cast<std::size_t>(s)];
+    double t = 0;
+    Vec3 u = Vec3::Zero();
+    for (std::size_t i : idx) {
+      t += st.time_s[i];
+      u += dense_->R_mb(s, i) * (R_bs_used * st.r_s[i] + a_b);
+    }
+    const double k = static_cast<double>(idx.size());
+    problem->setEpoch(blocks_.back(), st.id, t / k, u / k);
+  };
   for (const Correspondence& c : set_.correspondences) {
     std::vector<detail::DenseResidual::Point> pts;
     auto add = [&](int s, std::size_t i, double w) {
@@ -738,19 +751,6 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     blocks_.push_back(loss_scale > 0 ? problem->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
                                      : problem->addResidualBlock(cost, set_.sigma_m, blocks));
     // Trajectory errors in time: the point of A at its time, B's neighbourhood at its mean.
-    const Mat3 R_bs_used = data_.mounting_used.R_bs();
-    const Vec3& a_b = data_.mounting_used.a_b;
-    auto epochOf = [&](int s, const std::vector<std::size_t>& idx) {
-      const StripData& st = data_.strips[static_cast<std::size_t>(s)];
-      double t = 0;
-      Vec3 u = Vec3::Zero();
-      for (std::size_t i : idx) {
-        t += st.time_s[i];
-        u += dense_->R_mb(s, i) * (R_bs_used * st.r_s[i] + a_b);
-      }
-      const double k = static_cast<double>(idx.size());
-      problem->setEpoch(blocks_.back(), st.id, t / k, u / k);
-    };
     epochOf(c.strip_a, {c.point_a});
     epochOf(c.strip_b, c.points_b);
   }
