@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -75,7 +76,83 @@ std::vector<GroundControlPoint> unclaimedGcps(const CalibrationData& data, const
   return out;
 }
 
+/// Every module's run on the data: the observation sources, and the first start a method
+/// offers (e.g. a closed form).
+struct Runs {
+  std::vector<std::pair<const Method*, std::unique_ptr<MethodRun>>> runs;
+  std::vector<ObservationSource*> sources;
+  const std::array<double, 6>* start = nullptr;
+  bool rematches() const {
+    for (const ObservationSource* s : sources)
+      if (s->rematches()) return true;
+    return false;
+  }
+};
+
+Runs buildRuns(const CalibrationData& data, const MountingCalibrator::Options& options, const std::vector<const Method*>& modules,
+               const std::vector<GroundControlPoint>& free_gcps) {
+  Runs out;
+  for (const Method* m : modules) {
+    const std::any defaults = m->defaultOptions();
+    const MethodContext context{data, options.method_options.at(m->name(), defaults), options, options.threads, free_gcps};
+    std::unique_ptr<MethodRun> run = m->run(context);
+    if (!run) continue;  // an implicit module with nothing to do
+    for (ObservationSource* s : run->sources()) out.sources.push_back(s);
+    if (!out.start) out.start = run->start();
+    out.runs.emplace_back(m, std::move(run));
+  }
+  return out;
+}
+
+/// AnalysisOptions::resolve_check: the observations built afresh and solved from `summary`'s
+/// estimate, so that every matching is done again there.
+MountingCalibrator::Summary::ResolveCheck resolveFrom(const MountingCalibrator::Summary& summary, const CalibrationData& data,
+                                                      const MountingCalibrator::Options& options, const std::vector<const Method*>& modules,
+                                                      const std::vector<GroundControlPoint>& free_gcps) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MountingCalibrator::Summary::ResolveCheck check;
+  Runs again = buildRuns(data, options, modules, free_gcps);
+  if (again.sources.empty()) return check;
+  const std::array<double, 6> start = summary.mounting.toArray();
+  const AdjustmentSummary re = MountingAdjustment(options).solve(data.mounting_used, again.sources, &start);
+  check.done = true;
+  check.usable = re.IsSolutionUsable();
+  check.mounting = re.mounting;
+  const auto a = summary.mounting.toArray(), b = re.mounting.toArray();
+  for (int j = 0; j < 6; ++j) {
+    if (!summary.estimated[j]) continue;
+    check.shift[j] = b[j] - a[j];
+    check.shift_in_sigma[j] = std::abs(check.shift[j]) / summary.sigma[j];
+  }
+  check.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return check;
+}
+
 }  // namespace
+
+double MountingCalibrator::Summary::ResolveCheck::largestInSigma() const {
+  double z = 0;
+  for (double v : shift_in_sigma) {
+    if (std::isnan(v)) return std::numeric_limits<double>::infinity();  // a σ of zero
+    z = std::max(z, v);
+  }
+  return z;
+}
+
+std::string MountingCalibrator::Summary::ResolveCheck::text() const {
+  if (!done) return "no re-solve check (switched off, or no observation depends on the mounting)";
+  if (!usable) return "a re-solve started from the result did not converge: the result depends on where the solve started";
+  const auto& names = mountingParameterNames();
+  int worst = 0;
+  for (int j = 1; j < 6; ++j)
+    if (shift_in_sigma[j] > shift_in_sigma[worst]) worst = j;
+  char buf[320];
+  const double k = worst < 3 ? 1.0 : 180.0 / kPi;
+  std::snprintf(buf, sizeof buf, "a re-solve started from the result moves %s by %+.4g %s (%.1fσ)%s", names[worst].c_str(),
+                shift[worst] * k, worst < 3 ? "m" : "deg", shift_in_sigma[worst],
+                unsettled() ? ": the matching has not settled — the result depends on where the solve started" : "");
+  return buf;
+}
 
 MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData& data) const {
   const auto t_start = std::chrono::steady_clock::now();
@@ -98,18 +175,9 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
 
   // ---- each method turns the strips (+ user input) into observation blocks -------------------
   const std::vector<GroundControlPoint> free_gcps = unclaimedGcps(data, modules);
-  std::vector<std::pair<const Method*, std::unique_ptr<MethodRun>>> runs;
-  std::vector<ObservationSource*> sources;
-  const std::array<double, 6>* start = nullptr;
-  for (const Method* m : modules) {
-    const std::any defaults = m->defaultOptions();
-    const MethodContext context{data, options.method_options.at(m->name(), defaults), options, options.threads, free_gcps};
-    std::unique_ptr<MethodRun> run = m->run(context);
-    if (!run) continue;  // an implicit module with nothing to do
-    for (ObservationSource* s : run->sources()) sources.push_back(s);
-    if (!start) start = run->start();
-    runs.emplace_back(m, std::move(run));
-  }
+  Runs built = buildRuns(data, options, modules, free_gcps);
+  const auto& runs = built.runs;
+  const std::vector<ObservationSource*>& sources = built.sources;
   const double construction_s = elapsed();
   auto fillSections = [&] {
     summary.sections.clear();
@@ -130,11 +198,13 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
 
   // ---- one adjustment -------------------------------------------------------------------------
   const std::vector<std::string> names = summary.methods;
-  static_cast<AdjustmentSummary&>(summary) = MountingAdjustment(options).solve(data.mounting_used, sources, start);
+  static_cast<AdjustmentSummary&>(summary) = MountingAdjustment(options).solve(data.mounting_used, sources, built.start);
   summary.methods = names;
   summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
   fillSections();
+  if (options.resolve_check && summary.IsSolutionUsable() && built.rematches())
+    summary.resolve = resolveFrom(summary, data, options, modules, free_gcps);
   summary.time_s = elapsed();
   return summary;
 }
@@ -194,6 +264,7 @@ std::string MountingCalibrator::Summary::FullReport() const {
     << (sigma_model == "formal" ? "\n" : " (the stated trajectory accuracy; formal: observations taken as independent)\n");
   if (!observability_report.empty()) r << "\nObservability:\n" << observability_report;
   for (const auto& ms : model_sensitivity) r << "Model sensitivity: " << ms.text() << "\n";
+  if (resolve.done) r << "Re-solve check: " << resolve.text() << "\n";
   std::snprintf(buf, sizeof buf, "\nCondition number of the estimated block (normalised): %.3g\n", condition_number);
   r << buf;
   r << "\nCorrelations:\n";
@@ -262,6 +333,7 @@ MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
                   names[j].c_str(), moved);
     doubt(buf);
   }
+  if (resolve.unsettled()) doubt(resolve.text());
   int outliers = 0, observations = 0;
   for (const auto& s : sections) outliers += s->outliers();
   for (const auto& k : kinds) observations += k.residuals;

@@ -159,6 +159,7 @@ struct GravityCase {
   const char* name;
   const char* file;
   double before_min_m, after_max_m;
+  bool resolve_settles;  ///< a re-solve from the result stays within 2σ (issue 26; Car: missed, 3.8σ)
 };
 class GravityCalibration : public ::testing::TestWithParam<GravityCase> {};
 
@@ -189,11 +190,22 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
     EXPECT_GT(S.section<CorrespondenceSection>().laser_elevation_sigma_deg[i], 0.0) << "laser " << i;
   }
   EXPECT_TRUE(S.estimated[3] && S.estimated[4] && S.estimated[5]);
+  // Issue 26: a re-solve started from the result stays within 2σ of it — and where it does not
+  // (Car's heading, 3.8σ), the verdict names it instead of accepting.
+  ASSERT_TRUE(S.resolve.done);
+  bool named = false;
+  for (const std::string& r : S.verdict().reasons) named |= r.find("re-solve started from the result") != std::string::npos;
+  EXPECT_EQ(named, S.resolve.unsettled()) << S.resolve.text();
+  if (c.resolve_settles)
+    EXPECT_LT(S.resolve.largestInSigma(), 2.0) << S.resolve.text();
+  else
+    EXPECT_TRUE(S.resolve.unsettled()) << "settles now: " << S.resolve.text() << " — mark it so";
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, GravityCalibration,
-                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225}, GravityCase{"car", "Car.las", 0.20, 0.0230},
-                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108}),
+                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true},
+                                           GravityCase{"car", "Car.las", 0.20, 0.0230, false},
+                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108, true}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 // apply writes one file for the two strips of one input, every record moved by the new mounting

@@ -9,6 +9,7 @@
 /// mountcal::calibrate(); both return the same value-type Summary: the method-independent core
 /// (AdjustmentSummary) and one section per method that ran.
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,7 +59,8 @@ class MountingCalibrator {
   ///    (none: nothing checks the result); more than 5 % of the observations flagged as outliers;
   ///    a model-dependent mounting (ModelSensitivity: switching off a free lever arm moves it by
   ///    over 3σ although the data cannot reject that); an estimated lever arm that moved further
-  ///    than lever_arm_change_warning_m from its used value;
+  ///    than lever_arm_change_warning_m from its used value; a re-solve started from the result
+  ///    (AnalysisOptions::resolve_check) that moves a parameter by more than 2σ, or fails;
   ///  - accept otherwise. A strong correlation is not a doubt by itself: the σ carry it (the
   ///    report's warnings name it).
   struct Verdict {
@@ -72,6 +74,22 @@ class MountingCalibrator {
     std::vector<std::string> methods;  ///< the methods that were run
     /// AnalysisOptions::lever_arm_change_warning_m of the run, for the verdict [m].
     double lever_arm_change_warning_m = 0.5;
+    /// AnalysisOptions::resolve_check: a second solve started from this one's estimate, with
+    /// every mounting-dependent observation selected again there.
+    struct ResolveCheck {
+      bool done = false;                       ///< false: switched off, the solve failed, or nothing re-matches
+      bool usable = false;                     ///< the second solve converged
+      MountingParameters mounting;             ///< its estimate
+      std::array<double, 6> shift{};           ///< its estimate − this estimate [m, rad]; 0 where not estimated
+      std::array<double, 6> shift_in_sigma{};  ///< |shift| / sigma [-]
+      double time_s = 0.0;                     ///< its wall time (included in time_s) [s]
+      /// The largest shift_in_sigma [-].
+      double largestInSigma() const;
+      /// More than 2σ, or the second solve failed: the result depends on where the solve started.
+      bool unsettled() const { return done && (!usable || largestInSigma() > 2.0); }
+      std::string text() const;  ///< one line for reports and the verdict
+    };
+    ResolveCheck resolve;
     /// One section per module that ran (the named methods, and ground control when used), in
     /// registry order.
     std::vector<std::shared_ptr<const MethodSection>> sections;

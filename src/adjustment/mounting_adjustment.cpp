@@ -728,14 +728,15 @@ class Estimation {
   }
 
   /// Summary::held_sensitivity at the final estimate: each estimated parameter's shift per
-  /// unit error of each held one, −N_ee⁻¹ N_eh (exact for the linearised problem), and a line
-  /// of the report per held parameter with the shifts a 1 cm / 0.01° error causes.
+  /// unit error of each held or fixed one, −N_ee⁻¹ N_eh (exact for the linearised problem), and
+  /// a line of the report per held or fixed parameter with the shifts a 1 cm / 0.01° error causes.
   void heldSensitivity(const Mat6& N, const std::array<bool, 6>& est) {
     const auto& names = mountingParameterNames();
     const Mat6 C = inverseOnEstimated(N, est);
-    for (const std::string& held : S_.unobservable) {
-      const int h = static_cast<int>(std::find(names.begin(), names.end(), held) - names.begin());
-      if (h >= 6) continue;
+    for (int h = 0; h < 6; ++h) {
+      if (est[h]) continue;
+      const bool rule = std::find(S_.unobservable.begin(), S_.unobservable.end(), names[h]) != S_.unobservable.end();
+      const std::string held = std::string(rule ? "held " : "fixed ") + names[h];
       Vec6 shift = Vec6::Zero();
       for (int e = 0; e < 6; ++e)
         if (est[e])
@@ -746,8 +747,8 @@ class Estimation {
       bool first = true;
       for (int e = 0; e < 6; ++e) {
         if (!est[e] || std::abs(shift[e] * unit_error) < (e < 3 ? 1e-4 : deg2rad(1e-5))) continue;
-        report_ << (first ? std::string(h < 3 ? "A 1 cm error in the held " : "A 0.01° error in the held ") + held + " moves " : ", ")
-                << names[e] << " by " << fmtParam(e, shift[e] * unit_error);
+        report_ << (first ? std::string(h < 3 ? "A 1 cm error in the " : "A 0.01° error in the ") + held + " moves " : ", ") << names[e]
+                << " by " << fmtParam(e, shift[e] * unit_error);
         first = false;
       }
       if (!first) report_ << " (not in their σ).\n";

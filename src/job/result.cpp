@@ -58,6 +58,40 @@ json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 }  // namespace
 
+namespace {
+/// The model sensitivity and the re-solve check (issue 26): "model_sensitivity" and
+/// "resolve_check" (null when no second solve ran).
+void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out) {
+  json& j = *out;
+  json sens = json::array();
+  for (const auto& ms : summary.model_sensitivity) {
+    json shift = json::array(), z = json::array();
+    for (int k = 0; k < 6; ++k) {
+      shift.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(k < 3 ? ms.shift[k] : rad2deg(ms.shift[k])));
+      z.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(ms.shift_in_sigma[k]));
+    }
+    sens.push_back({{"change", ms.change},
+                    {"shift_m_deg", shift},
+                    {"shift_in_sigma", z},
+                    {"model_dependent", ms.model_dependent()},
+                    {"text", ms.text()}});
+  }
+  j["model_sensitivity"] = sens;
+  if (summary.resolve.done) {
+    const auto& rc = summary.resolve;
+    json shift = json::array(), z = json::array();
+    for (int k = 0; k < 6; ++k) {
+      shift.push_back(summary.estimated[k] ? json(k < 3 ? rc.shift[k] : rad2deg(rc.shift[k])) : json(nullptr));
+      z.push_back(summary.estimated[k] ? json(rc.shift_in_sigma[k]) : json(nullptr));
+    }
+    j["resolve_check"] = {{"converged", rc.usable},      {"shift_m_deg", shift}, {"shift_in_sigma", z},
+                          {"unsettled", rc.unsettled()}, {"time_s", rc.time_s},  {"text", rc.text()}};
+  } else {
+    j["resolve_check"] = nullptr;
+  }
+}
+}  // namespace
+
 std::string resultJson(const MountingCalibrator::Summary& summary, const ResultEvaluation* ev) {
   const Vec3 b = summary.mounting.boresightDeg();
   json j;
@@ -112,20 +146,7 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
   for (const auto& k : summary.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
   j["kinds"] = kinds;
   j["covariance_source"] = summary.covariance_source;
-  json sens = json::array();
-  for (const auto& ms : summary.model_sensitivity) {
-    json shift = json::array(), z = json::array();
-    for (int k = 0; k < 6; ++k) {
-      shift.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(k < 3 ? ms.shift[k] : rad2deg(ms.shift[k])));
-      z.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(ms.shift_in_sigma[k]));
-    }
-    sens.push_back({{"change", ms.change},
-                    {"shift_m_deg", shift},
-                    {"shift_in_sigma", z},
-                    {"model_dependent", ms.model_dependent()},
-                    {"text", ms.text()}});
-  }
-  j["model_sensitivity"] = sens;
+  addSensitivityChecks(summary, &j);
   {
     const MountingCalibrator::Verdict verdict = summary.verdict();
     j["verdict"] = {{"kind", verdict.name()}, {"reasons", verdict.reasons}};

@@ -374,7 +374,7 @@ void readSettings(const Fields& top, Job* job) {
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
                                         "scale_covariance_by_variance_factor", "max_rematch_rounds", "rematch_tolerance_m",
-                                        "rematch_tolerance_deg", "max_iterations_per_matching"});
+                                        "rematch_tolerance_deg", "max_iterations_per_matching", "resolve_check"});
     opts.max_iterations = s.integer("max_iterations", opts.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", "trivial");
     if (loss == "trivial")
@@ -393,6 +393,7 @@ void readSettings(const Fields& top, Job* job) {
     opts.rematch_tolerance_m = s.num("rematch_tolerance_m", opts.rematch_tolerance_m);
     opts.max_iterations_per_matching = s.integer("max_iterations_per_matching", opts.max_iterations_per_matching, 0, 100000);
     opts.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(opts.rematch_tolerance_rad)));
+    opts.resolve_check = s.boolean("resolve_check", opts.resolve_check);
   }
 }
 
@@ -572,6 +573,7 @@ std::string jobJson(const Job& job) {
   }
   j["solver"] = {{"max_iterations", opts.max_iterations}, {"loss", lossName(opts.loss)}};
   if (opts.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = opts.loss_scale_m;
+  if (opts.resolve_check != def.resolve_check) j["solver"]["resolve_check"] = opts.resolve_check;
   json out = json::object();
   if (!job.result_path.empty()) out["result"] = rel(job.result_path);
   if (!job.report_path.empty()) out["report"] = rel(job.report_path);

@@ -325,11 +325,12 @@ std::string warningsSection(const MountingCalibrator::Summary& summary) {
       if (summary.estimated[a] && summary.estimated[b] && std::abs(summary.correlation(a, b)) > 0.9)
         warn.push_back(names[a] + " and " + names[b] + " are strongly correlated (" +
                        detail::formatNumber(summary.correlation(a, b), "%+.3f") + ")");
-  if (summary.degrees_of_freedom > 0 && (summary.variance_factor < 0.5 || summary.variance_factor > 2.0))
+  if (summary.degrees_of_freedom > 0 && (summary.variance_factor < 0.3 || summary.variance_factor > 2.0))  // the verdict's bounds
     warn.push_back("the variance factor σ₀² = " + detail::formatNumber(summary.variance_factor, "%.3g") +
                    " is far from 1: the stated σ do not match the residuals");
   for (const auto& ms : summary.model_sensitivity)
     if (ms.model_dependent()) warn.push_back(ms.text());
+  if (summary.resolve.unsettled()) warn.push_back(summary.resolve.text());
   int outliers = 0;
   for (const auto& section : summary.sections) {
     for (const std::string& w : section->warnings()) warn.push_back(w);

@@ -188,6 +188,12 @@ struct AnalysisOptions {
   /// value makes the verdict doubtful: mountings are not mis-measured by that much, so the
   /// lever arm is more likely absorbing a model error (time offset, laser offsets) [m].
   double lever_arm_change_warning_m = 0.5;
+  /// After the solve, MountingCalibrator solves once more from its estimate, with every
+  /// observation that depends on the mounting selected again there (correspondences, plane
+  /// points, feature targets, control). A mounting that then moves by more than 2σ has not
+  /// settled — it depends on where the solve started — and the verdict says so (doubtful).
+  /// Costs a second solve when some method re-matches; nothing when none does.
+  bool resolve_check = true;
   /// Eigenvalues of the bound-scaled reduced normal matrix below this fraction of the largest
   /// are a rank deficiency (infinite σ along their direction) [-].
   double rank_tolerance = 1e-12;
@@ -366,9 +372,10 @@ struct AdjustmentSummary {
 
   /// Parameters that were asked for but that the data cannot determine, and why.
   std::vector<std::string> unobservable;
-  /// Column h (a held parameter): how far each estimated parameter moves per unit error of the
-  /// held value (m/m, rad/m, m/rad or rad/rad; zero elsewhere). The estimated σ do not contain
-  /// the held value's error: this says what it costs.
+  /// Column h (a parameter held by the observability rule, or fixed by the user): how far each
+  /// estimated parameter moves per unit error of the held value (m/m, rad/m, m/rad or rad/rad;
+  /// zero elsewhere). The estimated σ do not contain the held value's error: this says what it
+  /// costs.
   Mat6 held_sensitivity = Mat6::Zero();
   std::string observability_report;
   double condition_number = 0.0;  ///< of the reduced normal matrix of the estimated block

@@ -18,6 +18,10 @@ struct ToyOptions {
   static constexpr const char* kMethod = "toy";
   double lever_arm_z_m = 0.0;  ///< the measured vertical lever arm [m]
   double sigma_m = 0.01;       ///< its standard deviation [m]
+  /// A matching that never settles (for the re-solve check): the measurement is taken as the
+  /// vertical lever arm the run first sees plus this, so every solve started from the previous
+  /// result moves it again [m]. 0: a fixed measurement.
+  double drift_m = 0.0;
 };
 
 /// r = (a_z − measured) / σ: linear, so its Jacobian is exact.
@@ -61,9 +65,14 @@ struct ToySection final : MethodSection {
 
 class ToySource final : public ObservationSource {
  public:
-  ToySource(double value_m, double sigma_m) : value_m_(value_m), sigma_m_(sigma_m) {}
+  ToySource(double value_m, double sigma_m, double drift_m) : value_m_(value_m), sigma_m_(sigma_m), drift_m_(drift_m) {}
   std::string kind() const override { return "toy"; }
-  void addBlocks(const std::array<double, 6>&, AdjustmentProblem* problem) override {
+  bool rematches() const override { return drift_m_ != 0.0; }
+  void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override {
+    if (drift_m_ != 0.0 && !first_seen_) {
+      value_m_ = mounting[2] + drift_m_;
+      first_seen_ = true;
+    }
     problem->addResidualBlock(new MeasuredLeverZ(value_m_, sigma_m_), 0.0, {problem->mounting()});
   }
   void finish(const std::array<double, 6>&, const std::array<double, 6>& mounting, const AdjustmentProblem&,
@@ -73,12 +82,13 @@ class ToySource final : public ObservationSource {
   double estimated_m = 0;
 
  private:
-  double value_m_, sigma_m_;
+  double value_m_, sigma_m_, drift_m_;
+  bool first_seen_ = false;
 };
 
 class ToyRun final : public MethodRun {
  public:
-  explicit ToyRun(const ToyOptions& o) : options_(o), source_(o.lever_arm_z_m, o.sigma_m) {}
+  explicit ToyRun(const ToyOptions& o) : options_(o), source_(o.lever_arm_z_m, o.sigma_m, o.drift_m) {}
   std::vector<ObservationSource*> sources() override { return {&source_}; }
   std::shared_ptr<const MethodSection> section() const override {
     auto s = std::make_shared<ToySection>();
@@ -106,6 +116,9 @@ class ToyMethod final : public Method {
                 "lever_arm_z_m", [](T& o) -> double& { return o.lever_arm_z_m; }, "m", -100, 100, "the measured vertical lever arm")
             .number(
                 "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 1e-6, 10, "its standard deviation")
+            .number(
+                "drift_m", [](T& o) -> double& { return o.drift_m; }, "m", -10, 10,
+                "a matching that never settles: each run measures what it first sees plus this")
             .specs();
     return specs;
   }
