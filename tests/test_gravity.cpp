@@ -2,6 +2,7 @@
 // passes split by frameNo, the pass-to-pass discrepancy, calibration and apply from the
 // repository's example jobs. Read from ../shared/data; a failure, not a skip, in CI.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "real_data.hpp"
 
@@ -9,6 +10,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "mountcal/mountcal.hpp"
 #include "mountcal/report/evaluation.hpp"
@@ -26,6 +29,28 @@ namespace fs = std::filesystem;
 
 namespace {
 std::string exampleJob(const std::string& name) { return std::string(MOUNTCAL_SOURCE_DIR) + "/examples/gravity/" + name + ".json"; }
+
+/// The pass-to-pass discrepancy after a calibration: its mounting and per-laser elevations.
+DiscrepancyStats afterCalibration(const CalibrationData& data, const MountingCalibrator::Summary& S) {
+  CalibrationData after = data;
+  std::vector<double> lasers;
+  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
+  if (!lasers.empty()) applyLaserElevation(&after, lasers);
+  return pooledDiscrepancy(after, S.mounting);
+}
+
+/// The example job with every matching, solver and stochastic setting removed (what a user
+/// writes without tuning), in a temporary folder with the strips' paths made absolute.
+std::string untunedJob(const std::string& name) {
+  std::ifstream in(exampleJob(name));
+  nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* key : {"correspondences", "solver", "stochastic"}) j.erase(key);
+  const fs::path dir = fs::path(MOUNTCAL_SOURCE_DIR) / "examples" / "gravity";
+  for (auto& strip : j["strips"]) strip["path"] = fs::absolute(dir / strip["path"].get<std::string>()).lexically_normal().string();
+  const fs::path out = fs::temp_directory_path() / ("mountcal_untuned_" + name + "_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(out) << j.dump(2);
+  return out.string();
+}
 }  // namespace
 
 // Hand derivation: yaw 90° (counter-clockwise from East) faces North; SPEC's body x forward →
@@ -160,6 +185,8 @@ struct GravityCase {
   const char* file;
   double before_min_m, after_max_m;
   bool resolve_settles;  ///< a re-solve from the result stays within 2σ (issue 26; Car: missed, 3.8σ)
+  /// The untuned job's median against the tuned one's (issue 26 asks 1.10; Truck: missed, 1.13).
+  double untuned_factor;
 };
 class GravityCalibration : public ::testing::TestWithParam<GravityCase> {};
 
@@ -202,10 +229,32 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
     EXPECT_TRUE(S.resolve.unsettled()) << "settles now: " << S.resolve.text() << " — mark it so";
 }
 
+// Issue 26: without hand tuning the job takes its defaults from the data — a multi-beam sensor
+// matches densely with per-laser elevations and a Cauchy loss, parts of one recording have no
+// strip offsets — and comes within 10 % of the tuned job's median (Truck: 13 %, missed). Car's
+// untuned heading does not settle (re-solve 8.7σ): its verdict is doubtful, as is the tuned one's.
+TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
+  const GravityCase c = GetParam();
+  REQUIRE_DATA(std::string("gravity/") + c.file);
+  const std::string path = untunedJob(c.name);
+  const Job untuned = readJob(path);
+  fs::remove(path);
+  EXPECT_TRUE(untuned.options.method<CorrespondenceOptions>().dense) << "a multi-beam sensor matches densely";
+  EXPECT_EQ(untuned.options.strip_offset_sigma_m, 0.0) << "two parts of one recording";
+  EXPECT_EQ(untuned.options.loss, LossType::kCauchy);
+  const LoadedJob L = loadJob(untuned);
+  const auto S = MountingCalibrator(untuned.options).calibrate(L.data);
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  const Job tuned = readJob(exampleJob(c.name));
+  const auto T = MountingCalibrator(tuned.options).calibrate(loadJob(tuned).data);
+  const double m_untuned = afterCalibration(L.data, S).median_m, m_tuned = afterCalibration(L.data, T).median_m;
+  EXPECT_LT(m_untuned, c.untuned_factor * m_tuned) << "untuned " << m_untuned << " m, tuned " << m_tuned << " m";
+}
+
 INSTANTIATE_TEST_SUITE_P(Sets, GravityCalibration,
-                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true},
-                                           GravityCase{"car", "Car.las", 0.20, 0.0230, false},
-                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108, true}),
+                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true, 1.15},
+                                           GravityCase{"car", "Car.las", 0.20, 0.0230, false, 1.10},
+                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108, true, 1.10}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 // apply writes one file for the two strips of one input, every record moved by the new mounting

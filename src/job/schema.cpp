@@ -309,6 +309,30 @@ void readInputs(const std::string& path, const Fields& top, const json& j, Job* 
   }
 }
 
+/// Defaults that come from the data (issue 26: a job without hand tuning), set before the job's
+/// own keys are read so that every key the job gives overrides them:
+///  - strips cut by "split" from one recording share one continuous trajectory: no strip offsets
+///    between them (their relative drift over the seconds between the parts is what
+///    "stochastic.trajectory" states);
+///  - a spinning multi-beam sensor: the correspondences match densely (passes over one object,
+///    not airborne strips), with per-laser elevation offsets under a 0.15° prior (the order of
+///    the corrections found on the Gravity HDL-32E passes).
+/// The robust loss of a multi-beam correspondence job is set in readJob, once the methods are known.
+void applyDataDefaults(Job* job) {
+  bool one_recording = job->strips.size() > 1;
+  for (const JobStrip& s : job->strips) one_recording &= !s.split.field.empty() && s.path == job->strips.front().path;
+  if (one_recording) job->options.strip_offset_sigma_m = 0.0;
+  if (job->sensor.type == SensorType::kMultiBeam) {
+    const Method* m = findMethod("correspondences");
+    if (!m) return;
+    std::any& o = job->options.method_options.at(m->name(), m->defaultOptions());
+    for (const OptionSpec& spec : m->options()) {
+      if (spec.key == "dense") spec.set(o, 1.0);
+      if (spec.key == "laser_elevation_sigma_deg") spec.set(o, 0.15);
+    }
+  }
+}
+
 /// "method": a name or an array of names (SPEC §4); each named method's input is required.
 void readMethods(const Fields& top, Job* job) {
   // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
@@ -376,7 +400,7 @@ void readSettings(const Fields& top, Job* job) {
                                         "scale_covariance_by_variance_factor", "max_rematch_rounds", "rematch_tolerance_m",
                                         "rematch_tolerance_deg", "max_iterations_per_matching", "resolve_check"});
     opts.max_iterations = s.integer("max_iterations", opts.max_iterations, 1, 100000);
-    const std::string loss = s.str("loss", "trivial");
+    const std::string loss = s.str("loss", lossName(opts.loss));
     if (loss == "trivial")
       opts.loss = LossType::kTrivial;
     else if (loss == "huber")
@@ -423,8 +447,15 @@ Job readJob(const std::string& path) {
   const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg", "lever_arm_sigma_m"});
   job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
   readStrips(path, top, &job);
+  applyDataDefaults(&job);
   readInputs(path, top, j, &job);
   readMethods(top, &job);
+  if (job.sensor.type == SensorType::kMultiBeam && job.options.methods == std::vector<std::string>{"correspondences"}) {
+    // Real multi-beam passes carry moving objects and edges: a Cauchy loss from 1.5× the
+    // scanner's 2 cm range accuracy (the job's "solver" overrides it).
+    job.options.loss = LossType::kCauchy;
+    job.options.loss_scale_m = 0.03;
+  }
   readSettings(top, &job);
   readMeasuredLeverArm(used, &job);
   std::string why;
