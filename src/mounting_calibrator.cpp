@@ -104,6 +104,29 @@ Runs buildRuns(const CalibrationData& data, const MountingCalibrator::Options& o
   return out;
 }
 
+/// The adjustment, with the platform's motion (for the time offset) from the trajectory:
+/// central differences over ±0.05 s (cut at its ends). Strips with per-point poses carry their
+/// own time: no motion for them.
+MountingAdjustment adjustment(const MountingCalibrator::Options& options, const CalibrationData& data) {
+  MountingAdjustment a(options);
+  if (!(options.time_offset_sigma_s > 0) || !data.trajectory) return a;
+  std::set<std::string> own_poses;
+  for (const StripData& s : data.strips)
+    if (!s.poses.empty()) own_poses.insert(s.id);
+  std::shared_ptr<const Trajectory> trajectory = data.trajectory;
+  a.setMotion([trajectory, own_poses](const std::string& strip, double t, Vec3* v, Vec3* w) {
+    if (own_poses.count(strip)) return false;
+    const double lo = std::max(trajectory->startTime(), t - 0.05), hi = std::min(trajectory->endTime(), t + 0.05);
+    if (!(hi - lo > 1e-3)) return false;
+    const Pose a0 = trajectory->pose(lo), a1 = trajectory->pose(hi);
+    *v = (a1.p_m - a0.p_m) / (hi - lo);
+    const Eigen::AngleAxisd turn(a1.R_mb * a0.R_mb.transpose());  // exp([ω]× Δt)
+    *w = turn.angle() / (hi - lo) * turn.axis();
+    return true;
+  });
+  return a;
+}
+
 /// AnalysisOptions::resolve_check: the observations built afresh and solved from `summary`'s
 /// estimate, so that every matching is done again there.
 MountingCalibrator::Summary::ResolveCheck resolveFrom(const MountingCalibrator::Summary& summary, const CalibrationData& data,
@@ -114,7 +137,7 @@ MountingCalibrator::Summary::ResolveCheck resolveFrom(const MountingCalibrator::
   Runs again = buildRuns(data, options, modules, free_gcps);
   if (again.sources.empty()) return check;
   const std::array<double, 6> start = summary.mounting.toArray();
-  const AdjustmentSummary re = MountingAdjustment(options).solve(data.mounting_used, again.sources, &start);
+  const AdjustmentSummary re = adjustment(options, data).solve(data.mounting_used, again.sources, &start);
   check.done = true;
   check.usable = re.IsSolutionUsable();
   check.mounting = re.mounting;
@@ -198,7 +221,7 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
 
   // ---- one adjustment -------------------------------------------------------------------------
   const std::vector<std::string> names = summary.methods;
-  static_cast<AdjustmentSummary&>(summary) = MountingAdjustment(options).solve(data.mounting_used, sources, built.start);
+  static_cast<AdjustmentSummary&>(summary) = adjustment(options, data).solve(data.mounting_used, sources, built.start);
   summary.methods = names;
   summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
@@ -260,9 +283,13 @@ std::string MountingCalibrator::Summary::FullReport() const {
     std::snprintf(buf, sizeof buf, "%-18s %+12.6f %s %+12.6f %s  %s\n", names[j].c_str(), used[j] * k, unit, est[j] * k, unit, sig.c_str());
     r << buf;
   }
-  r << "sigma: " << sigma_model
-    << (sigma_model == "formal" ? "\n" : " (the stated trajectory accuracy; formal: observations taken as independent)\n");
+  r << "sigma: " << sigma_model << (sigma_model == "formal" ? "\n" : " (formal: observations taken as independent)\n");
   if (!observability_report.empty()) r << "\nObservability:\n" << observability_report;
+  if (!std::isnan(time_offset_s)) {
+    std::snprintf(buf, sizeof buf, "Time offset (first order, not applied): %+.4g ms, sigma %.4g ms\n", 1e3 * time_offset_s,
+                  1e3 * time_offset_sigma_s);
+    r << buf;
+  }
   for (const auto& ms : model_sensitivity) r << "Model sensitivity: " << ms.text() << "\n";
   if (resolve.done) r << "Re-solve check: " << resolve.text() << "\n";
   std::snprintf(buf, sizeof buf, "\nCondition number of the estimated block (normalised): %.3g\n", condition_number);

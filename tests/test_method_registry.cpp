@@ -181,7 +181,7 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
             {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
             {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
             {"ties", "ties.csv"},
-            {"stochastic", {{"trajectory", {{"position_sigma_m", 0.05}, {"heading_sigma_deg", 0.02}}}}}};
+            {"stochastic", {{"trajectory", {{"position_sigma_m", 0.05}, {"heading_sigma_deg", 0.02}}}, {"time_offset_sigma_s", 0.003}}}};
   const std::string path = (dir / "job.json").string();
   writeJson(path, j);
   const Job job = readJob(path);
@@ -193,6 +193,12 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
   const Job back = readJob(again);
   EXPECT_EQ(back.options.trajectory.position_sigma_m, 0.05);
   EXPECT_EQ(back.options.trajectory.heading_sigma_deg, 0.02);
+  EXPECT_EQ(job.options.time_offset_sigma_s, 0.003);
+  EXPECT_EQ(back.options.time_offset_sigma_s, 0.003);
+  j["stochastic"]["time_offset_sigma_s"] = 11;
+  writeJson(path, j);
+  EXPECT_THROW(readJob(path), FileError) << "a time offset σ above 10 s";
+  j["stochastic"].erase("time_offset_sigma_s");
   j["stochastic"]["trajectory"] = "none";
   writeJson(path, j);
   EXPECT_FALSE(readJob(path).options.trajectory.any());

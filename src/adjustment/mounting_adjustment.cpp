@@ -101,6 +101,8 @@ bool StochasticOptions::IsValid(std::string* error) const {
   if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m))
     return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
   if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
+  if (!(time_offset_sigma_s >= 0) || time_offset_sigma_s > 10)
+    return failWith(error, "time_offset_sigma_s must be in [0, 10] s (0: the time offset is not analysed)");
   return true;
 }
 
@@ -324,7 +326,9 @@ void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double
   const double* offset = it->second.data();
   for (std::size_t b = 0; b < rec.blocks.size(); ++b)
     if (rec.blocks[b] == offset) {
-      rec.epochs.push_back({static_cast<int>(b), offset, time_s, u_m, in_sigma});
+      Epoch e{static_cast<int>(b), offset, time_s, u_m, in_sigma};
+      if (motion_) e.moving = motion_(strip_id, time_s, &e.velocity_m_s, &e.rate_rad_s);
+      rec.epochs.push_back(e);
       return;
     }
 }
@@ -532,6 +536,80 @@ Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& a
   return 0.5 * (M + M.transpose());
 }
 
+/// The time offset δt beside the mounting: SPEC §2 eq. (1) at t + δt gives ∂x/∂δt = v + ω × u
+/// (u the IMU → point vector in the mapping frame), through each epoch's strip-offset Jacobian.
+/// Every nuisance block eliminated (Schur complement), the 7 × 7 reduced normal matrix of
+/// (mounting, δt) and the reduced gradient Jᵀr at the current values. `any`: some epoch moves.
+struct TimeOffsetSystem {
+  Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Zero();
+  Eigen::Matrix<double, 7, 1> g = Eigen::Matrix<double, 7, 1>::Zero();
+  bool any = false;
+};
+
+TimeOffsetSystem timeOffsetSystem(AdjustmentProblem& problem) {
+  TimeOffsetSystem out;
+  const Columns cols = columnsOf(problem);
+  const int n = cols.n + 1;  // 0–5 mounting, 6 δt, 7… the nuisance (Columns' index + 1)
+  std::vector<Eigen::Triplet<double>> trip;
+  std::vector<double> res;
+  int row = 0;
+  const double* m = problem.mounting();
+  for (int index = 0; index < problem.residualBlockCount(); ++index) {
+    const auto& rec = problem.records()[static_cast<std::size_t>(index)];
+    const int nr = rec.cost->num_residuals();
+    const std::vector<RowMat> J = blockJacobians(rec, cols);
+    Eigen::VectorXd jt = Eigen::VectorXd::Zero(nr);
+    for (const auto& e : rec.epochs) {
+      if (!e.moving) continue;
+      jt += J[static_cast<std::size_t>(e.block)] * (e.velocity_m_s + e.rate_rad_s.cross(e.u_m));
+      out.any = true;
+    }
+    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+      const double* blk = rec.blocks[b];
+      int first = 0;
+      if (blk != m) {
+        auto it = cols.col.find(blk);
+        if (it == cols.col.end()) continue;  // a constant block
+        first = it->second.first + 1;
+      }
+      for (int i = 0; i < nr; ++i)
+        for (int c = 0; c < J[b].cols(); ++c)
+          if (J[b](i, c) != 0.0) trip.emplace_back(row + i, first + c, J[b](i, c));
+    }
+    for (int i = 0; i < nr; ++i)
+      if (jt[i] != 0.0) trip.emplace_back(row + i, 6, jt[i]);
+    const Eigen::VectorXd r = problem.residual(index);
+    res.insert(res.end(), r.data(), r.data() + nr);
+    row += nr;
+  }
+  if (!out.any) return out;
+  Eigen::SparseMatrix<double> Js(row, n);
+  Js.setFromTriplets(trip.begin(), trip.end());
+  const Eigen::SparseMatrix<double> Jt_s = Js.transpose();
+  const Eigen::SparseMatrix<double> N = Jt_s * Js;
+  const Eigen::VectorXd g = Jt_s * Eigen::Map<const Eigen::VectorXd>(res.data(), row);
+  out.N = Eigen::MatrixXd(N.topLeftCorner(7, 7));
+  out.g = g.head(7);
+  if (n == 7) return out;
+  const Eigen::SparseMatrix<double> Nnn = N.bottomRightCorner(n - 7, n - 7);
+  Eigen::MatrixXd rhs(n - 7, 8);
+  rhs.leftCols(7) = Eigen::MatrixXd(N.bottomLeftCorner(n - 7, 7));
+  rhs.col(7) = g.tail(n - 7);
+  Eigen::SparseMatrix<double> R = Nnn;  // regularised as reducedNormalMatrix does, for a free nuisance direction
+  const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(Nnn.diagonal()).cwiseAbs().maxCoeff());
+  for (int i = 0; i < n - 7; ++i) R.coeffRef(i, i) += eps;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(R);
+  const Eigen::MatrixXd X = ldlt.solve(rhs);
+  if (ldlt.info() != Eigen::Success || !X.allFinite()) {
+    out.any = false;
+    return out;
+  }
+  out.N -= rhs.leftCols(7).transpose() * X.leftCols(7);
+  out.N = 0.5 * (out.N + out.N.transpose()).eval();
+  out.g -= rhs.leftCols(7).transpose() * X.col(7);
+  return out;
+}
+
 /// The (pseudo-)inverse of the estimated parameters' block of a 6 × 6 normal matrix, placed
 /// back at their indices (zero elsewhere).
 Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
@@ -574,9 +652,10 @@ namespace {
 /// (holdUndeterminable), then σ₀², covariance and the per-kind counts (analyse).
 class Estimation {
  public:
-  Estimation(const MountingAdjustment::Options& options, const MountingParameters& mounting_used,
+  Estimation(const MountingAdjustment::Options& options, const MotionFunction& motion, const MountingParameters& mounting_used,
              const std::vector<ObservationSource*>& sources, const std::array<double, 6>* start, AdjustmentSummary* summary)
       : o_(options),
+        motion_(motion),
         sources_(sources),
         start_(start),
         m0_(mounting_used.toArray()),
@@ -782,6 +861,7 @@ class Estimation {
     varianceFactor(est);
     covariance(est, N_red);
     modelSensitivity(est, N_red);
+    timeOffset(est);
     for (std::size_t k = 0; k < sources_.size(); ++k) S_.kinds.push_back({sources_[k]->kind(), 0, 0});
     for (const auto& r : P_->records()) {
       if (r.source < 0) continue;
@@ -800,6 +880,7 @@ class Estimation {
     const double t_mark = elapsed();
     P_ = std::make_unique<AdjustmentProblem>(m, o_.strip_offset_sigma_m, o_.loss, o_.loss_scale_m, o_.numeric_diff_relative_step);
     P_->setPulseNoise(o_.pulse_noise);
+    if (o_.time_offset_sigma_s > 0) P_->setMotion(motion_);
     for (std::size_t k = 0; k < sources_.size(); ++k) {
       P_->setSource(static_cast<int>(k));
       sources_[k]->addBlocks(m, P_.get());
@@ -952,6 +1033,18 @@ class Estimation {
         S_.sigma_model = "formal + trajectory errors in time";
       }
     }
+    if (n_est > 0 && o_.time_offset_sigma_s > 0) {
+      // The time offset as a consider parameter: the mounting moves by s = −N⁻¹ n_mt per second.
+      time_ = timeOffsetSystem(*P_);
+      if (time_.any) {
+        const Vec6 shift = -inverseOnEstimated(N_red, est) * time_.N.block<6, 1>(0, 6);
+        const double var = o_.time_offset_sigma_s * o_.time_offset_sigma_s;
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b)
+            if (est[a] && est[b]) cov(a, b) += shift[a] * shift[b] * var;
+        S_.sigma_model += " + time offset";
+      }
+    }
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
@@ -1001,7 +1094,65 @@ class Estimation {
     S_.model_sensitivity.push_back(ms);
   }
 
+  /// The data's own first-order estimate of the time offset (one Gauss–Newton step of the
+  /// problem with δt added, under its prior), its σ, how far it would move the mounting
+  /// (model_sensitivity: "the time offset estimated"), and which parameters it cannot be told
+  /// from (|correlation| > 0.95: at one speed δt is an along-track lever arm, v·δt).
+  void timeOffset(const std::array<bool, 6>& est) {
+    if (!time_.any) {
+      if (o_.time_offset_sigma_s > 0)
+        S_.observability_report += "The time offset is not analysed: no strip's motion is known (per-point poses carry their own time).\n";
+      return;
+    }
+    std::vector<int> idx;
+    for (int j = 0; j < 6; ++j)
+      if (est[j]) idx.push_back(j);
+    idx.push_back(6);
+    const int k = static_cast<int>(idx.size());
+    Eigen::MatrixXd A(k, k);
+    Eigen::VectorXd g(k);
+    for (int a = 0; a < k; ++a) {
+      g[a] = time_.g[idx[a]];
+      for (int b = 0; b < k; ++b) A(a, b) = time_.N(idx[a], idx[b]);
+    }
+    A(k - 1, k - 1) += 1.0 / (o_.time_offset_sigma_s * o_.time_offset_sigma_s);
+    const Eigen::MatrixXd Ainv = A.completeOrthogonalDecomposition().pseudoInverse();
+    const Eigen::VectorXd step = -Ainv * g;
+    S_.time_offset_s = step[k - 1];
+    S_.time_offset_sigma_s = std::sqrt(std::max(Ainv(k - 1, k - 1), 0.0));
+    AdjustmentSummary::ModelSensitivity ms;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "the time offset estimated (%+.3g ± %.3g ms) instead of 0", 1e3 * S_.time_offset_s,
+                  1e3 * S_.time_offset_sigma_s);
+    ms.change = buf;
+    ms.rejected_in_sigma = S_.time_offset_sigma_s > 0 ? std::abs(S_.time_offset_s) / S_.time_offset_sigma_s : 0.0;
+    const auto& names = mountingParameterNames();
+    int worst = -1;
+    double worst_rho = 0;
+    for (int a = 0; a + 1 < k; ++a) {
+      const int j = idx[static_cast<std::size_t>(a)];
+      ms.shift[static_cast<std::size_t>(j)] = step[a];
+      ms.shift_in_sigma[static_cast<std::size_t>(j)] = S_.sigma[j] > 0 ? std::abs(step[a]) / S_.sigma[j] : 0.0;
+      const double rho = Ainv(a, k - 1) / std::sqrt(std::max(Ainv(a, a) * Ainv(k - 1, k - 1), 1e-300));
+      if (std::abs(rho) > std::abs(worst_rho)) worst = j, worst_rho = rho;
+    }
+    // An absolute rule, as for the mounting: the data determine δt only if they shrink its σ
+    // well below the prior's.
+    if (S_.time_offset_sigma_s > 0.7 * o_.time_offset_sigma_s) {
+      std::snprintf(buf, sizeof buf, "The time offset is not determined by these data (σ %.3g ms against its prior %.3g ms)",
+                    1e3 * S_.time_offset_sigma_s, 1e3 * o_.time_offset_sigma_s);
+      S_.observability_report += buf;
+      if (worst >= 0) {
+        std::snprintf(buf, sizeof buf, "; it can hardly be told from %s (correlation %+.3f)", names[worst].c_str(), worst_rho);
+        S_.observability_report += buf;
+      }
+      S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
+    }
+    S_.model_sensitivity.push_back(ms);
+  }
+
   const MountingAdjustment::Options& o_;
+  const MotionFunction& motion_;
   const std::vector<ObservationSource*>& sources_;
   const std::array<double, 6>* start_;
   const std::array<double, 6> m0_;
@@ -1013,6 +1164,7 @@ class Estimation {
   int iterations_ = 0;
   bool first_ = true;
   std::ostringstream report_;
+  TimeOffsetSystem time_;
 };
 
 }  // namespace
@@ -1053,7 +1205,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
     summary.message = "invalid options: " + why;
     return summary;
   }
-  Estimation e(options_, mounting_used, sources, start, &summary);
+  Estimation e(options_, motion_, mounting_used, sources, start, &summary);
   std::array<bool, 6> est = options_.estimate;
   if (!e.estimate(est, e.initial(est))) {
     summary.message = "no usable observation: every method's input was rejected (see the rejected lists)";

@@ -77,6 +77,10 @@ void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out)
                     {"text", ms.text()}});
   }
   j["model_sensitivity"] = sens;
+  if (std::isnan(summary.time_offset_s))
+    j["time_offset"] = nullptr;
+  else
+    j["time_offset"] = {{"estimate_s", summary.time_offset_s}, {"sigma_s", summary.time_offset_sigma_s}, {"applied", false}};
   if (summary.resolve.done) {
     const auto& rc = summary.resolve;
     json shift = json::array(), z = json::array();

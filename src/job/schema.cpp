@@ -145,8 +145,9 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
 void readStochastic(const Fields& top, const json& j, Job* job) {
   MountingCalibrator::Options& opts = job->options;
   if (top.has("stochastic")) {
-    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m", "trajectory"});
+    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m", "trajectory", "time_offset_sigma_s"});
     opts.strip_offset_sigma_m = st.num("strip_offset_sigma_m", opts.strip_offset_sigma_m, 0.0, 1000.0);
+    opts.time_offset_sigma_s = st.num("time_offset_sigma_s", opts.time_offset_sigma_s, 0.0, 10.0);
     if (st.has("trajectory") && st.at("trajectory").is_string()) {
       if (st.str("trajectory") != "none") st.fail("trajectory", "expected \"none\" or an object of σ and τ");
       opts.trajectory = TrajectoryAccuracy::none();
@@ -586,6 +587,7 @@ std::string jobJson(const Job& job) {
     j[m->name()] = section;
   }
   if (opts.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"]["strip_offset_sigma_m"] = opts.strip_offset_sigma_m;
+  if (opts.time_offset_sigma_s != def.time_offset_sigma_s) j["stochastic"]["time_offset_sigma_s"] = opts.time_offset_sigma_s;
   const TrajectoryAccuracy& ta = opts.trajectory;
   const TrajectoryAccuracy& td = def.trajectory;
   if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||

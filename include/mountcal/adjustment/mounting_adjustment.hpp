@@ -18,6 +18,8 @@
 
 #include <array>
 #include <deque>
+#include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -130,6 +132,10 @@ struct TrajectoryAccuracy {
 };
 
 /// The stochastic model shared by every kind of observation.
+/// Velocity [m/s] and angular rate [rad/s] of the IMU in the mapping frame at a strip's time
+/// (d/dt of p_m and R_mb = [ω]× R_mb); false when unknown.
+using MotionFunction = std::function<bool(const std::string& strip_id, double time_s, Vec3* velocity_m_s, Vec3* rate_rad_s)>;
+
 struct StochasticOptions {
   /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
   /// one 3-D offset per strip, a random effect with this prior standard deviation per axis
@@ -144,6 +150,15 @@ struct StochasticOptions {
   /// PulseNoise's attitude random effect is on, the attitude is estimated instead and only the
   /// position part is considered here.
   TrajectoryAccuracy trajectory;
+  /// Latency between the trajectory's and the scanner's clocks — a time offset δt: a point
+  /// measured at t belongs to the pose at t + δt — as its prior σ [s]; 0 (default): not
+  /// analysed. When set, δt's effect on the mounting enters σ as a consider parameter (as the
+  /// trajectory errors do), and the data's own first-order estimate of δt, its σ and how far it
+  /// would move the mounting are reported (Summary::time_offset_s, model_sensitivity). At one
+  /// speed δt acts as an along-track lever arm (v·δt): the observability report says so. Needs
+  /// the platform's motion (MountingAdjustment::setMotion; MountingCalibrator sets it from the
+  /// trajectory; strips with per-point poses carry their own time and are left out).
+  double time_offset_sigma_s = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -239,6 +254,8 @@ class AdjustmentProblem {
   /// The per-point noise of the stochastic model, for the sources' observation covariances.
   const PulseNoise& pulseNoise() const { return pulse_noise_; }
   void setPulseNoise(const PulseNoise& noise) { pulse_noise_ = noise; }
+  /// The platform's motion, for the epochs' velocity and angular rate (the time offset).
+  void setMotion(MotionFunction motion) { motion_ = std::move(motion); }
   /// The attitude error δψ [rad] (rotation vector on the mapping axes) of a strip at `time_s`: a
   /// nuisance block, created on first use (observations within τ/20 share one). Once every
   /// source has added its blocks, the blocks of each strip are tied together in time by the
@@ -271,6 +288,9 @@ class AdjustmentProblem {
     double time_s = 0.0;
     Vec3 u_m = Vec3::Zero();
     bool in_sigma = false;  ///< its own variance is in the block's (estimated) σ already
+    bool moving = false;    ///< the motion below is known (StochasticOptions::motion)
+    Vec3 velocity_m_s = Vec3::Zero();
+    Vec3 rate_rad_s = Vec3::Zero();
   };
   struct Record {
     ceres::CostFunction* cost = nullptr;
@@ -305,6 +325,7 @@ class AdjustmentProblem {
   double loss_scale_m_;
   double numeric_diff_relative_step_;
   PulseNoise pulse_noise_;
+  MotionFunction motion_;
   std::map<std::pair<std::string, long long>, double*> attitude_errors_;
   int source_ = -1;
 };
@@ -400,6 +421,11 @@ struct AdjustmentSummary {
     std::string text() const;  ///< one line for reports and the verdict
   };
   std::vector<ModelSensitivity> model_sensitivity;
+  /// StochasticOptions::time_offset_sigma_s: the data's first-order estimate of the time offset
+  /// (with its prior) and its σ [s]; NaN when not analysed. The mounting is not moved by it:
+  /// model_sensitivity says how far it would move.
+  double time_offset_s = std::numeric_limits<double>::quiet_NaN();
+  double time_offset_sigma_s = std::numeric_limits<double>::quiet_NaN();
 
   /// Residual blocks and residuals per kind of observation, in the order of the sources.
   struct KindCount {
@@ -426,6 +452,12 @@ class MountingAdjustment {
   MountingAdjustment() = default;
   explicit MountingAdjustment(Options options) : options_(std::move(options)) {}
   const Options& options() const { return options_; }
+  /// The platform's motion at a strip's time, for the time offset (StochasticOptions::
+  /// time_offset_sigma_s); without it the time offset is not analysed.
+  MountingAdjustment& setMotion(MotionFunction motion) {
+    motion_ = std::move(motion);
+    return *this;
+  }
 
   /// Solves from `mounting_used`. Undeterminable parameters are named, held at their used
   /// values and the problem solved again. Numerical outcomes are in the summary (invalid
@@ -438,6 +470,7 @@ class MountingAdjustment {
 
  private:
   Options options_;
+  MotionFunction motion_;
 };
 
 /// Robust scale of residual norms of one kind: 1.4826 · median / √(E χ²-median factor) — the
