@@ -400,6 +400,25 @@ std::vector<RowMat> blockJacobians(const AdjustmentProblem::Record& rec, const C
   return J;
 }
 
+/// The non-zero Jacobian entries of one residual block at rows `row`…: the mounting's in columns
+/// 0–5, each nuisance block's at its Columns index + `shift` (constant blocks left out).
+void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>& J, const Columns& cols, const double* m, int row,
+                 int shift, std::vector<Eigen::Triplet<double>>* trip) {
+  const int nr = rec.cost->num_residuals();
+  for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+    const double* blk = rec.blocks[b];
+    int first = 0;
+    if (blk != m) {
+      auto it = cols.col.find(blk);
+      if (it == cols.col.end()) continue;  // a constant block
+      first = it->second.first + shift;
+    }
+    for (int i = 0; i < nr; ++i)
+      for (int c = 0; c < J[b].cols(); ++c)
+        if (J[b](i, c) != 0.0) trip->emplace_back(row + i, first + c, J[b](i, c));
+  }
+}
+
 /// Reduced normal matrix of the full mounting block — every nuisance block (the sources'
 /// blocks and the strip offsets) eliminated by a Schur complement — and the unreduced
 /// diagonal, from the Jacobians of every residual block at the current values (SPEC §3 step 5:
@@ -416,18 +435,7 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Ei
   for (const auto& rec : problem.records()) {
     const int nr = rec.cost->num_residuals();
     const std::vector<RowMat> J = blockJacobians(rec, cols);
-    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
-      const double* blk = rec.blocks[b];
-      int first = 0;
-      if (blk != m) {
-        auto it = cols.col.find(blk);
-        if (it == cols.col.end()) continue;  // a constant block
-        first = it->second.first;
-      }
-      for (int i = 0; i < nr; ++i)
-        for (int c = 0; c < J[b].cols(); ++c)
-          if (J[b](i, c) != 0.0) trip.emplace_back(row + i, first + c, J[b](i, c));
-    }
+    addTriplets(rec, J, cols, m, row, 0, &trip);
     row += nr;
   }
   Eigen::SparseMatrix<double> Js(row, n);
@@ -564,18 +572,7 @@ TimeOffsetSystem timeOffsetSystem(AdjustmentProblem& problem) {
       jt += J[static_cast<std::size_t>(e.block)] * (e.velocity_m_s + e.rate_rad_s.cross(e.u_m));
       out.any = true;
     }
-    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
-      const double* blk = rec.blocks[b];
-      int first = 0;
-      if (blk != m) {
-        auto it = cols.col.find(blk);
-        if (it == cols.col.end()) continue;  // a constant block
-        first = it->second.first + 1;
-      }
-      for (int i = 0; i < nr; ++i)
-        for (int c = 0; c < J[b].cols(); ++c)
-          if (J[b](i, c) != 0.0) trip.emplace_back(row + i, first + c, J[b](i, c));
-    }
+    addTriplets(rec, J, cols, m, row, 1, &trip);
     for (int i = 0; i < nr; ++i)
       if (jt[i] != 0.0) trip.emplace_back(row + i, 6, jt[i]);
     const Eigen::VectorXd r = problem.residual(index);
