@@ -381,7 +381,7 @@ HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correl
   return h;
 }
 
-void expectHonest(const HonestyResult& h) {
+[[maybe_unused]] void expectHonest(const HonestyResult& h) {  // unused in the sanitizer build (2 seeds there)
   // √(χ²_n/n) 99 % range for n = 30: χ²_30 quantiles 13.79 and 53.67.
   ASSERT_EQ(h.seeds, 30);
   const double rms_lo = std::sqrt(13.79 / 30), rms_hi = std::sqrt(53.67 / 30);
