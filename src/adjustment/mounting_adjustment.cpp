@@ -1093,8 +1093,9 @@ class Estimation {
 
   /// The data's own first-order estimate of the time offset (one Gauss–Newton step of the
   /// problem with δt added, under its prior), its σ, how far it would move the mounting
-  /// (model_sensitivity: "the time offset estimated"), and which parameters it cannot be told
-  /// from (|correlation| > 0.95: at one speed δt is an along-track lever arm, v·δt).
+  /// (model_sensitivity: "the time offset estimated"), and — when the data leave its σ above
+  /// 0.7 of the prior — that it is not determined, with the parameter it is most correlated with
+  /// (at one speed δt is an along-track lever arm, v·δt).
   void timeOffset(const std::array<bool, 6>& est) {
     if (!time_.any) {
       if (o_.time_offset_sigma_s > 0)

@@ -131,11 +131,11 @@ struct TrajectoryAccuracy {
   bool IsValid(std::string* error) const;
 };
 
-/// The stochastic model shared by every kind of observation.
 /// Velocity [m/s] and angular rate [rad/s] of the IMU in the mapping frame at a strip's time
 /// (d/dt of p_m and R_mb = [ω]× R_mb); false when unknown.
 using MotionFunction = std::function<bool(const std::string& strip_id, double time_s, Vec3* velocity_m_s, Vec3* rate_rad_s)>;
 
+/// The stochastic model shared by every kind of observation.
 struct StochasticOptions {
   /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
   /// one 3-D offset per strip, a random effect with this prior standard deviation per axis
@@ -288,7 +288,7 @@ class AdjustmentProblem {
     double time_s = 0.0;
     Vec3 u_m = Vec3::Zero();
     bool in_sigma = false;  ///< its own variance is in the block's (estimated) σ already
-    bool moving = false;    ///< the motion below is known (StochasticOptions::motion)
+    bool moving = false;    ///< the motion below is known (AdjustmentProblem::setMotion)
     Vec3 velocity_m_s = Vec3::Zero();
     Vec3 rate_rad_s = Vec3::Zero();
   };
