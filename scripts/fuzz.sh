@@ -13,24 +13,33 @@ out="$root/build-fuzz"
 mkdir -p "$out/corpus_las" "$out/corpus_laz" "$out/corpus_sbet" "$out/corpus_csv" "$out/corpus_job" "$out/corpus_pairs"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I"$root/include" -I"$root/src" -I/usr/include/eigen3)
-laz_sources=("$root/src/io/laz.cpp" "$root/src/io/laz_coder.cpp" "$root/src/io/laz_items.cpp")
-clang++ "${flags[@]}" -o "$out/fuzz_las" "$root/tests/fuzz/fuzz_las.cpp" "$root/src/io/las.cpp" "${laz_sources[@]}" "$root/src/core/error.cpp" -lpthread
-clang++ "${flags[@]}" -o "$out/fuzz_laz" "$root/tests/fuzz/fuzz_laz.cpp" "${laz_sources[@]}" "$root/src/core/error.cpp"
-clang++ "${flags[@]}" -o "$out/fuzz_sbet" "$root/tests/fuzz/fuzz_sbet.cpp" "$root/src/io/sbet.cpp" \
-  "$root/src/io/csv.cpp" "$root/src/io/atomic_file.cpp" "$root/src/core/geodesy.cpp" "$root/src/core/trajectory.cpp" "$root/src/core/error.cpp"
-clang++ "${flags[@]}" -o "$out/fuzz_csv" "$root/tests/fuzz/fuzz_csv.cpp" "$root/src/io/sbet.cpp" "$root/src/io/csv.cpp" \
-  "$root/src/io/atomic_file.cpp" "$root/src/core/geodesy.cpp" "$root/src/core/trajectory.cpp" "$root/src/core/sensor_model.cpp" "$root/src/core/error.cpp"
+jobs="$(nproc)"
 # The job parser validates settings through the calibrator's options: it is instrumented, the rest
 # of the library comes from the release build (scripts/test.sh builds it; built here if missing).
 if [ ! -f "$root/build/src/libmountcal.a" ]; then
   cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
-  cmake --build "$root/build" --target mountcal -j "$(nproc)" > /dev/null
+  cmake --build "$root/build" --target mountcal -j "$jobs" > /dev/null
 fi
-clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_job" "$root/tests/fuzz/fuzz_job.cpp" "$root/src/job/schema.cpp" \
-  "$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+# Every instrumented source compiled once, on every core, then each target linked from its objects.
+sources=(tests/fuzz/fuzz_las.cpp tests/fuzz/fuzz_laz.cpp tests/fuzz/fuzz_sbet.cpp tests/fuzz/fuzz_csv.cpp
+         tests/fuzz/fuzz_job.cpp tests/fuzz/fuzz_pairs.cpp src/io/las.cpp src/io/laz.cpp src/io/laz_coder.cpp
+         src/io/laz_items.cpp src/io/sbet.cpp src/io/csv.cpp src/io/atomic_file.cpp src/core/geodesy.cpp
+         src/core/trajectory.cpp src/core/sensor_model.cpp src/core/error.cpp src/job/schema.cpp
+         src/methods/correspondence/pair_file.cpp)
+for s in "${sources[@]}"; do mkdir -p "$out/obj/$(dirname "$s")"; done
+printf '%s\n' "${sources[@]}" | xargs -P "$jobs" -I{} clang++ "${flags[@]}" -c "$root/{}" -o "$out/obj/{}.o"
+o() { for s in "$@"; do printf '%s\n' "$out/obj/$s.o"; done; }
+mapfile -t laz < <(o src/io/laz.cpp src/io/laz_coder.cpp src/io/laz_items.cpp src/core/error.cpp)
+mapfile -t nav < <(o src/io/sbet.cpp src/io/csv.cpp src/io/atomic_file.cpp src/core/geodesy.cpp src/core/trajectory.cpp src/core/error.cpp)
+release=("$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj
+         -lpthread -fopenmp)
+clang++ "${flags[@]}" -o "$out/fuzz_las" $(o tests/fuzz/fuzz_las.cpp src/io/las.cpp) "${laz[@]}" -lpthread
+clang++ "${flags[@]}" -o "$out/fuzz_laz" $(o tests/fuzz/fuzz_laz.cpp) "${laz[@]}"
+clang++ "${flags[@]}" -o "$out/fuzz_sbet" $(o tests/fuzz/fuzz_sbet.cpp) "${nav[@]}"
+clang++ "${flags[@]}" -o "$out/fuzz_csv" $(o tests/fuzz/fuzz_csv.cpp src/core/sensor_model.cpp) "${nav[@]}"
+clang++ "${flags[@]}" -o "$out/fuzz_job" $(o tests/fuzz/fuzz_job.cpp src/job/schema.cpp) "${release[@]}"
 # The correspondence pair file reader, instrumented; the options' checks from the release library.
-clang++ "${flags[@]}" -I"$root/src" -o "$out/fuzz_pairs" "$root/tests/fuzz/fuzz_pairs.cpp" "$root/src/methods/correspondence/pair_file.cpp" \
-  "$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj -lpthread -fopenmp
+clang++ "${flags[@]}" -o "$out/fuzz_pairs" $(o tests/fuzz/fuzz_pairs.cpp src/methods/correspondence/pair_file.cpp) "${release[@]}"
 # Its seed: a small pair file written here byte by byte (README "Correspondence pair files").
 python3 - "$out/corpus_pairs/seed.mcpair" <<'PY'
 import struct, sys
@@ -78,11 +87,24 @@ printf '\x07time,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,heading_deg\n1,34,-118,1
 # Job seeds: SPEC §4's example and the committed gravity jobs (geodetic frame, pose fields, LAZ).
 printf '{"frame":{"type":"local"},"trajectory":{"path":"trajectory.csv","format":"csv","time_offset_s":0.0},"sensor":{"type":"line","nominal_rotation_deg":[0,0,0]},"mounting_used":{"lever_arm_m":[0,0,0],"boresight_deg":[0,0,0]},"strips":[{"id":"1","path":"strip1.las"},{"id":"2","path":"strip2.las"}],"ties":"ties.csv","method":"vtpm","estimate":{"lever_arm":[true,true,false],"boresight":[true,true,true]},"vtpm":{"radius_m":1.0,"ransac_threshold_m":0.05},"solver":{"max_iterations":100,"loss":"trivial"},"output":{"result":"result.json","report":"report.html"}}\n' > "$out/corpus_job/spec"
 cp -f "$root"/examples/gravity/*.json "$out/corpus_job/"
-for target in las laz sbet csv job pairs; do
-  echo "fuzz: $target for ${seconds} s"
-  "$out/fuzz_$target" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
-    -artifact_prefix="$out/" \
-    "$out/corpus_$target" > "$out/fuzz_$target.log" 2>&1 || { tail -40 "$out/fuzz_$target.log"; echo "fuzz: $target FAILED"; exit 1; }
-  grep -E "stat::number_of_executed_units|Done" "$out/fuzz_$target.log" | tail -2
+# One fuzzer per core at a time; each one's statistics (or its failure) printed when it ends.
+fuzz() {
+  "$out/fuzz_$1" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \
+    -artifact_prefix="$out/" "$out/corpus_$1" > "$out/fuzz_$1.log" 2>&1
+}
+targets=(las laz sbet csv job pairs)
+for ((i = 0; i < ${#targets[@]}; i += jobs)); do
+  pids=()
+  for t in "${targets[@]:i:jobs}"; do
+    echo "fuzz: $t for ${seconds} s"
+    fuzz "$t" &
+    pids+=($!)
+  done
+  k=0
+  for t in "${targets[@]:i:jobs}"; do
+    wait "${pids[k]}" || { tail -40 "$out/fuzz_$t.log"; echo "fuzz: $t FAILED"; exit 1; }
+    grep -E "stat::number_of_executed_units|Done" "$out/fuzz_$t.log" | tail -2
+    k=$((k + 1))
+  done
 done
 echo "fuzz: no crash, no sanitizer report"

@@ -7,8 +7,9 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # shellcheck source=deps.sh
 source "$root/scripts/deps.sh"
 # Headless Chromium renders the visual report in tests/test_report.cpp; Snakemake runs the block
-# workflow (workflows/block) in tests/test_block.cpp.
-mountcal_ensure_deps chromium snakemake
+# workflow (workflows/block) in tests/test_block.cpp; ccache keeps the objects of unchanged sources
+# between builds (CMakeLists.txt uses it when present).
+mountcal_ensure_deps chromium snakemake ccache
 
 build="$root/build"; args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then

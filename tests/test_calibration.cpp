@@ -14,6 +14,7 @@
 #include "mountcal/report/evaluation.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace mountcal;
 using namespace mountcal::simulation;
@@ -381,7 +382,7 @@ HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correl
   return h;
 }
 
-[[maybe_unused]] void expectHonest(const HonestyResult& h) {  // unused in the sanitizer build (2 seeds there)
+void expectHonest(const HonestyResult& h) {
   // √(χ²_n/n) 99 % range for n = 30: χ²_30 quantiles 13.79 and 53.67.
   ASSERT_EQ(h.seeds, 30);
   const double rms_lo = std::sqrt(13.79 / 30), rms_hi = std::sqrt(53.67 / 30);
@@ -413,12 +414,9 @@ HonestyResult honestyOverSeeds(int first_seed, int seeds, double attitude_correl
 // (other blocks of 30 seeds: 131–160 RMS 0.80–1.11, σ₀² 1.001; 161–190 RMS 0.86–1.16, σ₀² 1.013).
 // About 60 s in Release; the sanitizer build runs 2 seeds for memory errors only.
 TEST(VtpmCalibration, SigmasAreHonestOverThirtySeeds) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  const HonestyResult h = honestyOverSeeds(101, 2, 0.005, 0.0);
-  EXPECT_EQ(h.counted[5], 2);
-#else
-  expectHonest(honestyOverSeeds(101, 30, 0.005, 0.0));
-#endif
+  const HonestyResult h = honestyOverSeeds(101, mountcal_tests::seedsFor(30, 2), 0.005, 0.0);
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
+  expectHonest(h);
 }
 
 // Attitude noise correlated over 0.1 s (an INS: Gauss–Markov), stated to the calibrator as
@@ -429,12 +427,9 @@ TEST(VtpmCalibration, SigmasAreHonestOverThirtySeeds) {
 // x, y, roll, pitch 30 of 30 within 2σ (RMS 0.84, 0.72, 0.69, 0.88), heading 28 of 30 (RMS 1.11);
 // σ₀² 1.013. About 20 s in Release; the sanitizer build runs 2 seeds for memory errors only.
 TEST(VtpmCalibration, SigmasAreHonestUnderCorrelatedAttitudeNoise) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  const HonestyResult h = honestyOverSeeds(101, 2, 0.1, 0.0, 0.1);
-  EXPECT_EQ(h.counted[5], 2);
-#else
-  expectHonest(honestyOverSeeds(101, 30, 0.1, 0.0, 0.1));
-#endif
+  const HonestyResult h = honestyOverSeeds(101, mountcal_tests::seedsFor(30, 2), 0.1, 0.0, 0.1);
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
+  expectHonest(h);
 }
 
 // The pulse noise's point covariance against a hand derivation: a point H = 1000 m below the

@@ -11,6 +11,7 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/core/rotation.hpp"
 #include "mountcal/mountcal.hpp"
+#include "sanitizer_build.hpp"
 
 namespace mountcal {
 namespace {
@@ -357,12 +358,9 @@ Honesty planesUnderDrift(int seeds) {
 // (2026-11-26): RMS 0.99–1.33, 87–97 % within 2σ. About 25 s in Release; the sanitizer build
 // runs 2 seeds for memory errors only.
 TEST(TrajectoryErrors, PlaneSigmasAreHonestUnderNavigationDrift) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  const int seeds = 2;
-#else
-  const int seeds = 30;
-#endif
+  const int seeds = mountcal_tests::seedsFor(30, 2);
   const Honesty h = planesUnderDrift(seeds);
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
   bool formal_fails = false;
   for (std::size_t j = 0; j < 6; ++j) {
     if (h.counted[j] == 0) continue;
@@ -372,14 +370,11 @@ TEST(TrajectoryErrors, PlaneSigmasAreHonestUnderNavigationDrift) {
     std::printf("%-20s RMS of error/sigma %.2f (formal %.2f), %.0f %% within 2 sigma\n", mountingParameterNames()[j].c_str(), rms,
                 rms_formal, 100 * frac);
     formal_fails |= rms_formal > 1.4;
-    if (seeds < 30) continue;
     EXPECT_GE(rms, 0.7) << mountingParameterNames()[j] << ": σ too large";
     EXPECT_LE(rms, 1.4) << mountingParameterNames()[j] << ": σ too small";
     EXPECT_GE(frac, 0.85) << mountingParameterNames()[j];
   }
-  if (seeds >= 30) {
-    EXPECT_TRUE(formal_fails) << "the formal σ should fail this test: it would not discriminate";
-  }
+  EXPECT_TRUE(formal_fails) << "the formal σ should fail this test: it would not discriminate";
 }
 
 }  // namespace
