@@ -21,9 +21,8 @@ constexpr int seedsFor(int release, int sanitizer) { return kSanitizerBuild ? sa
 
 /// In the sanitizer build: the test's code has run (on fewer seeds), its statistical checks are
 /// not made — SKIPPED, naming what the Release suite checks. No effect in the Release build.
-#define MOUNTCAL_STATISTICS_IN_RELEASE_ONLY(what)                                                                    \
-  do {                                                                                                              \
-    if (::mountcal_tests::kSanitizerBuild)                                                                       \
-      GTEST_SKIP() << "sanitizer build: the code ran on fewer seeds, for memory errors; " << (what)                 \
-                   << " is checked in the Release suite";                                                            \
+#define MOUNTCAL_STATISTICS_IN_RELEASE_ONLY(what)                                                                                          \
+  do {                                                                                                                                     \
+    if (::mountcal_tests::kSanitizerBuild)                                                                                                 \
+      GTEST_SKIP() << "sanitizer build: the code ran on fewer seeds, for memory errors; " << (what) << " is checked in the Release suite"; \
   } while (0)
