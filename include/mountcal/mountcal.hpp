@@ -13,6 +13,7 @@
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/las_crs.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/job.hpp"
 #include "mountcal/core/mounting.hpp"

@@ -20,6 +20,7 @@ struct TieObservation {
 struct PlaneRegion {
   std::string id;
   double xmin = 0, ymin = 0, xmax = 0, ymax = 0;  ///< [m]
+  std::size_t line = 0;                           ///< its line in the CSV file it was read from (0: not read from a file)
 };
 
 /// A ground control point, observed through the ties with the same id.

@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -17,6 +19,7 @@
 #include "mountcal/report/error_curves.hpp"
 #include "mountcal/io/crs.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/las_crs.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
 #include "mountcal/job.hpp"
@@ -51,6 +54,13 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
   }
   const auto t0 = std::chrono::steady_clock::now();
   const SimulatedSurvey survey = simulate(config, scene);
+  for (const auto& s : survey.strips) {  // nothing written: a survey without points calibrates nothing
+    if (s.points_m.empty()) {
+      std::fprintf(stderr, "mountcal simulate: %s: strip %s has no point on the ground (check the mountings and the flight)\n",
+                   scenario.empty() ? ("--preset " + preset).c_str() : scenario.c_str(), s.id.c_str());
+      return 1;
+    }
+  }
   mountcal::SurveyWriteOptions write_options;
   write_options.crs = crs;
   write_options.ties = !no_ties;
@@ -82,28 +92,31 @@ int withNotices(int code) {
   return code;
 }
 
-/// "x0,y0,x1,y1[,width]" of --profile.
+/// "x0,y0,x1,y1[,width]" of --profile: four or five finite numbers, a line of positive length.
 std::vector<mountcal::ReportOptions::ProfileLine> profileLines(const std::vector<std::string>& args) {
   std::vector<mountcal::ReportOptions::ProfileLine> out;
   for (const std::string& a : args) {
-    mountcal::ReportOptions::ProfileLine l;
-    l.id = "profile_" + std::to_string(out.size() + 1);
-    double v[5] = {0, 0, 0, 0, 1.0};
-    int n = 0;
+    const std::string expected = "--profile " + a + ": expected x0,y0,x1,y1[,width] in metres";
+    std::vector<double> v;
     std::size_t pos = 0;
-    while (n < 5 && pos <= a.size()) {
+    while (true) {
       const std::size_t comma = a.find(',', pos);
       const std::string part = a.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
       char* end = nullptr;
-      v[n] = std::strtod(part.c_str(), &end);
-      if (part.empty() || *end != '\0' || !std::isfinite(v[n])) n = -1;
-      if (n < 0) break;
-      ++n;
+      const double x = std::strtod(part.c_str(), &end);
+      if (part.empty() || *end != '\0' || !std::isfinite(x)) throw mountcal::InvalidInput(expected + "; '" + part + "' is not a number");
+      v.push_back(x);
       if (comma == std::string::npos) break;
       pos = comma + 1;
     }
-    if (n < 4 || !(v[4] > 0) || v[4] > 100 || std::hypot(v[2] - v[0], v[3] - v[1]) > 10000)
-      throw mountcal::InvalidInput("--profile " + a + ": expected x0,y0,x1,y1[,width] in metres (at most 10 km long, width up to 100 m)");
+    if (v.size() < 4 || v.size() > 5) throw mountcal::InvalidInput(expected + "; " + std::to_string(v.size()) + " numbers given");
+    if (v.size() == 4) v.push_back(1.0);
+    const double length = std::hypot(v[2] - v[0], v[3] - v[1]);
+    if (!(length > 0) || length > 10000)
+      throw mountcal::InvalidInput(expected + "; the line is " + std::to_string(length) + " m long (more than 0, at most 10 km)");
+    if (!(v[4] > 0) || v[4] > 100) throw mountcal::InvalidInput(expected + "; the width must be in (0, 100] m");
+    mountcal::ReportOptions::ProfileLine l;
+    l.id = "profile_" + std::to_string(out.size() + 1);
     l.x0_m = v[0], l.y0_m = v[1], l.x1_m = v[2], l.y1_m = v[3], l.width_m = v[4];
     out.push_back(l);
   }
@@ -126,9 +139,15 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
                     "the visual report shows the strips' points, which a solve from pair files does not read; leave out --report");
   const bool report_skipped = !pair_dir.empty() && !job.report_path.empty();
   if (report_skipped) job.report_path.clear();
-  checkJobOutputs(job, pair_dir.empty()
-                           ? std::vector<std::string>{}
-                           : std::vector<std::string>{pair_dir});  // before anything is computed: an output never replaces an input
+  // Before anything is computed: an output never replaces an input (a pair file included).
+  std::vector<std::string> pair_inputs;
+  if (!pair_dir.empty()) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(pair_dir, ec)) throw FileError(pair_dir, "", "is not a folder of pair files (mountcal match --out)");
+    pair_inputs = pairFilesIn(pair_dir);
+    pair_inputs.push_back(pair_dir);
+  }
+  checkJobOutputs(job, pair_inputs);
   progress(pair_dir.empty() ? "reading the trajectory and strips" : "reading the trajectory and the pair files");
   const LoadedJob loaded = pair_dir.empty() ? loadJob(job) : loadJobFromPairFiles(job, pair_dir);
   const CalibrationData& data = loaded.data;
@@ -258,8 +277,96 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
   return 0;
 }
 
+/// The extra-bytes data type's name (LAS 1.4 R15 table 24).
+std::string extraBytesTypeName(const mountcal::io::ExtraBytesAttribute& a) {
+  static const char* kBase[] = {"bytes", "uint8", "int8", "uint16", "int16", "uint32", "int32", "uint64", "int64", "float", "double"};
+  if (a.data_type == 0) return std::to_string(a.size) + " undocumented bytes";
+  const int base = a.data_type <= 10 ? a.data_type : (a.data_type - 1) % 10 + 1;
+  return std::string(kBase[base]) + (a.elements > 1 ? "[" + std::to_string(a.elements) + "]" : "");
+}
+
+/// The LASzip VLR and chunk table of a LAZ file.
+void printLaz(const mountcal::io::LasReader& r) {
+  using namespace mountcal;
+  const io::LazVlr* z = r.laz();
+  if (!z) return;
+  static const char* kCompressor[] = {"none", "point-wise", "point-wise chunked", "layered chunked"};
+  std::string items;
+  for (const io::LazItem& it : z->items)
+    items += (items.empty() ? "" : ", ") + io::lazItemName(it.type) + "(" + std::to_string(it.size) + ") v" + std::to_string(it.version);
+  std::printf("  LAZ: compressor %d (%s), LASzip %d.%d r%d%s; items %s\n", z->compressor, kCompressor[z->compressor], z->version_major,
+              z->version_minor, z->version_revision, (z->options & 1) ? ", LAS 1.4 compatibility mode" : "", items.c_str());
+  const auto& chunks = r.lazChunks();
+  std::uint64_t bytes = 0;
+  for (const auto& c : chunks) bytes += c.bytes;
+  if (z->compressor == 1)
+    std::printf("  one stream of %llu bytes (no chunks)\n", static_cast<unsigned long long>(bytes));
+  else if (z->variableChunks())
+    std::printf("  %zu chunks of variable size, %llu bytes\n", chunks.size(), static_cast<unsigned long long>(bytes));
+  else
+    std::printf("  %zu chunks of %u points, %llu bytes\n", chunks.size(), z->chunk_size, static_cast<unsigned long long>(bytes));
+}
+
+/// The CRS, the VLRs and EVLRs, and the extra-bytes attributes of a LAS header.
+void printLasRecords(const mountcal::io::LasHeader& h, const std::string& path) {
+  using namespace mountcal;
+  const io::LasCrs crs = io::lasCrs(h, path);
+  std::printf("  CRS: %s\n", crs.summary().c_str());
+  for (const io::GeoKey& k : crs.geo_keys) {
+    std::printf("    GeoTIFF %-24s ", k.name().c_str());
+    if (k.location == 34737)
+      std::printf("'%s'\n", k.text.c_str());
+    else if (k.location == 34736)
+      std::printf("%s\n", k.numbers.empty() ? "" : std::to_string(k.numbers[0]).c_str());
+    else
+      std::printf("%u\n", k.value);
+  }
+  for (const auto& v : h.vlrs)
+    std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+  for (const auto& v : h.evlrs)
+    std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
+  for (const auto& a : io::extraBytesAttributes(h, path)) {
+    std::printf("  extra bytes: %-24s %-10s bytes %zu-%zu", a.name.c_str(), extraBytesTypeName(a).c_str(), a.byte_offset,
+                a.byte_offset + a.size - 1);
+    if (a.hasScale()) std::printf(", scale %g", a.scale[0]);
+    if (a.hasOffset()) std::printf(", offset %g", a.offset[0]);
+    std::printf("%s\n", a.description.empty() ? "" : (" — " + a.description).c_str());
+  }
+}
+
+/// Time and scan-angle ranges, points by class and by return number, from every record.
+void printLasStatistics(mountcal::io::LasReader& r) {
+  using namespace mountcal;
+  const io::LasHeader& h = r.header();
+  double t0 = 1e300, t1 = -1e300, a0 = 1e300, a1 = -1e300;
+  std::map<int, std::uint64_t> by_class, by_return;
+  std::vector<io::LasPoint> chunk;
+  while (r.read(&chunk) > 0) {
+    for (const auto& p : chunk) {
+      t0 = std::min(t0, p.gps_time);
+      t1 = std::max(t1, p.gps_time);
+      a0 = std::min(a0, io::scanAngleDeg(h, p));
+      a1 = std::max(a1, io::scanAngleDeg(h, p));
+      ++by_class[h.point_format >= 6 ? p.classification : (p.classification & 31)];
+      ++by_return[p.return_number];
+    }
+  }
+  if (h.point_count == 0) return;
+  if (h.hasGpsTime())
+    std::printf("  time [%.6f, %.6f] s, scan angle [%.3f, %.3f] deg\n", t0, t1, a0, a1);
+  else
+    std::printf("  scan angle [%.3f, %.3f] deg\n", a0, a1);
+  std::printf("  points by class:");
+  for (const auto& [c, n] : by_class) std::printf(" %d: %llu", c, static_cast<unsigned long long>(n));
+  std::printf("\n  points by return number:");
+  for (const auto& [c, n] : by_return) std::printf(" %d: %llu", c, static_cast<unsigned long long>(n));
+  std::printf("\n");
+}
+
 int runInfo(const std::string& path) {
   using namespace mountcal;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw FileError(path, "", "is a folder; info reads one LAS, LAZ or SBET file");
   std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext == ".las" || ext == ".laz") {
@@ -272,45 +379,9 @@ int runInfo(const std::string& path) {
     std::printf("  bounds x [%.3f, %.3f] y [%.3f, %.3f] z [%.3f, %.3f]\n", h.min[0], h.max[0], h.min[1], h.max[1], h.min[2], h.max[2]);
     std::printf("  GPS time: %s\n",
                 h.hasGpsTime() ? (h.adjustedStandardGpsTime() ? "adjusted standard GPS time" : "GPS week seconds") : "none");
-    if (const io::LazVlr* z = r.laz()) {
-      static const char* kCompressor[] = {"none", "point-wise", "point-wise chunked", "layered chunked"};
-      std::string items;
-      for (const io::LazItem& it : z->items)
-        items +=
-            (items.empty() ? "" : ", ") + io::lazItemName(it.type) + "(" + std::to_string(it.size) + ") v" + std::to_string(it.version);
-      std::printf("  LAZ: compressor %d (%s), LASzip %d.%d r%d%s; items %s\n", z->compressor, kCompressor[z->compressor], z->version_major,
-                  z->version_minor, z->version_revision, (z->options & 1) ? ", LAS 1.4 compatibility mode" : "", items.c_str());
-      const auto& chunks = r.lazChunks();
-      std::uint64_t bytes = 0;
-      for (const auto& c : chunks) bytes += c.bytes;
-      if (z->compressor == 1)
-        std::printf("  one stream of %llu bytes (no chunks)\n", static_cast<unsigned long long>(bytes));
-      else if (z->variableChunks())
-        std::printf("  %zu chunks of variable size, %llu bytes\n", chunks.size(), static_cast<unsigned long long>(bytes));
-      else
-        std::printf("  %zu chunks of %u points, %llu bytes\n", chunks.size(), z->chunk_size, static_cast<unsigned long long>(bytes));
-    }
-    for (const auto& v : h.vlrs)
-      std::printf("  VLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
-    for (const auto& v : h.evlrs)
-      std::printf("  EVLR %s/%d: %s (%zu bytes)\n", v.user_id.c_str(), v.record_id, v.description.c_str(), v.data.size());
-    for (const auto& a : io::extraBytesAttributes(h, path)) {
-      std::printf("  extra bytes: %-24s type %2d, bytes %zu-%zu%s%s\n", a.name.c_str(), a.data_type, a.byte_offset,
-                  a.byte_offset + a.size - 1, a.hasScale() ? ", scaled" : "", a.hasOffset() ? ", offset" : "");
-    }
-    if (h.hasGpsTime()) {
-      double t0 = 1e300, t1 = -1e300, a0 = 1e300, a1 = -1e300;
-      std::vector<io::LasPoint> chunk;
-      while (r.read(&chunk) > 0) {
-        for (const auto& p : chunk) {
-          t0 = std::min(t0, p.gps_time);
-          t1 = std::max(t1, p.gps_time);
-          a0 = std::min(a0, io::scanAngleDeg(h, p));
-          a1 = std::max(a1, io::scanAngleDeg(h, p));
-        }
-      }
-      if (h.point_count) std::printf("  time [%.6f, %.6f] s, scan angle [%.3f, %.3f] deg\n", t0, t1, a0, a1);
-    }
+    printLaz(r);
+    printLasRecords(h, path);
+    printLasStatistics(r);
     return 0;
   }
   const auto rec = io::readSbet(path);
@@ -336,6 +407,10 @@ int runConvert(const std::string& in, const std::string& out) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(out, ec) && fs::equivalent(in, out, ec)) throw FileError(out, "", "is the input; convert writes a new file");
+  std::string ext = fs::path(out).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".las" && ext != ".laz")
+    throw FileError(out, "", "the output's extension chooses the format: .las or .laz (not '" + ext + "')");
   io::LasReader reader(in);
   io::LasWriter writer(out, reader.header());
   writer.keepHeaderStatistics();
@@ -542,7 +617,7 @@ std::vector<Command> addFileCommands(CLI::App& app) {
   auto conv = std::make_shared<std::pair<std::string, std::string>>();
   CLI::App* cc = app.add_subcommand("convert", "LAS to LAZ or LAZ to LAS, by the output's extension; every record, VLR and EVLR kept");
   cc->add_option("in", conv->first, "Input LAS or LAZ file")->required();
-  cc->add_option("out", conv->second, "Output file (.laz compresses, anything else writes LAS)")->required();
+  cc->add_option("out", conv->second, "Output file: .laz compresses, .las does not")->required();
   auto curves = std::make_shared<std::pair<std::string, double>>(std::string(), 0.1);
   CLI::App* cu = app.add_subcommand("curves", "The first paper's Figs 1-3: boresight error curves (CSV, or CSV + SVG with --out)");
   cu->add_option("--out", curves->first, "Folder for fig_errors.csv and the SVG plots");

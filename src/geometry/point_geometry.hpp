@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -58,7 +59,11 @@ inline double angleDeg(const Vec3& a, const Vec3& b) {
 class PlanGrid {
  public:
   PlanGrid(const std::vector<Vec3>& x, double cell_m) : cell_(cell_m) {
-    for (std::size_t i = 0; i < x.size(); ++i) cells_[key(x[i].x(), x[i].y())].push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const std::int64_t ix = cellIndex(x[i].x()), iy = cellIndex(x[i].y());
+      cells_[pack(ix, iy)].push_back(static_cast<std::uint32_t>(i));
+      ix0_ = std::min(ix0_, ix), ix1_ = std::max(ix1_, ix), iy0_ = std::min(iy0_, iy), iy1_ = std::max(iy1_, iy);
+    }
   }
   static std::int64_t pack(std::int64_t ix, std::int64_t iy) {
     return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
@@ -71,11 +76,16 @@ class PlanGrid {
     auto it = cells_.find(k);
     return it == cells_.end() ? nullptr : &it->second;
   }
-  /// Indices of the points inside the box.
+  /// Indices of the points inside the box. Only the cells within the occupied ones are visited:
+  /// a box of ±10⁶ m costs no more than one around the data.
   std::vector<std::uint32_t> box(const std::vector<Vec3>& x, double xmin, double ymin, double xmax, double ymax) const {
     std::vector<std::uint32_t> out;
-    for (std::int64_t ix = cellIndex(xmin); ix <= cellIndex(xmax); ++ix)
-      for (std::int64_t iy = cellIndex(ymin); iy <= cellIndex(ymax); ++iy)
+    if (!(xmin <= xmax && ymin <= ymax)) return out;     // also NaN
+    const double lo = -9e15 * cell_, hi = 9e15 * cell_;  // cellIndex() stays within int64
+    const std::int64_t ix0 = std::max(ix0_, cellIndex(std::max(xmin, lo))), ix1 = std::min(ix1_, cellIndex(std::min(xmax, hi)));
+    const std::int64_t iy0 = std::max(iy0_, cellIndex(std::max(ymin, lo))), iy1 = std::min(iy1_, cellIndex(std::min(ymax, hi)));
+    for (std::int64_t ix = ix0; ix <= ix1; ++ix)
+      for (std::int64_t iy = iy0; iy <= iy1; ++iy)
         if (const auto* c = find(pack(ix, iy)))
           for (std::uint32_t i : *c)
             if (x[i].x() >= xmin && x[i].x() <= xmax && x[i].y() >= ymin && x[i].y() <= ymax) out.push_back(i);
@@ -85,6 +95,8 @@ class PlanGrid {
  private:
   double cell_;
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;
+  std::int64_t ix0_ = std::numeric_limits<std::int64_t>::max(), ix1_ = std::numeric_limits<std::int64_t>::min();  // occupied cells
+  std::int64_t iy0_ = std::numeric_limits<std::int64_t>::max(), iy1_ = std::numeric_limits<std::int64_t>::min();
 };
 
 /// Mean plan spacing of a strip's points [m]: from the density in the occupied 2 m cells.

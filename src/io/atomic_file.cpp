@@ -41,16 +41,15 @@ bool samePath(const std::string& a, const std::string& b) {
 }
 
 void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& files) {
-  namespace fs = std::filesystem;
   for (std::size_t i = 0; i < files.size(); ++i)
     for (std::size_t k = 0; k < i; ++k)
       if (samePath(files[i].first, files[k].first))
         throw FileError(files[i].first, "", "is written twice by this run (also as " + files[k].first + ")");
   std::random_device rd;
   const std::string tag = ".tmp-" + std::to_string(rd() % 1000000u);
-  std::vector<std::string> temps;
+  std::vector<std::pair<std::string, std::string>> temps;  // (temporary, target)
   auto removeTemps = [&] {
-    for (const std::string& t : temps) std::remove(t.c_str());
+    for (const auto& t : temps) std::remove(t.first.c_str());
   };
   for (const auto& [path, content] : files) {  // 1. every temporary file
     const std::string tmp = path + tag;
@@ -60,7 +59,7 @@ void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>
       removeTemps();
       throw FileError(path, "", "cannot create: " + why);
     }
-    temps.push_back(tmp);
+    temps.emplace_back(tmp, path);
     out.write(content.data(), static_cast<std::streamsize>(content.size()));
     out.flush();
     if (!out) {
@@ -68,24 +67,38 @@ void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>
       throw FileError(path, "", "write failed (disk full?)");
     }
   }
-  // 2. each in place, the previous content kept aside until all are in place.
-  std::vector<std::string> backups(files.size());
+  placeFilesAtomically(temps);  // 2. each in place, all or nothing
+}
+
+void placeFilesAtomically(const std::vector<std::pair<std::string, std::string>>& temporaries) {
+  namespace fs = std::filesystem;
+  auto removeTemps = [&] {
+    for (const auto& t : temporaries) std::remove(t.first.c_str());
+  };
+  for (std::size_t i = 0; i < temporaries.size(); ++i)
+    for (std::size_t k = 0; k < i; ++k)
+      if (samePath(temporaries[i].second, temporaries[k].second)) {
+        removeTemps();
+        throw FileError(temporaries[i].second, "", "is written twice by this run (also as " + temporaries[k].second + ")");
+      }
+  // The previous content of each target is kept aside until all are in place.
+  std::vector<std::string> backups(temporaries.size());
   std::size_t placed = 0;
   auto undo = [&] {
     for (std::size_t k = placed; k-- > 0;) {
       std::error_code ec;
       if (!backups[k].empty())
-        fs::rename(backups[k], files[k].first, ec);
+        fs::rename(backups[k], temporaries[k].second, ec);
       else
-        fs::remove(files[k].first, ec);
+        fs::remove(temporaries[k].second, ec);
     }
     removeTemps();
   };
-  for (; placed < files.size(); ++placed) {
-    const std::string& path = files[placed].first;
+  for (; placed < temporaries.size(); ++placed) {
+    const auto& [tmp, path] = temporaries[placed];
     std::error_code ec;
     if (fs::exists(path, ec)) {
-      backups[placed] = path + tag + ".previous";
+      backups[placed] = tmp + ".previous";
       fs::rename(path, backups[placed], ec);
       if (ec) {
         backups[placed].clear();
@@ -93,7 +106,7 @@ void writeFilesAtomically(const std::vector<std::pair<std::string, std::string>>
         throw FileError(path, "", "cannot replace the existing file: " + ec.message());
       }
     }
-    if (std::rename(temps[placed].c_str(), path.c_str()) != 0) {
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
       const std::string why = std::strerror(errno);
       if (!backups[placed].empty()) fs::rename(backups[placed], path, ec);
       undo();

@@ -162,6 +162,16 @@ long CsvTable::integer(std::size_t row, std::size_t col) const {
   return v;
 }
 
+long CsvTable::integer(std::size_t row, std::size_t col, long lo, long hi) const {
+  const long v = integer(row, col);
+  if (v < lo || v > hi) {
+    throw FileError(
+        path_, lineRef(lines_[row]),
+        "column '" + header_[col] + "': " + std::to_string(v) + " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+  return v;
+}
+
 Trajectory readTrajectoryCsv(const std::string& path, double time_offset_s, PositionInterpolation interpolation) {
   const CsvTable t = CsvTable::read(path);
   const std::size_t ct = t.column("time"), cx = t.column("x"), cy = t.column("y"), cz = t.column("z");
@@ -235,10 +245,14 @@ std::vector<PlaneRegion> readPlanesCsv(const std::string& path) {
   const std::size_t ci = t.column("plane_id"), c0 = t.column("xmin"), c1 = t.column("ymin"), c2 = t.column("xmax"), c3 = t.column("ymax");
   std::vector<PlaneRegion> out(t.rows());
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    out[r] = {t.text(r, ci), t.number(r, c0), t.number(r, c1), t.number(r, c2), t.number(r, c3)};
+    out[r] = {t.text(r, ci), t.number(r, c0), t.number(r, c1), t.number(r, c2), t.number(r, c3), t.lineOf(r)};
     if (!(out[r].xmax > out[r].xmin) || !(out[r].ymax > out[r].ymin)) {
       throw FileError(path, lineRef(t.lineOf(r)), "xmax/ymax must be greater than xmin/ymin");
     }
+    for (std::size_t k = 0; k < r; ++k)  // a region listed twice would be adjusted twice
+      if (out[k].id == out[r].id)
+        throw FileError(path, lineRef(t.lineOf(r)),
+                        "region '" + out[r].id + "' is listed twice (also on line " + std::to_string(out[k].line) + ")");
   }
   return out;
 }
@@ -290,7 +304,7 @@ std::vector<RawPulse> readRawCsv(const std::string& path, SensorType type) {
         p.range_m = t.number(r, t.column("range_m"));
         break;
       case SensorType::kMultiBeam:
-        p.laser_id = static_cast<int>(t.integer(r, t.column("laser_id")));
+        p.laser_id = static_cast<int>(t.integer(r, t.column("laser_id"), 0, 65535));
         p.angle_rad = deg2rad(t.number(r, t.column("azimuth_deg")));
         p.range_m = t.number(r, t.column("range_m"));
         break;

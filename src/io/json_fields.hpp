@@ -16,6 +16,10 @@
 
 namespace mountcal::detail {
 
+/// The largest lever-arm component a job, result, scenario or plan may give [m]: beyond any
+/// survey platform, small enough that nothing downstream overflows.
+constexpr double kMaxLeverArmM = 1000.0;
+
 using nlohmann::json;
 
 /// Strict access to one JSON object of the job, with field paths in every message.
@@ -86,6 +90,13 @@ class Fields {
       v[i] = a[i].get<double>();
       if (!std::isfinite(v[i])) fail(k, "not finite");
     }
+    return v;
+  }
+  /// vec3(k) with every component within ±`bound` (`what`: the bound's meaning, for the message).
+  Vec3 vec3(const std::string& k, double bound, const char* what) const {
+    const Vec3 v = vec3(k);
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(v[i]) > bound) fail(k, std::string("a component beyond ") + what);
     return v;
   }
   std::array<bool, 3> bool3(const std::string& k) const {

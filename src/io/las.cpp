@@ -7,6 +7,7 @@
 #include <limits>
 #include <exception>
 #include <random>
+#include <stdexcept>
 #include <thread>
 
 #include "io/bytes.hpp"
@@ -140,6 +141,11 @@ HeaderBlock readHeaderBlock(std::ifstream& in, const std::string& path, std::uin
   if (header_size < std::min<std::uint16_t>(expected_header, 227) || header_size > file_size) {
     throw FileError(path, byteAt(94),
                     "header size " + std::to_string(header_size) + " is invalid for LAS 1." + std::to_string(header.version_minor));
+  }
+  if (point_offset < header_size) {  // the points would be read from the header's own bytes
+    throw FileError(
+        path, byteAt(96),
+        "offset to point data " + std::to_string(point_offset) + " lies inside the header (" + std::to_string(header_size) + " bytes)");
   }
   if (header.version_minor >= 4 && header_size >= 375) {
     in.read(h + 227, 375 - 227);
@@ -731,6 +737,15 @@ void LasWriter::flushChunks(bool all) {
 
 void LasWriter::close() {
   if (closed_) return;
+  const std::string tmp = closeToTemporary();
+  if (std::rename(tmp.c_str(), path_.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw FileError(path_, "", "cannot rename the temporary file into place");
+  }
+}
+
+std::string LasWriter::closeToTemporary() {
+  if (closed_) throw std::logic_error("LasWriter::closeToTemporary: " + path_ + " is already closed");
   if (keep_statistics_) {
     if (header_.point_count != expected_count_) {
       throw FileError(
@@ -821,12 +836,8 @@ void LasWriter::close() {
     closed_ = true;
     throw FileError(path_, "", "write failed (disk full?)");
   }
-  if (std::rename(tmp_path_.c_str(), path_.c_str()) != 0) {
-    std::remove(tmp_path_.c_str());
-    closed_ = true;
-    throw FileError(path_, "", "cannot rename the temporary file into place");
-  }
   closed_ = true;
+  return tmp_path_;
 }
 
 void readLas(const std::string& path, LasHeader* header, std::vector<LasPoint>* points) {

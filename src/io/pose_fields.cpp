@@ -39,6 +39,8 @@ ExtraBytesAttribute needAttribute(const std::vector<ExtraBytesAttribute>& attrs,
   if (a->elements != 1)
     throw FileError(path, "Extra Bytes VLR",
                     "attribute '" + name + "' has " + std::to_string(a->elements) + " elements; expected one value");
+  if (a->hasScale() && a->scale[0] == 0.0)  // every value would read as the offset
+    throw FileError(path, "Extra Bytes VLR", "attribute '" + name + "' has a scale of 0: every point's value would be its offset");
   return *a;
 }
 

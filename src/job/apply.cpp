@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -84,13 +85,15 @@ class FileApplier {
         laser_(laser_elevation_rad.empty() ? nullptr : std::make_unique<io::PointFieldReader>(reader_.header(), in_path, job.laser_field)),
         writer_(out_path, reader_.header()) {}
 
-  ApplyStats run() {
+  /// Rewrites the file into a temporary file beside its output; returns the statistics and, in
+  /// `temporary`, that file's name (the caller places or removes it).
+  ApplyStats run(std::string* temporary) {
     ApplyStats stats;
     // With a trajectory and no per-laser offsets, each chunk goes through the batch
     // georeferencing (attitude expanded once per trajectory interval, exact within 1e-9 m):
     // inverse with the mounting used, forward with the new one.
     const std::uint64_t points = !poses_ && !laser_ && loaded_.data.trajectory ? rewriteRecords(&stats) : rewritePoints(&stats);
-    writer_.close();
+    *temporary = writer_.closeToTemporary();
     stats.points = points;
     stats.strips = 1;
     return stats;
@@ -245,9 +248,22 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
   if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
   const LoadedJob loaded = loadJobTrajectory(job);
   std::vector<ApplyStats> per_file(inputs.size());
-  detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
-    per_file[f] = FileApplier(job, loaded, mounting, laser_elevation_rad, inputs[f], outputs[f], chunk_points).run();
-  });
+  // Every output is written to a temporary file first and placed only when all are written: a
+  // run that fails on any file leaves every earlier output as it was (no folder mixing two
+  // mountings).
+  std::vector<std::string> temporaries(inputs.size());
+  try {
+    detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
+      per_file[f] = FileApplier(job, loaded, mounting, laser_elevation_rad, inputs[f], outputs[f], chunk_points).run(&temporaries[f]);
+    });
+  } catch (...) {
+    for (const std::string& t : temporaries)
+      if (!t.empty()) std::remove(t.c_str());
+    throw;
+  }
+  std::vector<std::pair<std::string, std::string>> placements;
+  for (std::size_t f = 0; f < inputs.size(); ++f) placements.emplace_back(temporaries[f], outputs[f]);
+  io::placeFilesAtomically(placements);
   ApplyStats stats;
   for (const ApplyStats& f : per_file) {
     stats.points += f.points;

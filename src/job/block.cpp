@@ -91,6 +91,16 @@ PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std
   return findPairCandidates(loaded.data, 0, 1, job.options.method<CorrespondenceOptions>());
 }
 
+std::vector<std::string> pairFilesIn(const std::string& dir) {
+  std::error_code ec;
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().extension() == ".mcpair") files.push_back(e.path().string());
+  if (ec) throw FileError(dir, "", "cannot list the folder: " + ec.message());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
   requireBlockMethod(job, true);
   if (!job.gcps_path.empty())
@@ -99,11 +109,7 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
                     "on the whole job");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw FileError(dir, "", "is not a folder of pair files (mountcal match --out)");
-  std::vector<std::string> files;
-  for (const auto& e : fs::directory_iterator(dir, ec))
-    if (e.path().extension() == ".mcpair") files.push_back(e.path().string());
-  if (ec) throw FileError(dir, "", "cannot list the folder: " + ec.message());
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files = pairFilesIn(dir);
   LoadedJob out = loadJobTrajectory(job);
   auto pairs = std::make_shared<std::vector<PairCandidates>>();
   std::map<std::pair<std::string, std::string>, std::string> seen;
@@ -112,6 +118,10 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
     CorrespondenceOptions opts;
     std::array<double, 6> m{};
     PairCandidates p = readPairCandidates(f, &opts, &m);
+    for (const std::string& id : {p.strip_a, p.strip_b})
+      if (std::none_of(job.strips.begin(), job.strips.end(), [&](const JobStrip& js) { return js.id == id; }))
+        throw FileError(f, "", "names strip '" + id + "', which " + job.path + " does not list; rerun mountcal match with this job");
+    if (p.strip_a == p.strip_b) throw FileError(f, "", "pairs strip '" + p.strip_a + "' with itself; rerun mountcal match");
     if (!sameMatchingOptions(opts, job.options.method<CorrespondenceOptions>()))
       throw FileError(f, "", "was matched with other correspondence options than " + job.path + "; rerun mountcal match");
     if (m != used) throw FileError(f, "", "was matched at another mounting_used than " + job.path + "'s; rerun mountcal match");

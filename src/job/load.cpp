@@ -336,7 +336,32 @@ std::vector<PlaneRegion> liftRegions(std::vector<PlaneRegion> regions, const Loa
         y1 = std::max(y1, l.y());
       }
     }
-    r = {r.id, x0, y0, x1, y1};
+    r = {r.id, x0, y0, x1, y1, r.line};
+  }
+  return regions;
+}
+
+/// Regions must lie on the data: each within the strips' extent widened by 100 m. A region of
+/// ±10⁶ m would have the region grid visit every cell of it (minutes) and then take the whole
+/// field as one "planar" patch. Throws FileError naming the file and the region's line.
+std::vector<PlaneRegion> regionsOnData(std::vector<PlaneRegion> regions, const std::string& path, const CalibrationData& d) {
+  constexpr double kMargin = 100.0;  // [m]
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const StripData& s : d.strips)
+    for (const Vec3& x : s.x_m) {
+      x0 = std::min(x0, x.x()), y0 = std::min(y0, x.y());
+      x1 = std::max(x1, x.x()), y1 = std::max(y1, x.y());
+    }
+  if (!(x1 >= x0)) return regions;  // no points: nothing to compare with (the methods say so)
+  for (const PlaneRegion& r : regions) {
+    if (r.xmin < x0 - kMargin || r.ymin < y0 - kMargin || r.xmax > x1 + kMargin || r.ymax > y1 + kMargin) {
+      char why[256];
+      std::snprintf(why, sizeof why,
+                    "region '%s' (%.0f m x %.0f m) reaches beyond the strips' extent (%.0f m x %.0f m) by more than %.0f m; "
+                    "give the box of one surface",
+                    r.id.c_str(), r.xmax - r.xmin, r.ymax - r.ymin, x1 - x0, y1 - y0, kMargin);
+      throw FileError(path, "line " + std::to_string(r.line), why);
+    }
   }
   return regions;
 }
@@ -393,8 +418,9 @@ LoadedJob loadJob(const Job& job) {
   }
   if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
   if (!job.ties_path.empty()) d.ties = liftPicks(readPicks(job, job.ties_path, "tie"), out);
-  if (!job.planes_path.empty()) d.plane_regions = liftRegions(io::readPlanesCsv(job.planes_path), out);
-  if (!job.targets_path.empty()) d.target_regions = liftRegions(io::readPlanesCsv(job.targets_path), out);
+  if (!job.planes_path.empty()) d.plane_regions = regionsOnData(liftRegions(io::readPlanesCsv(job.planes_path), out), job.planes_path, d);
+  if (!job.targets_path.empty())
+    d.target_regions = regionsOnData(liftRegions(io::readPlanesCsv(job.targets_path), out), job.targets_path, d);
   if (!job.gcps_path.empty()) {
     d.gcps = io::readGcpCsv(job.gcps_path);
     for (GroundControlPoint& g : d.gcps) {
@@ -416,7 +442,7 @@ std::vector<TieObservation> loadCheckPoints(const Job& job, const LoadedJob& loa
 
 std::vector<PlaneRegion> loadCheckPlanes(const Job& job, const LoadedJob& loaded) {
   if (job.check_planes_path.empty()) return {};
-  return liftRegions(io::readPlanesCsv(job.check_planes_path), loaded);
+  return regionsOnData(liftRegions(io::readPlanesCsv(job.check_planes_path), loaded), job.check_planes_path, loaded.data);
 }
 
 }  // namespace mountcal

@@ -248,6 +248,17 @@ void readPoseSource(const std::string& path, const Fields& top, Job* job) {
   }
 }
 
+/// True when two strip entries can hold the same records: the same file, and selections that
+/// are not disjoint (either unsplit; the same part; overlapping ranges of one field). Parts of
+/// different gaps or ranges of different fields are taken as different passes.
+bool shareRecords(const JobStrip& a, const JobStrip& b) {
+  if (!io::samePath(a.path, b.path)) return false;
+  if (!a.split.active() || !b.split.active()) return true;
+  if (a.split.field != b.split.field) return false;
+  if (a.split.part > 0 || b.split.part > 0) return a.split.part == b.split.part && a.split.gap == b.split.gap;
+  return a.split.min <= b.split.max && b.split.min <= a.split.max;
+}
+
 /// "strips": ids, files, formats and splits.
 void readStrips(const std::string& path, const Fields& top, Job* job) {
   const json& strips = top.at("strips");
@@ -282,6 +293,10 @@ void readStrips(const std::string& path, const Fields& top, Job* job) {
       }
     }
     if (!ids.insert(js.id).second) s.fail("id", "strip id '" + js.id + "' appears twice");
+    for (std::size_t k = 0; k < job->strips.size(); ++k)  // a pass matched with itself gives a confident, wrong boresight
+      if (shareRecords(job->strips[k], js))
+        s.fail("", "selects records of " + js.path + " that strips[" + std::to_string(k) + "] ('" + job->strips[k].id +
+                       "') selects too: two strips must be different passes");
     job->strips.push_back(js);
   }
 }
@@ -446,7 +461,8 @@ Job readJob(const std::string& path) {
   readPoseSource(path, top, &job);
   readSensor(path, top, &job);
   const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg", "lever_arm_sigma_m"});
-  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m"), used.vec3("boresight_deg"), job.nominal_rotation_deg);
+  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m", detail::kMaxLeverArmM, "±1000 m (a lever arm)"),
+                                                      used.vec3("boresight_deg", 180.0, "±180°"), job.nominal_rotation_deg);
   readStrips(path, top, &job);
   applyDataDefaults(&job);
   readInputs(path, top, j, &job);

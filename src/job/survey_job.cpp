@@ -16,6 +16,7 @@
 #include "mountcal/job/schema.hpp"
 #include "mountcal/job/survey_job.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/las_crs.hpp"
 #include "mountcal/simulation/survey.hpp"
 
 namespace mountcal {
@@ -37,12 +38,16 @@ std::array<double, 3> nominalDeg(const MountingParameters& m) {
 }
 
 void writeStripLas(const std::string& path, const SimulatedSurvey& survey, const SimulatedStrip& strip, int source_id,
-                   const JobFrame& frame) {
+                   const JobFrame& frame, const std::string& crs) {
   io::LasHeader h;
   h.version_minor = 4;
   h.point_format = 6;
   h.point_record_length = 30;
   h.global_encoding = 0;  // GPS week seconds
+  if (!crs.empty()) {     // the CRS as OGC WKT (LAS 1.4 R15 §2.5.1: bit 4 of the global encoding set)
+    h.vlrs.push_back(io::wktVlr(crs));
+    h.global_encoding |= 16u;
+  }
   h.file_source_id = static_cast<std::uint16_t>(source_id);
   h.generating_software = "mountcal simulate";
   h.system_identifier = survey.config.name;
@@ -245,7 +250,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   for (std::size_t k = 0; k < survey.strips.size(); ++k) {
     const SimulatedStrip& s = survey.strips[k];
     const std::string strip_file = "strip_" + s.id + (options.laz ? ".laz" : ".las");
-    writeStripLas(dir + "/" + strip_file, survey, s, static_cast<int>(k + 1), frame);
+    writeStripLas(dir + "/" + strip_file, survey, s, static_cast<int>(k + 1), frame, options.crs);
     io::writeRawCsv(dir + "/raw_" + s.id + ".csv", c.sensor, s.pulses);
     job.strips.push_back({s.id, at(strip_file), "las", {}});
   }

@@ -320,11 +320,16 @@ Plan readPlan(const std::string& path) {
                    {"name", "sensor", "noise", "mounting", "lines", "ground", "gcps", "method", "estimate", "sigma", "roi_radius_m",
                     "trajectory_rate_hz"});
   Plan p;
+  p.path = path;
   p.name = top.str("name", "plan");
   SurveyConfig& c = p.survey;
   c = SurveyConfig{};
   c.seed = 1;
   c.roi_radius_m = top.num("roi_radius_m", 10.0, 0.5, 200.0);
+  // The planner's memory budget: the points within roi_radius_m of the features, for the plan
+  // and for each candidate (as many at once as there are cores). A plan over a village stores
+  // about 10⁵; 2·10⁶ is a plan flown at walking pace (about 0.4 GB per survey in the planner).
+  c.max_points = 2e6;
   c.trajectory_rate_hz = top.num("trajectory_rate_hz", 200.0, 1.0, 2000.0);
 
   readPlanSensor(path, top, p);
@@ -339,13 +344,34 @@ Plan readPlan(const std::string& path) {
 
 // ---- prediction ------------------------------------------------------------------------------
 
+namespace {
+/// A plan that cannot be predicted: FileError naming the plan file (InvalidInput naming the plan
+/// when it was built in code).
+[[noreturn]] void refusePlan(const Plan& plan, const std::string& why) {
+  if (!plan.path.empty()) throw FileError(plan.path, "", why);
+  throw InvalidInput("plan '" + plan.name + "': " + why);
+}
+}  // namespace
+
 Prediction predict(const Plan& plan) {
   const auto t0 = std::chrono::steady_clock::now();
   SurveyConfig c = plan.surveyConfig();
   c.noise = NoiseModel::none();
   c.true_mounting = c.nominal_mounting;
   const Scene scene = plan.buildScene();
-  const SimulatedSurvey s = simulation::simulate(c, scene);
+  auto refuse = [&](const std::string& why) { refusePlan(plan, why); };
+  SimulatedSurvey s;
+  try {
+    s = simulation::simulate(c, scene);
+  } catch (const InvalidInput& e) {  // e.g. more pulses than the simulator's budget
+    refuse(e.what());
+  }
+  std::size_t on_ground = 0;
+  for (const simulation::SimulatedStrip& strip : s.strips) on_ground += strip.points_m.size();
+  if (on_ground == 0)
+    refuse(
+        "no beam of the planned lines reaches the ground within roi_radius_m of a roof, target or check plane: "
+        "the lines must pass over the features (ground.roofs, ground.targets)");
   CalibrationData d = simulation::toCalibrationData(s);
   for (const PlannedGcp& g : plan.gcps)
     for (const simulation::FeaturePoint& f : scene.features())
@@ -362,7 +388,7 @@ Prediction predict(const Plan& plan) {
   p.undeterminable = summary.unobservable;
   p.observability = summary.observability_report;
   if (summary.termination == TerminationType::kInvalidInput || summary.termination == TerminationType::kFailure) {
-    throw InvalidInput("plan '" + plan.name + "': the planned survey gives no usable adjustment: " + summary.message);
+    refuse("the planned survey gives no usable adjustment: " + summary.message);
   }
   // The weakest parameter: the first undeterminable one, else the largest effect on the ground.
   const double H = plan.meanHeight();
@@ -500,8 +526,20 @@ PlanAnalysis analysePlan(const Plan& plan, const PlannerOptions& options) {
       }
       for (std::thread& t : threads) t.join();
     }
-    for (const auto& e : errors)
-      if (e) std::rethrow_exception(e);
+    // A candidate the simulator refuses (e.g. beyond its pulse budget) is not suggested; any other
+    // failure is the planner's and is raised.
+    std::vector<Suggestion> kept;
+    for (std::size_t i = 0; i < a.suggestions.size(); ++i) {
+      if (errors[i]) {
+        try {
+          std::rethrow_exception(errors[i]);
+        } catch (const Error&) {
+          continue;
+        }
+      }
+      kept.push_back(std::move(a.suggestions[i]));
+    }
+    a.suggestions = std::move(kept);
     const int w = a.base.weakest;
     for (Suggestion& s : a.suggestions)
       s.weakest_sigma = s.prediction.determined[w] && std::isfinite(s.prediction.sigma[w]) ? s.prediction.sigma[w] : kInf;

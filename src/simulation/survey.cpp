@@ -2,8 +2,11 @@
 #include "core/parallel.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -95,6 +98,15 @@ void validate(const SurveyConfig& c) {
     throw InvalidInput("survey '" + c.name + "': the simulator scans with a line or multi-beam sensor");
   }
   if (!(c.trajectory_rate_hz > 0)) throw InvalidInput("survey '" + c.name + "': trajectory rate must be positive");
+  for (const FlightLine& l : c.lines) {
+    const double duration = l.length_m / l.speed_mps;
+    if (duration > c.max_line_duration_s) {
+      char why[256];
+      std::snprintf(why, sizeof why, "flight line '%s' takes %.0f s (%.0f m at %.2f m/s); the simulator's limit is %.0f s per line",
+                    l.id.c_str(), duration, l.length_m, l.speed_mps, c.max_line_duration_s);
+      throw InvalidInput("survey '" + c.name + "': " + why);
+    }
+  }
 }
 
 /// First-order Gauss–Markov step: e ← φ e + σ √(1−φ²) w.
@@ -206,7 +218,8 @@ struct SurveyContext {
   std::set<std::string> check_ids;
   std::vector<const FeaturePoint*> features;
   std::vector<Vec3> roi;
-  double roi_extra = 0;  // check planes may be larger than the ROI radius
+  double roi_extra = 0;                               // check planes may be larger than the ROI radius
+  mutable std::atomic<std::size_t> points_stored{0};  // by every line: SurveyConfig::max_points
 
   SurveyContext(const SurveyConfig& c, const Scene& s, const SimulatedSurvey& out)
       : config(c),
@@ -252,6 +265,34 @@ class LineSimulator {
         noise_normals(&prng) {
     strip.id = line.id;
     makeWindows();
+  }
+
+  /// At most one return per pulse: a span of d seconds fires at most d·rate pulses plus one (one
+  /// sequence of every laser for a multi-beam); with an ROI about half the pulses are cast.
+  double expectedPulses() const {
+    double fire_time = 0;
+    for (const auto& sp : spans) fire_time += sp.second - sp.first;
+    const double rate = config.sensor == SensorType::kLine ? (line.prf_hz > 0 ? line.prf_hz : config.line.prf_hz)
+                                                           : config.multibeam.model.laserCount() / config.multibeam.model.sequencePeriod();
+    const double per_span = config.sensor == SensorType::kLine ? 1.0 : config.multibeam.model.laserCount();
+    return fire_time * rate * (roi.empty() ? 1.0 : 0.5) + static_cast<double>(spans.size()) * per_span + 1.0;
+  }
+
+  /// Adds the points stored since the last call to the survey's count (every few thousand), and
+  /// stops the survey once it exceeds SurveyConfig::max_points.
+  void chargeBudget() {
+    const std::size_t n = strip.points_m.size();
+    if (n - charged_ < 4096) return;
+    const std::size_t total = c_.points_stored.fetch_add(n - charged_) + (n - charged_);
+    charged_ = n;
+    if (static_cast<double>(total) > config.max_points) {
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "more than %.3g points stored (the simulator's budget, about 180 bytes each): fly fewer, shorter or faster lines, or a "
+                    "lower pulse rate",
+                    config.max_points);
+      throw InvalidInput("survey '" + config.name + "': " + why);
+    }
   }
 
   SimulatedStrip& run() {
@@ -373,13 +414,7 @@ class LineSimulator {
   /// the last pulse never doubles the arrays (a copy of the whole strip and as much memory again);
   /// with one, about half the pulses are cast.
   void reserve() {
-    double fire_time = 0;
-    for (const auto& sp : spans) fire_time += sp.second - sp.first;
-    const double rate = config.sensor == SensorType::kLine ? (line.prf_hz > 0 ? line.prf_hz : config.line.prf_hz)
-                                                           : config.multibeam.model.laserCount() / config.multibeam.model.sequencePeriod();
-    const double per_span = config.sensor == SensorType::kLine ? 1.0 : config.multibeam.model.laserCount();
-    const std::size_t expected = static_cast<std::size_t>(
-        std::min(fire_time * rate * (roi.empty() ? 1.0 : 0.5) + static_cast<double>(spans.size()) * per_span + 1.0, 5e7));
+    const std::size_t expected = static_cast<std::size_t>(std::min({expectedPulses(), 5e7, config.max_points + 8192.0}));
     strip.pulses.reserve(expected);
     strip.points_m.reserve(expected);
     strip.true_points_m.reserve(expected);
@@ -446,6 +481,7 @@ class LineSimulator {
     constexpr long kBlock = 256;
     double t_blk[kBlock], arg_blk[kBlock], theta_blk[kBlock], sin_blk[kBlock], cos_blk[kBlock];
     for (long kb = k0; kb <= k1; kb += kBlock) {
+      chargeBudget();
       const std::size_t nb = static_cast<std::size_t>(std::min(kBlock, k1 - kb + 1));
       for (std::size_t j = 0; j < nb; ++j) t_blk[j] = f.t0 + static_cast<double>(kb + static_cast<long>(j)) / prf;
       if (scanner.pattern == MirrorPattern::kSinusoidal) {
@@ -493,6 +529,7 @@ class LineSimulator {
     const long s0 = static_cast<long>(std::ceil((span.first - f.t0) / period));
     const long s1 = static_cast<long>(std::floor((span.second - f.t0) / period));
     for (long s = s0; s <= s1; ++s) {
+      if ((s & 63) == 0) chargeBudget();
       for (int laser = 0; laser < mb.laserCount(); ++laser) {
         const double t = f.t0 + mb.firingTime(laser, s);
         if (t > f.t1) break;
@@ -540,6 +577,7 @@ class LineSimulator {
   std::vector<Window> windows;
   std::vector<std::pair<double, double>> spans;
   SimulatedStrip strip;
+  std::size_t charged_ = 0;  // points of this strip already added to the survey's count
   std::size_t cur_true = 0, cur_meas = 0;
   detail::IntervalExpansion e_true, e_meas;
 };
@@ -566,11 +604,26 @@ SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene) {
   const std::size_t n_lines = config.lines.size();
   std::vector<SimulatedStrip> strips_out(n_lines);
   std::vector<std::vector<TiePick>> ties_out(n_lines), checks_out(n_lines);
+  std::vector<std::unique_ptr<LineSimulator>> lines;  // the windows of every line, to check the budget first
+  double pulses = 0;
+  for (std::size_t li = 0; li < n_lines; ++li) {
+    lines.push_back(std::make_unique<LineSimulator>(context, li, frames[li]));
+    pulses += lines.back()->expectedPulses();
+  }
+  if (pulses > config.max_pulses) {
+    char why[256];
+    std::snprintf(why, sizeof why,
+                  "%.3g pulses to cast over %zu lines; the simulator's budget is %.3g: fly fewer, shorter or faster lines, or a lower "
+                  "pulse rate",
+                  pulses, n_lines, config.max_pulses);
+    throw InvalidInput("survey '" + config.name + "': " + why);
+  }
   detail::parallelFor(n_lines, config.threads, [&](std::size_t li) {
-    LineSimulator line(context, li, frames[li]);
+    LineSimulator& line = *lines[li];
     SimulatedStrip& strip = line.run();
     line.pickTies(&ties_out[li], &checks_out[li]);
     strips_out[li] = std::move(strip);
+    lines[li].reset();
   });
   for (std::size_t li = 0; li < n_lines; ++li) {
     out.strips.push_back(std::move(strips_out[li]));

@@ -29,6 +29,8 @@ class CsvTable {
   /// A finite number; throws FileError naming line and column otherwise.
   double number(std::size_t row, std::size_t col) const;
   long integer(std::size_t row, std::size_t col) const;
+  /// The same, refused (FileError naming the line and column) outside [lo, hi].
+  long integer(std::size_t row, std::size_t col, long lo, long hi) const;
   std::size_t lineOf(std::size_t row) const { return lines_[row]; }
 
  private:

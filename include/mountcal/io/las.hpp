@@ -188,6 +188,10 @@ class LasWriter {
   bool compressed() const { return compress_; }
   /// Writes the EVLRs, finalises the header and renames the file into place.
   void close();
+  /// As close(), but leaves the finished file under its temporary name and returns that name:
+  /// the caller places it (io::placeFilesAtomically, with other files of the same run) or
+  /// removes it. Throws FileError (and removes the temporary file) when the write failed.
+  std::string closeToTemporary();
 
  private:
   void accountBlock(const std::uint8_t* records, std::size_t n);  ///< header bounds and counts of n records

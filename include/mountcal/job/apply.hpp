@@ -26,7 +26,9 @@ enum class StripFormat { same_as_input, las, laz };
 /// mounting and georeferenced again with the new one, at its pose (the trajectory at its time,
 /// or its per-point pose), through the job's frame. Every other field, the VLRs, EVLRs and
 /// extra bytes are kept byte for byte; the files are streamed in chunks of `chunk_points`, so
-/// memory does not grow with the strip. Files are written through a temporary name. Throws
+/// memory does not grow with the strip. All outputs are written under temporary names and placed
+/// together at the end (io::placeFilesAtomically): a run that fails leaves every file in
+/// `out_dir` as it was, earlier outputs included. Throws
 /// FileError, before anything is written, for raw CSV strips (they cannot be rewritten), two
 /// inputs with the same file name, or an output that would be one of the job's inputs
 /// (`jobInputPaths`) or of `also_inputs` (e.g. the result file read).

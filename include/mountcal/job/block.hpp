@@ -26,6 +26,10 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job);
 /// unknown strip id and everything loadJob throws.
 PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std::string& b);
 
+/// The pair files (`*.mcpair`) in `dir`, sorted by name. Throws FileError naming `dir` when it
+/// cannot be listed.
+std::vector<std::string> pairFilesIn(const std::string& dir);
+
 /// What a solve from pair files needs: the trajectory and frame, the strips by id (no points),
 /// and every pair file (`*.mcpair`) in `dir` as CalibrationData::correspondence_candidates.
 /// Throws FileError naming the file for a corrupt pair file, one matched with other options or

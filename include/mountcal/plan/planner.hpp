@@ -39,6 +39,7 @@ struct PlannedGcp {
 /// Everything a plan file holds, ready to simulate.
 struct Plan {
   std::string name = "plan";
+  std::string path;  ///< the plan file readPlan() read (named in errors); empty for a plan built in code
   std::vector<PlannedLine> lines;
   /// Sensor, noise, mounting (nominal = truth), ROI and attitude dynamics; `lines` is filled
   /// from `Plan::lines` by surveyConfig().

@@ -109,6 +109,14 @@ struct SurveyConfig {
   /// Lines simulated at once (0: every core); the survey does not depend on it.
   int threads = 0;
   double trajectory_rate_hz = 200.0;
+  /// Budgets of the whole survey. Points stored (returns), about 180 bytes each with the strips
+  /// and their calibration data (12 M ≈ 2 GB; block-N fits up to N ≈ 100): simulate() stops with
+  /// InvalidInput as soon as the lines together store more. Pulses cast (time: a few million per
+  /// second and core): refused before any work, from the lines' durations and pulse rates.
+  double max_points = 12e6;
+  double max_pulses = 2e9;
+  /// The longest line [s] (length / speed): its trajectory is sampled at trajectory_rate_hz.
+  double max_line_duration_s = 7200.0;
   double time_origin_s = 100000.0;  ///< GPS week seconds of the first line's start [s]
   double line_gap_s = 120.0;        ///< time between the end of a line and the next start [s]
   /// Simulate only the pulses landing within this distance of a feature point, a check plane
@@ -155,7 +163,9 @@ struct SimulatedSurvey {
 /// Keeps only the lines flown at the first line's height (scenario key `"one_height"`).
 void keepOneHeight(SurveyConfig* config);
 
-/// Runs the survey. Throws InvalidInput for an inconsistent configuration.
+/// Runs the survey. Throws InvalidInput for an inconsistent configuration, before any work for a
+/// line longer than max_line_duration_s or more pulses than max_pulses, and as soon as the
+/// strips hold more than max_points (each named with its figures).
 SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
 
 /// The survey as a calibrator sees it: the measured trajectory, the nominal mounting, every
