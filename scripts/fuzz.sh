@@ -22,7 +22,7 @@ if [ ! -f "$root/build/src/libmountcal.a" ]; then
 fi
 # Every instrumented source compiled once, on every core, then each target linked from its objects.
 sources=(tests/fuzz/fuzz_las.cpp tests/fuzz/fuzz_laz.cpp tests/fuzz/fuzz_sbet.cpp tests/fuzz/fuzz_csv.cpp
-         tests/fuzz/fuzz_job.cpp tests/fuzz/fuzz_pairs.cpp src/io/las.cpp src/io/laz.cpp src/io/laz_coder.cpp
+         tests/fuzz/fuzz_job.cpp tests/fuzz/fuzz_pairs.cpp src/io/las.cpp src/io/las_crs.cpp src/io/laz.cpp src/io/laz_coder.cpp
          src/io/laz_items.cpp src/io/sbet.cpp src/io/csv.cpp src/io/atomic_file.cpp src/core/geodesy.cpp
          src/core/trajectory.cpp src/core/sensor_model.cpp src/core/error.cpp src/job/schema.cpp
          src/methods/correspondence/pair_file.cpp)
@@ -33,7 +33,7 @@ mapfile -t laz < <(o src/io/laz.cpp src/io/laz_coder.cpp src/io/laz_items.cpp sr
 mapfile -t nav < <(o src/io/sbet.cpp src/io/csv.cpp src/io/atomic_file.cpp src/core/geodesy.cpp src/core/trajectory.cpp src/core/error.cpp)
 release=("$root/build/src/libmountcal.a" "$root/build/src/libmountcal_core.a" -lceres -lglog -lflann_cpp -llz4 -lOpenMeshCore -lproj
          -lpthread -fopenmp)
-clang++ "${flags[@]}" -o "$out/fuzz_las" $(o tests/fuzz/fuzz_las.cpp src/io/las.cpp) "${laz[@]}" -lpthread
+clang++ "${flags[@]}" -o "$out/fuzz_las" $(o tests/fuzz/fuzz_las.cpp src/io/las.cpp src/io/las_crs.cpp) "${laz[@]}" -lproj -lpthread
 clang++ "${flags[@]}" -o "$out/fuzz_laz" $(o tests/fuzz/fuzz_laz.cpp) "${laz[@]}"
 clang++ "${flags[@]}" -o "$out/fuzz_sbet" $(o tests/fuzz/fuzz_sbet.cpp) "${nav[@]}"
 clang++ "${flags[@]}" -o "$out/fuzz_csv" $(o tests/fuzz/fuzz_csv.cpp src/core/sensor_model.cpp) "${nav[@]}"

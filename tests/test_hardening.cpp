@@ -19,7 +19,9 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/csv.hpp"
 #include "mountcal/io/sbet.hpp"
+#include "real_data.hpp"
 
 using namespace mountcal;
 namespace fs = std::filesystem;
@@ -44,6 +46,15 @@ CliRun cli(const std::string& args) {
   const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > /dev/null 2> " + err).c_str());
   CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
   fs::remove(err);
+  return r;
+}
+
+/// The command's standard output (exit code in `code`).
+CliRun cliOut(const std::string& args) {
+  const std::string out = (fs::temp_directory_path() / ("mountcal_hard_out_" + std::to_string(::getpid()))).string();
+  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + out + " 2> /dev/null").c_str());
+  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out)};
+  fs::remove(out);
   return r;
 }
 
@@ -365,4 +376,242 @@ TEST_F(Hardening, GeographicCrsIsRefused) {
   const CliRun g = cli("calibrate --quiet " + job);
   EXPECT_EQ(g.code, 2);
   EXPECT_NE(g.err.find("geo.json:field 'frame.crs'"), std::string::npos) << g.err;
+}
+
+// ---- The second battery (issue 30): the newer commands ---------------------------------------
+
+// apply fails on the fourth strip (a record's GPS time outside the trajectory): every output
+// the folder held from an earlier run is unchanged, and no temporary file is left — on one
+// thread and on two.
+TEST_F(Hardening, FailedApplyLeavesEveryEarlierOutput) {
+  const std::string job = (field() / "job.json").string();
+  ASSERT_EQ(cli("calibrate --quiet " + job).code, 0);
+  const fs::path out = dir() / "applied";
+  ASSERT_EQ(cli("apply " + job + " --result " + (field() / "result.json").string() + " --out " + out.string()).code, 0);
+  std::map<std::string, std::string> before;
+  for (const auto& e : fs::directory_iterator(out)) before[e.path().filename().string()] = slurp(e.path());
+  ASSERT_EQ(before.size(), 4u);
+  // Another mounting, and a copy of the survey whose strip_4 is corrupt half-way.
+  json r = json::parse(slurp(field() / "result.json"));
+  r["mounting"]["boresight_deg"][2] = r["mounting"]["boresight_deg"][2].get<double>() + 0.5;
+  spit(dir() / "r2.json", r.dump());
+  const fs::path bad = dir() / "bad";
+  fs::create_directories(bad);
+  for (const char* f : {"job.json", "trajectory.csv", "strip_1.las", "strip_2.las", "strip_3.las", "strip_4.las", "ties.csv",
+                        "check_points.csv", "check_planes.csv", "planes.csv"})
+    fs::copy_file(field() / f, bad / f);
+  std::string las = slurp(bad / "strip_4.las");
+  std::uint32_t offset;
+  std::memcpy(&offset, &las[96], 4);
+  const double t = 1e12;
+  std::memcpy(&las[offset + 30000 * 30 + 22], &t, 8);  // format 6: GPS time at byte 22 of the record
+  spit(bad / "strip_4.las", las);
+  for (const char* threads : {"1", "2"}) {
+    const CliRun a = cli("apply " + (bad / "job.json").string() + " --result " + (dir() / "r2.json").string() + " --out " + out.string() +
+                         " --threads " + threads);
+    EXPECT_EQ(a.code, 2) << a.err;
+    EXPECT_NE(a.err.find("strip_4.las:record 30000"), std::string::npos) << a.err;
+    std::map<std::string, std::string> after;
+    for (const auto& e : fs::directory_iterator(out)) after[e.path().filename().string()] = slurp(e.path());
+    EXPECT_TRUE(after == before) << "a failed apply changed the output folder (" << threads << " threads)";
+    for (const auto& e : fs::directory_iterator(bad)) EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+  }
+  // The same run on good strips replaces all four.
+  ASSERT_EQ(cli("apply " + job + " --result " + (dir() / "r2.json").string() + " --out " + out.string()).code, 0);
+  for (const auto& [name, content] : before) EXPECT_NE(slurp(out / name), content) << name;
+}
+
+// The pair files of --correspondences are inputs: --result cannot replace one; a pair file that
+// names a strip the job does not list, or one strip twice, is refused naming the file.
+TEST_F(Hardening, PairFilesAreInputsAndNameTheirStrips) {
+  const std::string job = variant("pf.json", [](json& j) {
+    j["method"] = "correspondences";
+    j.erase("ties");
+    j["output"] = {{"result", "pf.result.json"}};
+  });
+  const fs::path pairs = dir() / "pairs";
+  fs::create_directories(pairs);
+  ASSERT_EQ(cli("match " + job + " --pair 1 2 --out " + (pairs / "1_2.mcpair").string()).code, 0);
+  const std::string pair_file = slurp(pairs / "1_2.mcpair");
+  const CliRun r =
+      cli("calibrate --quiet " + job + " --correspondences " + pairs.string() + " --result " + (pairs / "1_2.mcpair").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("is also an input of the job"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(pairs / "1_2.mcpair"), pair_file);
+  // The job's strips renamed: the pair file's strip '1' is unknown.
+  const std::string renamed = variant("pf_renamed.json", [](json& j) {
+    j["method"] = "correspondences";
+    j.erase("ties");
+    j.erase("check_points");
+    for (auto& s : j["strips"]) s["id"] = "s" + s["id"].get<std::string>();
+  });
+  const CliRun u = cli("calibrate --quiet " + renamed + " --correspondences " + pairs.string());
+  EXPECT_EQ(u.code, 2) << u.err;
+  EXPECT_NE(u.err.find("1_2.mcpair: names strip '1', which"), std::string::npos) << u.err;
+  const CliRun self = cli("match " + job + " --pair 1 1 --out " + (pairs / "1_1.mcpair").string());
+  EXPECT_EQ(self.code, 2) << self.err;
+  EXPECT_NE(self.err.find("a pair of one strip"), std::string::npos) << self.err;
+}
+
+// Regions beyond the data and plans beyond the simulator's budget: refused before the work,
+// naming the file and the line.
+TEST_F(Hardening, RegionsAndPlansAreBoundedBeforeTheWork) {
+  spit(field() / "p_huge.csv", "plane_id,xmin,ymin,xmax,ymax\nroof,-1e6,-1e6,1e6,1e6\n");
+  expectRefused("calibrate --quiet " + variant("r_planes.json",
+                                               [](json& j) {
+                                                 j["method"] = "planes";
+                                                 j["planes"] = "p_huge.csv";
+                                               }),
+                "p_huge.csv:line 2", "reaches beyond the strips' extent");
+  expectRefused("calibrate --quiet " + variant("r_check.json", [](json& j) { j["check_planes"] = "p_huge.csv"; }), "p_huge.csv:line 2",
+                "reaches beyond");
+  const json base = json::parse(R"({"name": "bounded", "sensor": {"type": "line"},
+    "lines": [{"id": "1", "start": [-400, 0], "end": [400, 0], "height_m": 500},
+              {"id": "2", "start": [0, -400], "end": [0, 400], "height_m": 500}],
+    "ground": {"roofs": [{"id": "h", "centre": [20, 30]}], "targets": [{"id": "t", "centre": [-50, -40]}]}, "method": "vtpm"})");
+  auto plan = [&](const std::string& name, const std::function<void(json&)>& edit) {
+    json p = base;
+    edit(p);
+    spit(dir() / name, p.dump());
+    return (dir() / name).string();
+  };
+  const std::string slow = plan("slow.json", [](json& p) {
+    p["lines"][0]["start"] = {-50000, 0};
+    p["lines"][0]["end"] = {50000, 0};
+    p["lines"][0]["speed_mps"] = 0.5;
+  });
+  CliRun r = cli("plan --no-candidates " + slow);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("slow.json: survey 'bounded': flight line '1' takes 200000 s"), std::string::npos) << r.err;
+  const std::string walking = plan("walking.json", [](json& p) {
+    p["lines"][0]["start"] = {-1500, 0};
+    p["lines"][0]["end"] = {1500, 0};
+    for (auto& l : p["lines"]) l["speed_mps"] = 0.5;
+    p["sensor"]["prf_hz"] = 2e6;
+  });
+  r = cli("plan --no-candidates " + walking);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("walking.json: survey 'bounded': more than 2e+06 points stored"), std::string::npos) << r.err;
+  const std::string far = plan("far.json", [](json& p) {
+    for (auto& l : p["lines"]) l["start"][0] = l["start"][0].get<double>() + 5000, l["end"][0] = l["end"][0].get<double>() + 5000;
+  });
+  r = cli("plan --no-candidates " + far);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("far.json: no beam of the planned lines reaches the ground"), std::string::npos) << r.err;
+  EXPECT_EQ(cli("plan --no-candidates " + plan("ok.json", [](json&) {})).code, 0);
+}
+
+// "Nothing solved" is never success: strips cut into single records give no correspondence
+// (exit 1, the verdict says why); two strips that are the same records are bad input.
+TEST_F(Hardening, NothingSolvedIsNotSuccessAndAPassIsNotMatchedWithItself) {
+  auto split = [](int part_a, const std::string& file_b, int part_b) {
+    return [=](json& j) {
+      j["method"] = "correspondences";
+      for (const char* k : {"ties", "check_points", "check_planes", "planes"}) j.erase(k);
+      j["output"] = {{"result", "split.result.json"}};
+      j["strips"] = {{{"id", "a"}, {"path", "strip_1.las"}, {"split", {{"field", "gps_time"}, {"part", part_a}, {"gap", 0}}}},
+                     {{"id", "b"}, {"path", file_b}, {"split", {{"field", "gps_time"}, {"part", part_b}, {"gap", 0}}}}};
+    };
+  };
+  const CliRun tiny = cli("calibrate --quiet " + variant("split_tiny.json", split(5, "strip_2.las", 7)));
+  EXPECT_EQ(tiny.code, 1) << tiny.err;
+  EXPECT_NE(tiny.err.find("not usable"), std::string::npos) << tiny.err;
+  expectRefused("calibrate --quiet " + variant("split_self.json", split(5, "strip_1.las", 5)), "split_self.json:field 'strips[1]'",
+                "two strips must be different passes");
+  expectRefused("calibrate --quiet " + variant("same_file.json", [](json& j) { j["strips"][1]["path"] = "./strip_1.las"; }),
+                "same_file.json:field 'strips[1]'", "two strips must be different passes");
+}
+
+// Malformed requests: refused with the file (or option) and the place, never dropped silently.
+TEST_F(Hardening, MalformedRequestsAreRefused) {
+  const std::string job = (field() / "job.json").string();
+  const std::string planes = slurp(field() / "planes.csv");  // its first region again at the end
+  const std::size_t l1 = planes.find('\n') + 1, l2 = planes.find('\n', l1) + 1;
+  spit(field() / "p_twice.csv", planes + planes.substr(l1, l2 - l1));
+  expectRefused("calibrate --quiet " + variant("twice.json",
+                                               [](json& j) {
+                                                 j["method"] = "planes";
+                                                 j["planes"] = "p_twice.csv";
+                                               }),
+                "p_twice.csv:line", "is listed twice (also on line 2)");
+  for (const std::string profile : {"0,0,0,0", "0,0,10,10,1,7", "0,0,10", "0,0,x,1"}) {
+    const CliRun r = cli("calibrate --quiet " + job + " --profile " + profile + " --report " + (dir() / "p.html").string());
+    EXPECT_EQ(r.code, 2) << profile << ": " << r.err;
+    EXPECT_NE(r.err.find("--profile " + profile), std::string::npos) << r.err;
+  }
+  expectRefused("convert " + (field() / "strip_1.las").string() + " " + (dir() / "out.txt").string(), "out.txt", "extension");
+  EXPECT_FALSE(fs::exists(dir() / "out.txt"));
+  const CliRun unknown = cli("calibrat " + job);
+  EXPECT_EQ(unknown.code, 2);
+  EXPECT_NE(unknown.err.find("unknown subcommand 'calibrat'"), std::string::npos) << unknown.err;
+  // Absurd result values are the result file's fault.
+  ASSERT_EQ(cli("calibrate --quiet " + job).code, 0);
+  json r = json::parse(slurp(field() / "result.json"));
+  r["mounting"]["boresight_deg"][0] = 1e300;
+  spit(dir() / "r_angle.json", r.dump());
+  r = json::parse(slurp(field() / "result.json"));
+  r["mounting"]["lever_arm_m"][1] = 1e300;
+  spit(dir() / "r_lever.json", r.dump());
+  expectRefused("apply " + job + " --result " + (dir() / "r_angle.json").string() + " --out " + (dir() / "o1").string(),
+                "r_angle.json:field 'mounting.boresight_deg'", "beyond ±180°");
+  expectRefused("apply " + job + " --result " + (dir() / "r_lever.json").string() + " --out " + (dir() / "o2").string(),
+                "r_lever.json:field 'mounting.lever_arm_m'", "beyond ±1000 m");
+  EXPECT_FALSE(fs::exists(dir() / "o1") && !fs::is_empty(dir() / "o1"));
+  // The simulator's truth: a lever arm of 1e300 m.
+  spit(dir() / "sc_lever.json", R"({"preset": "paper-calibration-field", "true_mounting": {"lever_arm_m": [0, 1e300, 0]}})");
+  const CliRun s = cli("simulate " + (dir() / "sc_lever.json").string() + " --out " + (dir() / "lever").string());
+  EXPECT_EQ(s.code, 2);
+  EXPECT_NE(s.err.find("sc_lever.json:field 'true_mounting.lever_arm_m'"), std::string::npos) << s.err;
+  EXPECT_FALSE(fs::exists(dir() / "lever" / "job.json"));
+  // A LAS whose offset to the point data lies inside its header.
+  std::string las = slurp(field() / "strip_1.las");
+  const std::uint32_t inside = 200;
+  std::memcpy(&las[96], &inside, 4);
+  spit(dir() / "inside.las", las);
+  const CliRun i = cli("info " + (dir() / "inside.las").string());
+  EXPECT_EQ(i.code, 2);
+  EXPECT_NE(i.err.find("inside.las:byte 96: offset to point data 200 lies inside the header"), std::string::npos) << i.err;
+  // A laser id beyond 32 bits in a raw CSV: refused naming the line, not wrapped to a valid id.
+  spit(dir() / "raw_mb.csv", "time,laser_id,azimuth_deg,range_m,intensity\n1.0,3,10,20,5\n1.1,4294967305,10,20,5\n");
+  try {
+    io::readRawCsv((dir() / "raw_mb.csv").string(), SensorType::kMultiBeam);
+    FAIL() << "no exception";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("raw_mb.csv:line 3: column 'laser_id'"), std::string::npos) << e.what();
+  }
+}
+
+// Scenario fields of the wrong type name the field.
+TEST_F(Hardening, ScenarioFieldsOfTheWrongTypeAreNamed) {
+  for (const auto& [text, field_name] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"preset": "paper-calibration-field", "one_height": 3})", "field 'one_height'"},
+           {R"({"preset": "paper-calibration-field", "noise": {"range_sigma_m": "x"}})", "field 'noise.range_sigma_m'"},
+           {R"({"preset": "paper-calibration-field", "true_mounting": {"boresight_deg": [0, "a", 0]}})",
+            "field 'true_mounting.boresight_deg'"},
+           {R"({"preset": "paper-calibration-field", "seed": 2.5})", "field 'seed'"},
+           {R"({"preset": 7})", "field 'preset'"}}) {
+    spit(dir() / "sc.json", text);
+    const CliRun r = cli("simulate " + (dir() / "sc.json").string() + " --out " + (dir() / "sc_out").string());
+    EXPECT_EQ(r.code, 2) << text;
+    EXPECT_NE(r.err.find("sc.json:" + field_name), std::string::npos) << text << "\n" << r.err;
+  }
+}
+
+// info: the CRS (WKT written by simulate --crs; GeoTIFF keys of the Gravity files), the
+// extra-bytes types, and points by class and return.
+TEST_F(Hardening, InfoShowsTheCrsAndTheExtraBytesTypes) {
+  const CliRun u = cliOut("info " + (utm() / "strip_1.las").string());
+  ASSERT_EQ(u.code, 0);
+  EXPECT_NE(u.err.find("CRS: EPSG:32611 'WGS 84 / UTM zone 11N' (WKT)"), std::string::npos) << u.err;
+  EXPECT_NE(u.err.find("points by class: 2: "), std::string::npos) << u.err;
+  EXPECT_NE(u.err.find("points by return number: 1: "), std::string::npos) << u.err;
+  const CliRun l = cliOut("info " + (field() / "strip_1.las").string());
+  EXPECT_NE(l.err.find("CRS: none declared"), std::string::npos) << l.err;
+  REQUIRE_DATA("gravity/Car.las");
+  const CliRun g = cliOut("info " + dataFile("gravity/Car.las"));
+  ASSERT_EQ(g.code, 0);
+  // The file's GeoKeyDirectory: ProjectedCSTypeGeoKey 32613 (UTM zone 13 N); its WKT record is empty.
+  EXPECT_NE(g.err.find("CRS: EPSG:32613 (GeoTIFF ProjectedCSTypeGeoKey)"), std::string::npos) << g.err;
+  EXPECT_NE(g.err.find("extra bytes: SensorX                  double"), std::string::npos) << g.err;
+  EXPECT_NE(g.err.find("extra bytes: frameNo                  int32"), std::string::npos) << g.err;
 }

@@ -11,6 +11,7 @@
 
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
+#include "geometry/point_geometry.hpp"
 #include "io/bytes.hpp"
 #include "mountcal/io/las.hpp"
 
@@ -206,3 +207,22 @@ TEST(LasRecordLayout, TimeAndIntegersWhereTheSpecificationPutsThem) {
 
 }  // namespace
 }  // namespace mountcal
+
+// PlanGrid::box visits only the occupied cells: a box of ±10⁶ m (or ±1e300 m) returns the same
+// points as one around the data, at once; an inverted or NaN box returns none.
+TEST(Kernels, PlanGridBoxIsBoundedByTheOccupiedCells) {
+  using mountcal::Vec3;
+  namespace detail = mountcal::detail;
+  std::vector<Vec3> x;
+  for (int i = 0; i < 50; ++i) x.emplace_back(0.37 * i - 3.0, 0.21 * i + 1.0, 0.0);
+  const detail::PlanGrid g(x, 4.0);
+  const auto all = g.box(x, -10, -10, 30, 30);
+  ASSERT_EQ(all.size(), x.size());
+  EXPECT_EQ(g.box(x, -1e6, -1e6, 1e6, 1e6), all);
+  EXPECT_EQ(g.box(x, -1e300, -1e300, 1e300, 1e300), all);
+  EXPECT_EQ(g.box(x, 0.0, 0.0, 5.0, 5.0).size(), static_cast<std::size_t>(std::count_if(x.begin(), x.end(), [](const Vec3& p) {
+              return p.x() >= 0 && p.x() <= 5 && p.y() >= 0 && p.y() <= 5;
+            })));
+  EXPECT_TRUE(g.box(x, 5, 5, 0, 0).empty());
+  EXPECT_TRUE(g.box(x, std::nan(""), 0, 5, 5).empty());
+}

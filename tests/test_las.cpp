@@ -12,6 +12,8 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/las_crs.hpp"
+#include "mountcal/io/pose_fields.hpp"
 
 using namespace mountcal;
 using namespace mountcal::io;
@@ -383,4 +385,82 @@ TEST(Las, BlockQuantizeEqualsStdRoundAndNamesTheFirstRecordThatDoesNotFit) {
     }
   }
   fs::remove(path);
+}
+
+// The CRS of a LAS header (LAS 1.4 R15 §2.5.1–2.5.3), from hand-built records: a GeoKeyDirectory
+// of four keys (UTM zone 13 N in metres, with a citation in GeoAsciiParams and a double in
+// GeoDoubleParams), a WKT record, and malformed directories refused naming the record.
+TEST(Las, CrsRecordsDecodeHandBuiltGeoKeysAndWkt) {
+  io::LasHeader h;
+  EXPECT_TRUE(io::lasCrs(h, "none.las").empty());
+  EXPECT_EQ(io::lasCrs(h, "none.las").summary(), "none declared");
+  // Header {1, 1, 0, 4 keys}, then {id, location, count, value} per key.
+  const std::uint16_t keys[] = {1, 1, 0, 4, 1024, 0, 1, 1, 3072, 0, 1, 32613, 3073, 34737, 10, 0, 4099, 34736, 1, 0};
+  std::vector<std::uint8_t> dir(sizeof keys);
+  std::memcpy(dir.data(), keys, sizeof keys);
+  const std::string ascii = "UTM 13 N |";
+  const double metre = 1.0;
+  std::vector<std::uint8_t> dbl(8);
+  std::memcpy(dbl.data(), &metre, 8);
+  h.vlrs.push_back({"LASF_Projection", 34735, "GeoKeyDirectoryTag", dir});
+  h.vlrs.push_back({"LASF_Projection", 34737, "GeoAsciiParamsTag", std::vector<std::uint8_t>(ascii.begin(), ascii.end())});
+  h.vlrs.push_back({"LASF_Projection", 34736, "GeoDoubleParamsTag", dbl});
+  const io::LasCrs crs = io::lasCrs(h, "keys.las");
+  ASSERT_EQ(crs.geo_keys.size(), 4u);
+  EXPECT_EQ(crs.geo_keys[1].name(), "ProjectedCSTypeGeoKey");
+  EXPECT_EQ(crs.geo_keys[1].value, 32613);
+  EXPECT_EQ(crs.geo_keys[2].text, "UTM 13 N ");
+  ASSERT_EQ(crs.geo_keys[3].numbers.size(), 1u);
+  EXPECT_EQ(crs.geo_keys[3].numbers[0], 1.0);
+  EXPECT_EQ(crs.summary(), "EPSG:32613 (GeoTIFF ProjectedCSTypeGeoKey)");
+  // Four keys announced, three stored; a text beyond GeoAsciiParams.
+  h.vlrs[0].data.resize(8 + 3 * 8);
+  try {
+    io::lasCrs(h, "keys.las");
+    FAIL() << "no exception";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("keys.las:GeoKeyDirectory VLR (LASF_Projection/34735): announces 4 keys"), std::string::npos)
+        << e.what();
+  }
+  h.vlrs[0].data = dir;
+  h.vlrs[1].data.resize(5);
+  EXPECT_THROW(io::lasCrs(h, "keys.las"), FileError);
+  // The WKT record takes precedence; its name and outermost EPSG authority are shown (a
+  // hand-written WKT 1 whose datum has an authority of its own, deeper).
+  const std::string wkt =
+      R"(PROJCS["WGS 84 / UTM zone 13N",GEOGCS["WGS 84",DATUM["WGS_1984",AUTHORITY["EPSG","6326"]],AUTHORITY["EPSG","4326"]],)"
+      R"(PROJECTION["Transverse_Mercator"],UNIT["metre",1],AUTHORITY["EPSG","32613"]])";
+  std::vector<std::uint8_t> w(wkt.begin(), wkt.end());
+  w.push_back(0);
+  h.vlrs.push_back({"LASF_Projection", 2112, "OGC WKT", w});
+  h.vlrs[1].data.assign(ascii.begin(), ascii.end());
+  EXPECT_EQ(io::lasCrs(h, "wkt.las").summary(), "EPSG:32613 'WGS 84 / UTM zone 13N' (WKT)");
+  // PROJ's WKT for an EPSG code reads back as that code.
+  io::LasHeader p;
+  p.vlrs.push_back(io::wktVlr("EPSG:32611"));
+  EXPECT_EQ(io::lasCrs(p, "proj.las").summary(), "EPSG:32611 'WGS 84 / UTM zone 11N' (WKT)");
+  EXPECT_THROW(io::wktVlr("EPSG:999999"), InvalidInput);
+}
+
+// A pose or laser field whose extra-bytes scale is 0 (every value would be its offset) is
+// refused naming the file and the attribute.
+TEST(Las, ExtraBytesFieldOfScaleZeroIsRefused) {
+  io::LasHeader h;
+  h.point_format = 6;
+  h.point_record_length = static_cast<std::uint16_t>(io::LasHeader::standardRecordLength(6) + 2);
+  std::vector<std::uint8_t> d(192, 0);
+  d[2] = 3;  // unsigned short
+  d[3] = 8;  // scale valid
+  std::memcpy(&d[4], "ring", 4);
+  const double half = 0.5, zero = 0.0;
+  std::memcpy(&d[112], &half, 8);
+  h.vlrs.push_back({"LASF_Spec", 4, "extra bytes", d});
+  EXPECT_NO_THROW(io::PointFieldReader(h, "zero.las", "ring"));
+  std::memcpy(&h.vlrs[0].data[112], &zero, 8);
+  try {
+    io::PointFieldReader r(h, "zero.las", "ring");
+    FAIL() << "no exception";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("zero.las:Extra Bytes VLR: attribute 'ring' has a scale of 0"), std::string::npos) << e.what();
+  }
 }

@@ -9,6 +9,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/io/las_crs.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = "/tmp/mountcal_fuzz_las_" + std::to_string(::getpid()) + ".las";
@@ -20,6 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     mountcal::io::LasReader reader(path);
     // Extra Bytes descriptors: parsed, then every attribute of every point decoded.
     const auto attributes = mountcal::io::extraBytesAttributes(reader.header(), path);
+    (void)mountcal::io::lasCrs(reader.header(), path).summary();  // the CRS records: WKT, GeoTIFF keys
     std::vector<mountcal::io::LasPoint> chunk;
     while (reader.read(&chunk, 4096) > 0) {
       for (const auto& p : chunk) {
