@@ -23,6 +23,7 @@
 #include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "scatter.hpp"
 
 using namespace mountcal;
 using namespace mountcal::simulation;
@@ -266,6 +267,7 @@ TEST(FeatureMethod, SurveyGradeNoiseEveryRigorousEstimateWithinThreeSigma) {
                   "FeatureMethod.NoiseFreeClosedForm…, UnusableRegions… and CommandRuns… run there";
 #endif
   const std::vector<std::uint64_t> seeds = {3, 4, 5};
+  mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : seeds) {
     const Uav& s = uav(seed, true);
     const auto S = calibrate(toCalibrationData(s.survey), featureOptions(true));
@@ -274,8 +276,10 @@ TEST(FeatureMethod, SurveyGradeNoiseEveryRigorousEstimateWithinThreeSigma) {
     for (int j = 0; j < 6; ++j) {
       if (!S.estimated[j]) continue;
       EXPECT_LT(std::abs(est[j] - truth[j]), 3 * S.sigma[j]) << "seed " << seed << " parameter " << j << "\n" << S.FullReport();
+      scatter.add(est[j] - truth[j], S.sigma[j]);
     }
   }
+  scatter.expectNotOverstated("features (rigorous)");
 }
 
 TEST(FeatureMethod, HouseCornersAfterCorrectionWithinTenCentimetres) {

@@ -14,6 +14,7 @@
 #include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "scatter.hpp"
 
 using namespace mountcal;
 using namespace mountcal::simulation;
@@ -95,7 +96,9 @@ void expectRecovered(const MountingCalibrator::Summary& S, const MountingParamet
   for (int j : {kLeverX, kLeverY}) EXPECT_LT(std::abs(e[j] - t[j]), lever_m) << what << " " << mountingParameterNames()[j];
 }
 
-void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const MountingParameters& truth, const std::string& what) {
+/// |error| < 3σ for every parameter; each error/σ also goes into `scatter` (its lower bound).
+void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const MountingParameters& truth, const std::string& what,
+                            mountcal_tests::ScatterOfErrors* scatter) {
   ASSERT_TRUE(S.IsSolutionUsable()) << what;
   const auto e = S.mounting.toArray(), t = truth.toArray();
   int estimated = 0;
@@ -103,6 +106,7 @@ void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const Mounting
     if (!S.estimated[j]) continue;
     ++estimated;
     EXPECT_LT(std::abs(e[j] - t[j]), 3 * S.sigma[j]) << what << " " << mountingParameterNames()[j] << "\n" << S.FullReport();
+    scatter->add(e[j] - t[j], S.sigma[j]);
   }
   EXPECT_EQ(estimated, 6) << what << "\n" << S.observability_report;
 }
@@ -212,33 +216,39 @@ TEST(CorrespondenceMethod, LibraryCallReturnsCorrespondencesAndStatistics) {
 // ---- survey-grade noise: honest σ -----------------------------------------------------------------
 
 TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+  mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"})));
-    expectWithinThreeSigma(S, s.config.true_mounting, "planes, seed " + std::to_string(seed));
+    expectWithinThreeSigma(S, s.config.true_mounting, "planes, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
+  scatter.expectNotOverstated("planes");
 }
 
 TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+  mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"}, true)));
-    expectWithinThreeSigma(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed));
+    expectWithinThreeSigma(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
+  scatter.expectNotOverstated("planes auto");
 }
 
 TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+  mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = field(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"correspondences"})));
-    expectWithinThreeSigma(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed));
+    expectWithinThreeSigma(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
+  scatter.expectNotOverstated("correspondences");
 }
 
 // ---- the first paper's comparison: VTPM against the plane method ------------------------------
