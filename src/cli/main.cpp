@@ -142,8 +142,6 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   // Before anything is computed: an output never replaces an input (a pair file included).
   std::vector<std::string> pair_inputs;
   if (!pair_dir.empty()) {
-    std::error_code ec;
-    if (!std::filesystem::is_directory(pair_dir, ec)) throw FileError(pair_dir, "", "is not a folder of pair files (mountcal match --out)");
     pair_inputs = pairFilesIn(pair_dir);
     pair_inputs.push_back(pair_dir);
   }

@@ -92,13 +92,10 @@ class Fields {
     }
     return v;
   }
-  /// vec3(k) with every component within ±`bound` (`what`: the bound's meaning, for the message).
-  Vec3 vec3(const std::string& k, double bound, const char* what) const {
-    const Vec3 v = vec3(k);
-    for (int i = 0; i < 3; ++i)
-      if (std::abs(v[i]) > bound) fail(k, std::string("a component beyond ") + what);
-    return v;
-  }
+  /// A lever arm [m]: vec3(k) with every component within ±kMaxLeverArmM.
+  Vec3 leverArmM(const std::string& k) const { return bounded(k, kMaxLeverArmM, "±1000 m (a lever arm)"); }
+  /// Boresight angles [deg]: vec3(k) with every component within ±180°.
+  Vec3 boresightDeg(const std::string& k) const { return bounded(k, 180.0, "±180°"); }
   std::array<bool, 3> bool3(const std::string& k) const {
     const json& a = at(k);
     if (!a.is_array() || a.size() != 3) fail(k, "expected an array of 3 booleans");
@@ -114,6 +111,13 @@ class Fields {
   }
 
  private:
+  Vec3 bounded(const std::string& k, double bound, const char* what) const {
+    const Vec3 v = vec3(k);
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(v[i]) > bound) fail(k, std::string("a component beyond ") + what);
+    return v;
+  }
+
   const std::string& file_;
   const json& j_;
   std::string prefix_;

@@ -93,6 +93,7 @@ PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std
 
 std::vector<std::string> pairFilesIn(const std::string& dir) {
   std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw FileError(dir, "", "is not a folder of pair files (mountcal match --out)");
   std::vector<std::string> files;
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.path().extension() == ".mcpair") files.push_back(e.path().string());
@@ -107,8 +108,6 @@ LoadedJob loadJobFromPairFiles(const Job& job, const std::string& dir) {
     throw FileError(job.path, "field 'gcps'",
                     "ground control is observed in the strips' points, which a solve from pair files does not read; run mountcal calibrate "
                     "on the whole job");
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw FileError(dir, "", "is not a folder of pair files (mountcal match --out)");
   const std::vector<std::string> files = pairFilesIn(dir);
   LoadedJob out = loadJobTrajectory(job);
   auto pairs = std::make_shared<std::vector<PairCandidates>>();

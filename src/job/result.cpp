@@ -225,8 +225,7 @@ MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom
   const json j = readResultFile(path);
   if (!j.is_object() || !j.contains("mounting")) throw FileError(path, "field 'mounting'", "missing");
   const detail::Fields m(path, j["mounting"], "mounting", {"lever_arm_m", "boresight_deg"});
-  MountingParameters out = MountingParameters::fromDegrees(m.vec3("lever_arm_m", detail::kMaxLeverArmM, "±1000 m (a lever arm)"),
-                                                           m.vec3("boresight_deg", 180.0, "±180°"));
+  MountingParameters out = MountingParameters::fromDegrees(m.leverArmM("lever_arm_m"), m.boresightDeg("boresight_deg"));
   out.R_nom = R_nom;
   return out;
 }

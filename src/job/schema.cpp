@@ -461,8 +461,8 @@ Job readJob(const std::string& path) {
   readPoseSource(path, top, &job);
   readSensor(path, top, &job);
   const Fields used = top.sub("mounting_used", {"lever_arm_m", "boresight_deg", "lever_arm_sigma_m"});
-  job.mounting_used = MountingParameters::fromDegrees(used.vec3("lever_arm_m", detail::kMaxLeverArmM, "±1000 m (a lever arm)"),
-                                                      used.vec3("boresight_deg", 180.0, "±180°"), job.nominal_rotation_deg);
+  job.mounting_used =
+      MountingParameters::fromDegrees(used.leverArmM("lever_arm_m"), used.boresightDeg("boresight_deg"), job.nominal_rotation_deg);
   readStrips(path, top, &job);
   applyDataDefaults(&job);
   readInputs(path, top, j, &job);

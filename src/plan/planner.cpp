@@ -359,19 +359,18 @@ Prediction predict(const Plan& plan) {
   c.noise = NoiseModel::none();
   c.true_mounting = c.nominal_mounting;
   const Scene scene = plan.buildScene();
-  auto refuse = [&](const std::string& why) { refusePlan(plan, why); };
   SimulatedSurvey s;
   try {
     s = simulation::simulate(c, scene);
   } catch (const InvalidInput& e) {  // e.g. more pulses than the simulator's budget
-    refuse(e.what());
+    refusePlan(plan, e.what());
   }
   std::size_t on_ground = 0;
   for (const simulation::SimulatedStrip& strip : s.strips) on_ground += strip.points_m.size();
   if (on_ground == 0)
-    refuse(
-        "no beam of the planned lines reaches the ground within roi_radius_m of a roof, target or check plane: "
-        "the lines must pass over the features (ground.roofs, ground.targets)");
+    refusePlan(plan,
+               "no beam of the planned lines reaches the ground within roi_radius_m of a roof, target or check plane: "
+               "the lines must pass over the features (ground.roofs, ground.targets)");
   CalibrationData d = simulation::toCalibrationData(s);
   for (const PlannedGcp& g : plan.gcps)
     for (const simulation::FeaturePoint& f : scene.features())
@@ -388,7 +387,7 @@ Prediction predict(const Plan& plan) {
   p.undeterminable = summary.unobservable;
   p.observability = summary.observability_report;
   if (summary.termination == TerminationType::kInvalidInput || summary.termination == TerminationType::kFailure) {
-    refuse("the planned survey gives no usable adjustment: " + summary.message);
+    refusePlan(plan, "the planned survey gives no usable adjustment: " + summary.message);
   }
   // The weakest parameter: the first undeterminable one, else the largest effect on the ground.
   const double H = plan.meanHeight();

@@ -409,10 +409,8 @@ class LineSimulator {
     return false;
   }
 
-  /// At most one return per pulse: a span of d seconds fires at most d·rate pulses plus one (one
-  /// sequence of every laser for a multi-beam). Without an ROI that is the number reserved, so
-  /// the last pulse never doubles the arrays (a copy of the whole strip and as much memory again);
-  /// with one, about half the pulses are cast.
+  /// expectedPulses() reserved (at most the points budget): without an ROI the last pulse never
+  /// doubles the arrays (a copy of the whole strip and as much memory again).
   void reserve() {
     const std::size_t expected = static_cast<std::size_t>(std::min({expectedPulses(), 5e7, config.max_points + 8192.0}));
     strip.pulses.reserve(expected);

@@ -74,8 +74,8 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
   auto mounting = [&](const std::string& key, MountingParameters* m) {
     if (!top.has(key)) return;
     const detail::Fields o = top.sub(key, {"lever_arm_m", "boresight_deg"});
-    if (o.has("lever_arm_m")) m->a_b = o.vec3("lever_arm_m", detail::kMaxLeverArmM, "±1000 m (a lever arm)");
-    if (o.has("boresight_deg")) m->boresight = o.vec3("boresight_deg", 180.0, "±180°") * (kPi / 180.0);
+    if (o.has("lever_arm_m")) m->a_b = o.leverArmM("lever_arm_m");
+    if (o.has("boresight_deg")) m->boresight = o.boresightDeg("boresight_deg") * (kPi / 180.0);
   };
   mounting("true_mounting", &config->true_mounting);
   mounting("nominal_mounting", &config->nominal_mounting);

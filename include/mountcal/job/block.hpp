@@ -27,7 +27,7 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job);
 PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std::string& b);
 
 /// The pair files (`*.mcpair`) in `dir`, sorted by name. Throws FileError naming `dir` when it
-/// cannot be listed.
+/// is not a folder or cannot be listed.
 std::vector<std::string> pairFilesIn(const std::string& dir);
 
 /// What a solve from pair files needs: the trajectory and frame, the strips by id (no points),
