@@ -13,7 +13,9 @@
 #include <sstream>
 
 #include "mountcal/mountcal.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 namespace fs = std::filesystem;
@@ -49,13 +51,6 @@ fs::path tempDir(const std::string& name) {
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 struct ShellRun {

@@ -16,21 +16,13 @@
 #include "mountcal/simulation/survey.hpp"
 #include "sanitizer_build.hpp"
 #include "scatter.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 
 namespace {
-
-/// The stated "realistic" noise of these tests (survey-grade, post-processed): 2 cm range,
-/// 0.001° scan-angle encoder, 5 mm strip-to-strip GNSS (Gauss–Markov, 100 s), 0.001° roll and
-/// pitch and 0.002° heading noise (Gauss–Markov, 0.1 s), 3 cm tie picking.
-NoiseModel surveyGrade() {
-  NoiseModel n = NoiseModel::realistic();
-  n.gnss_sigma_m = 0.005;
-  n.pick_sigma_m = 0.03;
-  return n;
-}
 
 /// Calibrator options that state the same stochastic model.
 MountingCalibrator::Options surveyGradeOptions() {
@@ -41,22 +33,10 @@ MountingCalibrator::Options surveyGradeOptions() {
   return o;
 }
 
-const SimulatedSurvey& field(std::uint64_t seed, bool noise, const std::string& preset = "paper-calibration-field") {
-  static std::map<std::string, std::unique_ptr<SimulatedSurvey>> cache;
-  const std::string key = preset + "/" + std::to_string(seed) + (noise ? "n" : "q");
-  auto& slot = cache[key];
-  if (!slot) {
-    Scene scene;
-    SurveyConfig c;
-    makePreset(preset, seed, &c, &scene);
-    c.noise = noise ? surveyGrade() : NoiseModel::none();
-    c.roi_radius_m = 8.0;
-    slot = std::make_unique<SimulatedSurvey>(simulate(c, scene));
-  }
-  return *slot;
+/// The crossing field with points kept within 8 m of the tie features (what VTPM picks from).
+const SimulatedSurvey& tieField(std::uint64_t seed, bool noise, const std::string& preset = "paper-calibration-field") {
+  return crossingField(seed, noise, 8.0, preset);
 }
-
-constexpr double kDeg = kPi / 180.0;
 
 }  // namespace
 
@@ -64,7 +44,7 @@ TEST(VtpmCalibration, NoiseFreeCrossingFieldRecoversTheTruth) {
   // All six parameters, from zero; ground control at the tie features makes the vertical lever
   // arm observable (without it, it is held, and its 0.2 m leaks ~2e-4° into the heading
   // through the attitude oscillation — see VerticalLeverArmNeedsGroundControl).
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = tieField(1, false);
   CalibrationData d = toCalibrationData(s);
   for (const FeaturePoint& f : s.gcps) d.gcps.push_back({f.id, f.x_m.x(), f.x_m.y(), f.x_m.z(), 0.01, 0.01});
   MountingCalibrator::Options o;
@@ -90,7 +70,7 @@ TEST(VtpmCalibration, NoiseFreeCrossingFieldRecoversTheTruth) {
 TEST(VtpmCalibration, SurveyGradeNoiseWithinToleranceAndHonestSigmas) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : {1, 2, 3}) {
-    const SimulatedSurvey& s = field(seed, true);
+    const SimulatedSurvey& s = tieField(seed, true);
     // The data have no navigation drift in time: stated so (the default TrajectoryAccuracy
     // assumes a real GNSS/INS solution's and would overstate σ here, which the scatter bound sees:
     // RMS of error/σ 0.26 over these 15 values with it, 2026-11-26).
@@ -117,7 +97,7 @@ TEST(VtpmCalibration, SurveyGradeNoiseWithinToleranceAndHonestSigmas) {
 }
 
 TEST(VtpmCalibration, VerticalLeverArmNeedsGroundControl) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = tieField(1, false);
   MountingCalibrator::Options o;
   o.estimate.fill(true);
   const auto S = calibrate(toCalibrationData(s), o);
@@ -138,10 +118,10 @@ TEST(VtpmCalibration, VerticalLeverArmNeedsGroundControl) {
 }
 
 TEST(VtpmCalibration, CorrectingTheCheckBlockShrinksCheckPointErrorsTenfold) {
-  const SimulatedSurvey& f = field(1, true);
+  const SimulatedSurvey& f = tieField(1, true);
   const auto S = calibrate(toCalibrationData(f), surveyGradeOptions());
   ASSERT_TRUE(S.IsSolutionUsable());
-  const SimulatedSurvey& block = field(1, true, "paper-check-block");
+  const SimulatedSurvey& block = tieField(1, true, "paper-check-block");
   const CalibrationData check = toCalibrationData(block, /*use_check_points=*/true);
   ASSERT_GE(check.ties.size(), 14u);
   const auto before = evaluateCheckPoints(check, block.config.nominal_mounting);
@@ -198,7 +178,7 @@ TEST(VtpmCalibration, DegenerateParallelFlightNamesWhatCannotBeSeparated) {
 }
 
 TEST(VtpmCalibration, UnbuildableTiesAreRejectedWithAReason) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = tieField(1, false);
   CalibrationData d = toCalibrationData(s);
   std::size_t b = 0;
   while (d.ties[b].tie_id.rfind("ring_", 0) != 0) ++b;  // a ground target: data is centred on it
@@ -231,7 +211,7 @@ TEST(VtpmCalibration, UnbuildableTiesAreRejectedWithAReason) {
 }
 
 TEST(VtpmCalibration, MisPickedTieUnderRobustLossIsFlaggedAndHarmless) {
-  const SimulatedSurvey& s = field(2, true);
+  const SimulatedSurvey& s = tieField(2, true);
   CalibrationData d = toCalibrationData(s);
   std::map<std::string, int> count;
   for (const auto& t : d.ties) ++count[t.tie_id];
@@ -261,7 +241,7 @@ TEST(VtpmCalibration, MisPickedTieUnderRobustLossIsFlaggedAndHarmless) {
 }
 
 TEST(VtpmCalibration, NumericJacobianAgreesWithAnIndependentReference) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = tieField(1, false);
   const CalibrationData d = toCalibrationData(s);
   const StripData* strip = nullptr;
   for (const auto& st : d.strips)

@@ -11,35 +11,14 @@
 
 #include "mountcal/io/las.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code;
-  std::string err;
-};
-
-CliRun runCli(const std::string& args) {
-  const std::string err_file = (fs::temp_directory_path() / ("mountcal_cli_err_" + std::to_string(::getpid()))).string();
-  const std::string cmd = std::string(MOUNTCAL_CLI) + " " + args + " > /dev/null 2> " + err_file;
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(err_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  fs::remove(err_file);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
-
-std::string slurp(const std::string& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 void put(std::string& b, std::size_t off, const void* v, std::size_t n) { std::memcpy(&b[off], v, n); }
 
@@ -130,7 +109,7 @@ std::string writeIndependentJob() {
 
 TEST(Cli, CalibratesAJobWrittenByAnIndependentProgram) {
   const std::string job = writeIndependentJob();
-  const CliRun r = runCli("calibrate --quiet " + job);
+  const CommandRun r = runCli("calibrate --quiet " + job);
   ASSERT_EQ(r.code, 0) << r.err;
   const fs::path dir = fs::path(job).parent_path();
   const auto j = nlohmann::json::parse(slurp((dir / "result.json").string()));
@@ -211,7 +190,7 @@ TEST(Cli, BadInputExitsTwoWithOneLineNamingTheFileAndKeepsGoodOutput) {
       {variant("noties.json", "\"ties\": \"ties.csv\",", ""), "field 'ties': missing"},
   };
   for (const Case& c : cases) {
-    const CliRun r = runCli("calibrate --quiet " + c.job);
+    const CommandRun r = runCli("calibrate --quiet " + c.job);
     EXPECT_EQ(r.code, 2) << c.job << ": " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find(c.names), std::string::npos) << "expected '" << c.names << "' in: " << r.err;
@@ -230,11 +209,11 @@ TEST(Cli, SameSurveyInUtmWithSbetAndInALocalFrameGivesTheSameMounting) {
   const std::string base = (fs::temp_directory_path() / ("mountcal_crs_" + std::to_string(::getpid()))).string();
   const std::string loc = base + "/local", crs = base + "/utm";
   ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 6 --out " + loc).code, 0);
-  const CliRun sim = runCli("simulate --preset paper-calibration-field --seed 6 --crs EPSG:32611 --out " + crs);
+  const CommandRun sim = runCli("simulate --preset paper-calibration-field --seed 6 --crs EPSG:32611 --out " + crs);
   ASSERT_EQ(sim.code, 0) << sim.err;
   ASSERT_TRUE(fs::exists(crs + "/trajectory.sbet"));
   ASSERT_EQ(runCli("calibrate --quiet " + loc + "/job.json").code, 0);
-  const CliRun cal = runCli("calibrate --quiet " + crs + "/job.json");
+  const CommandRun cal = runCli("calibrate --quiet " + crs + "/job.json");
   ASSERT_EQ(cal.code, 0) << cal.err;
   const auto a = resultOf(loc), b = resultOf(crs);
   for (int i = 0; i < 3; ++i) {
@@ -252,7 +231,7 @@ TEST(Cli, ApplyWithTheProducingMountingReproducesTheStripAndEvaluateReports) {
   ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 7 --crs EPSG:32611 --out " + base).code, 0);
   // A result holding the mounting the strips were produced with.
   std::ofstream(base + "/same.json") << "{\"mounting\": {\"lever_arm_m\": [0, 0, 0], \"boresight_deg\": [0, 0, 0]}}";
-  const CliRun r = runCli("apply " + base + "/job.json --result " + base + "/same.json --out " + base + "/same");
+  const CommandRun r = runCli("apply " + base + "/job.json --result " + base + "/same.json --out " + base + "/same");
   ASSERT_EQ(r.code, 0) << r.err;
   io::LasHeader ha, hb;
   std::vector<io::LasPoint> pa, pb;
@@ -292,7 +271,7 @@ TEST(Cli, UnknownCrsAndCorruptSbetAreBadInput) {
   std::string job = slurp(base + "/job.json");
   job.replace(job.find("EPSG:32611"), 10, "EPSG:999999");
   std::ofstream(base + "/badcrs.json") << job;
-  CliRun r = runCli("calibrate --quiet " + base + "/badcrs.json");
+  CommandRun r = runCli("calibrate --quiet " + base + "/badcrs.json");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("badcrs.json:field 'frame.crs'"), std::string::npos) << r.err;
   const std::string sbet = slurp(base + "/trajectory.sbet");
@@ -316,7 +295,7 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
   // "correspondences", ["vtpm", "planes"]; and a preset with no ties file calibrates
   // automatically. Each result keeps the SPEC keys and adds its method's section.
   const std::string base = (fs::temp_directory_path() / ("mountcal_methods_" + std::to_string(::getpid()))).string();
-  const CliRun sim = runCli("simulate --preset paper-calibration-field --seed 3 --no-ties --out " + base);
+  const CommandRun sim = runCli("simulate --preset paper-calibration-field --seed 3 --no-ties --out " + base);
   ASSERT_EQ(sim.code, 0) << sim.err;
   ASSERT_FALSE(fs::exists(base + "/ties.csv"));
   const auto job = nlohmann::json::parse(slurp(base + "/job.json"));
@@ -328,7 +307,7 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
     nlohmann::json jj = j;
     jj["output"] = {{"result", name + "_result.json"}, {"report", name + "_report.html"}};
     std::ofstream(path) << jj.dump(2);
-    const CliRun r = runCli("calibrate --quiet " + path);
+    const CommandRun r = runCli("calibrate --quiet " + path);
     EXPECT_EQ(r.code, 0) << name << ": " << r.err;
     const auto res = nlohmann::json::parse(slurp(base + "/" + name + "_result.json"));
     for (const char* key : {"mounting", "sigma", "correlation", "estimated", "unobservable", "ties", "rms_before_m", "rms_after_m",
@@ -384,7 +363,7 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
 TEST(Cli, ACalibrationThatShouldNotBeUsedExits1WithTheReason) {
   const std::string base = (fs::temp_directory_path() / ("mountcal_verdict_" + std::to_string(::getpid()))).string();
   ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 4 --out " + base).code, 0);
-  const CliRun good = runCli("calibrate --quiet " + base + "/job.json");
+  const CommandRun good = runCli("calibrate --quiet " + base + "/job.json");
   ASSERT_EQ(good.code, 0) << good.err;
   EXPECT_NE(resultOf(base)["verdict"]["kind"].get<std::string>(), "reject");
   nlohmann::json job = nlohmann::json::parse(slurp(base + "/job.json"));
@@ -393,7 +372,7 @@ TEST(Cli, ACalibrationThatShouldNotBeUsedExits1WithTheReason) {
   job["vtpm"]["estimate_tie_sigma"] = false;
   job["output"]["report"] = "report.html";
   std::ofstream(base + "/bad.json") << job.dump(2);
-  const CliRun bad = runCli("calibrate --quiet " + base + "/bad.json");
+  const CommandRun bad = runCli("calibrate --quiet " + base + "/bad.json");
   EXPECT_EQ(bad.code, 1);
   EXPECT_NE(bad.err.find("should not be used: σ₀²"), std::string::npos) << bad.err;
   const auto result = resultOf(base);

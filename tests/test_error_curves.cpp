@@ -10,8 +10,11 @@
 using namespace mountcal;
 
 namespace {
-
 constexpr double kDelta = deg2rad(0.1);
+}  // namespace
+
+// Outside the anonymous namespace: the TEST_F classes derive from it (GCC's -Wsubobject-linkage
+// in the unity build of the tests).
 
 struct Curves : ::testing::Test {
   void SetUp() override {
@@ -28,8 +31,6 @@ struct Curves : ::testing::Test {
   std::vector<ErrorCurveSample> samples;
   std::map<double, std::vector<ErrorCurveSample>> by_range;
 };
-
-}  // namespace
 
 TEST_F(Curves, ExactGeoreferencingEqualsTheMatrixExpression) {
   const Mat3 R_bore = MountingParameters::fromDegrees(Vec3::Zero(), Vec3(0.1, 0.1, 0.1)).R_bore();

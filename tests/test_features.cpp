@@ -24,14 +24,14 @@
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "scatter.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr double kDeg = kPi / 180.0;
 
 struct Uav {
   SurveyConfig config;
@@ -345,17 +345,11 @@ TEST(FeatureMethod, HouseCornersAfterCorrectionWithinTenCentimetres) {
 
 namespace {
 
-int runCli(const std::string& args, std::string* out = nullptr) {
-  const std::string log = (fs::temp_directory_path() / ("mountcal_features_cli_" + std::to_string(::getpid()))).string();
-  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + log + " 2>&1").c_str());
-  if (out) {
-    std::ifstream in(log);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    *out = ss.str();
-  }
-  fs::remove(log);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+/// The command's exit code; its standard output and error, together, in `out`.
+int runCliLog(const std::string& args, std::string* out) {
+  const CommandRun r = runCli(args);
+  *out = r.out + r.err;
+  return r.code;
 }
 
 }  // namespace
@@ -364,9 +358,9 @@ TEST(FeatureMethod, CommandRunsTheSimulatedJobAndAJobWrittenByHand) {
   const fs::path dir = fs::temp_directory_path() / ("mountcal_features_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   std::string out;
-  ASSERT_EQ(runCli("simulate --preset uav-vlp16 --seed 2 --out " + dir.string(), &out), 0) << out;
+  ASSERT_EQ(runCliLog("simulate --preset uav-vlp16 --seed 2 --out " + dir.string(), &out), 0) << out;
   ASSERT_TRUE(fs::exists(dir / "job_features.json"));
-  ASSERT_EQ(runCli("calibrate " + (dir / "job_features.json").string(), &out), 0) << out;
+  ASSERT_EQ(runCliLog("calibrate " + (dir / "job_features.json").string(), &out), 0) << out;
   EXPECT_NE(out.find("Closed form"), std::string::npos) << out;
   nlohmann::json truth = nlohmann::json::parse(std::ifstream(dir / "truth.json"));
   auto check = [&](const fs::path& result_path, const std::string& what, int min_targets) {
@@ -403,7 +397,7 @@ TEST(FeatureMethod, CommandRunsTheSimulatedJobAndAJobWrittenByHand) {
   "output": {"result": "my_result.json"}
 })";
   const fs::path result = dir / "my_result.json";
-  ASSERT_EQ(runCli("calibrate " + (dir / "my_job.json").string(), &out), 0) << out;
+  ASSERT_EQ(runCliLog("calibrate " + (dir / "my_job.json").string(), &out), 0) << out;
   check(result, "job written by hand", 7);
   fs::remove_all(dir);
 }

@@ -22,41 +22,14 @@
 #include "mountcal/io/csv.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "real_data.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-void spit(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary) << s; }
-
-struct CliRun {
-  int code;
-  std::string err;
-};
-CliRun cli(const std::string& args) {
-  const std::string err = (fs::temp_directory_path() / ("mountcal_hard_err_" + std::to_string(::getpid()))).string();
-  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > /dev/null 2> " + err).c_str());
-  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
-  fs::remove(err);
-  return r;
-}
-
-/// The command's standard output (exit code in `code`).
-CliRun cliOut(const std::string& args) {
-  const std::string out = (fs::temp_directory_path() / ("mountcal_hard_out_" + std::to_string(::getpid()))).string();
-  const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + out + " 2> /dev/null").c_str());
-  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out)};
-  fs::remove(out);
-  return r;
-}
 
 /// A simulated survey (local frame, and the same in UTM zone 11 with an SBET), made once.
 class Hardening : public ::testing::Test {
@@ -81,8 +54,8 @@ class Hardening : public ::testing::Test {
     if (fs::exists(cache / "complete")) return cache;
     const fs::path tmp = cache.string() + ".tmp-" + std::to_string(::getpid());
     fs::remove_all(tmp);
-    if (cli("simulate --preset paper-calibration-field --seed 2 --out " + (tmp / "field").string()).code != 0) return {};
-    if (cli("simulate --preset paper-calibration-field --seed 2 --crs EPSG:32611 --out " + (tmp / "utm").string()).code != 0) return {};
+    if (runCli("simulate --preset paper-calibration-field --seed 2 --out " + (tmp / "field").string()).code != 0) return {};
+    if (runCli("simulate --preset paper-calibration-field --seed 2 --crs EPSG:32611 --out " + (tmp / "utm").string()).code != 0) return {};
     spit(tmp / "complete", "");
     std::error_code ec;
     fs::rename(tmp, cache, ec);  // fails when another process got there first: use theirs
@@ -108,7 +81,7 @@ class Hardening : public ::testing::Test {
   /// Exit 2, one line, naming `file` and containing `what`; the field folder unchanged.
   static void expectRefused(const std::string& args, const std::string& file, const std::string& what) {
     const auto before = snapshot();
-    const CliRun r = cli(args);
+    const CommandRun r = runCli(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find(file), std::string::npos) << "the message does not name " << file << ": " << r.err;
@@ -154,14 +127,14 @@ TEST_F(Hardening, OutputsNeverReplaceInputs) {
   expectRefused("calibrate --quiet " + nofolder, "field 'output.report'", "does not exist");
   EXPECT_FALSE(fs::exists(field() / "r_nofolder.json"));
   // apply: onto the inputs' own folder, and onto the result file it reads.
-  ASSERT_EQ(cli("calibrate --quiet " + (field() / "job.json").string()).code, 0);
+  ASSERT_EQ(runCli("calibrate --quiet " + (field() / "job.json").string()).code, 0);
   expectRefused(
       "apply " + (field() / "job.json").string() + " --result " + (field() / "result.json").string() + " --out " + field().string(),
       "strip_1.las", "apply would overwrite an input");
   spit(dir() / "strip_1.las", "a result file that looks like a strip's output");
   fs::copy_file(field() / "result.json", dir() / "strip_1.las", fs::copy_options::overwrite_existing);
-  const CliRun r =
-      cli("apply " + (field() / "job.json").string() + " --result " + (dir() / "strip_1.las").string() + " --out " + dir().string());
+  const CommandRun r =
+      runCli("apply " + (field() / "job.json").string() + " --result " + (dir() / "strip_1.las").string() + " --out " + dir().string());
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("apply would overwrite an input"), std::string::npos) << r.err;
 }
@@ -216,7 +189,7 @@ TEST_F(Hardening, AbsurdValuesAreRefused) {
   // Strips in another UTM zone than the trajectory (SBET): the laser ranges give it away.
   const std::string zone = variant(
       "zone.json", [](json& j) { j["frame"]["crs"] = "EPSG:32612"; }, utm());
-  const CliRun z = cli("calibrate --quiet " + zone);
+  const CommandRun z = runCli("calibrate --quiet " + zone);
   EXPECT_EQ(z.code, 2) << z.err;
   EXPECT_NE(z.err.find("strips and trajectory do not agree in space"), std::string::npos) << z.err;
   // An SBET attitude of 1e300 rad.
@@ -225,7 +198,7 @@ TEST_F(Hardening, AbsurdValuesAreRefused) {
   io::writeSbet((utm() / "bad.sbet").string(), sbet);
   const std::string badsbet = variant(
       "badsbet.json", [](json& j) { j["trajectory"]["path"] = "bad.sbet"; }, utm());
-  const CliRun s = cli("calibrate --quiet " + badsbet);
+  const CommandRun s = runCli("calibrate --quiet " + badsbet);
   EXPECT_EQ(s.code, 2) << s.err;
   EXPECT_NE(s.err.find("bad.sbet:record 7: attitude"), std::string::npos) << s.err;
 }
@@ -292,11 +265,11 @@ TEST_F(Hardening, MalformedJobsAreBadInputNotInternalErrors) {
 TEST_F(Hardening, ResourcesStayBounded) {
   expectRefused("calibrate --quiet " + variant("r_zero.json", [](json& j) { j["ties"] = "/dev/zero"; }), "/dev/zero:line 1", "longer than");
   spit(dir() / "neg_roi.json", R"({"preset": "paper-calibration-field", "roi_radius_m": -5})");
-  const CliRun r = cli("simulate " + (dir() / "neg_roi.json").string() + " --out " + (dir() / "neg").string());
+  const CommandRun r = runCli("simulate " + (dir() / "neg_roi.json").string() + " --out " + (dir() / "neg").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("neg_roi.json:field 'roi_radius_m'"), std::string::npos) << r.err;
   spit(dir() / "neg_noise.json", R"({"preset": "paper-calibration-field", "noise": {"range_sigma_m": -1}})");
-  const CliRun n = cli("simulate " + (dir() / "neg_noise.json").string() + " --out " + (dir() / "neg").string());
+  const CommandRun n = runCli("simulate " + (dir() / "neg_noise.json").string() + " --out " + (dir() / "neg").string());
   EXPECT_EQ(n.code, 2);
   EXPECT_NE(n.err.find("field 'noise.range_sigma_m'"), std::string::npos) << n.err;
 }
@@ -317,7 +290,7 @@ TEST_F(Hardening, MessagesSayWhere) {
   expectRefused("calibrate --quiet " + variant("m_empty.json", [](json& j) { j["strips"][0]["path"] = "s_empty.las"; }), "s_empty.las",
                 "has no points");
   fs::create_directories(dir() / "adir");
-  const CliRun d = cli("info " + (dir() / "adir").string());
+  const CommandRun d = runCli("info " + (dir() / "adir").string());
   EXPECT_EQ(d.code, 2);
   EXPECT_NE(d.err.find("adir"), std::string::npos) << d.err;
   // A pipe has no size: no bogus byte counts in the message, whatever the reader.
@@ -339,7 +312,7 @@ TEST_F(Hardening, MessagesSayWhere) {
     fs::remove(pipe);
   }
   spit(dir() / "sc_type.json", R"({"preset": "paper-calibration-field", "roi_radius_m": "big"})");
-  const CliRun t = cli("simulate " + (dir() / "sc_type.json").string() + " --out " + (dir() / "t").string());
+  const CommandRun t = runCli("simulate " + (dir() / "sc_type.json").string() + " --out " + (dir() / "t").string());
   EXPECT_EQ(t.code, 2);
   EXPECT_NE(t.err.find("sc_type.json"), std::string::npos) << t.err;
 }
@@ -354,8 +327,8 @@ TEST_F(Hardening, ByteOrderMarkIsAccepted) {
     j["trajectory"]["path"] = "traj_bom.csv";
     j["output"] = {{"result", "bom1.result.json"}};
   });
-  ASSERT_EQ(cli("calibrate --quiet " + plain).code, 0);
-  const CliRun r = cli("calibrate --quiet " + bom);
+  ASSERT_EQ(runCli("calibrate --quiet " + plain).code, 0);
+  const CommandRun r = runCli("calibrate --quiet " + bom);
   ASSERT_EQ(r.code, 0) << r.err;
   const json a = json::parse(slurp(field() / "bom0.result.json")), b = json::parse(slurp(field() / "bom1.result.json"));
   // The same observations; two VTPM solves agree to ~1e-9 (Ceres orders the eliminated tie
@@ -367,13 +340,13 @@ TEST_F(Hardening, ByteOrderMarkIsAccepted) {
 
 // Geographic CRSs (degrees) for strips: refused by the simulator and in jobs.
 TEST_F(Hardening, GeographicCrsIsRefused) {
-  const CliRun r = cli("simulate --preset paper-calibration-field --crs EPSG:4326 --out " + (dir() / "geo").string());
+  const CommandRun r = runCli("simulate --preset paper-calibration-field --crs EPSG:4326 --out " + (dir() / "geo").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("geographic"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir() / "geo" / "job.json"));
   const std::string job = variant(
       "geo.json", [](json& j) { j["frame"]["crs"] = "EPSG:4326"; }, utm());
-  const CliRun g = cli("calibrate --quiet " + job);
+  const CommandRun g = runCli("calibrate --quiet " + job);
   EXPECT_EQ(g.code, 2);
   EXPECT_NE(g.err.find("geo.json:field 'frame.crs'"), std::string::npos) << g.err;
 }
@@ -385,9 +358,9 @@ TEST_F(Hardening, GeographicCrsIsRefused) {
 // thread and on two.
 TEST_F(Hardening, FailedApplyLeavesEveryEarlierOutput) {
   const std::string job = (field() / "job.json").string();
-  ASSERT_EQ(cli("calibrate --quiet " + job).code, 0);
+  ASSERT_EQ(runCli("calibrate --quiet " + job).code, 0);
   const fs::path out = dir() / "applied";
-  ASSERT_EQ(cli("apply " + job + " --result " + (field() / "result.json").string() + " --out " + out.string()).code, 0);
+  ASSERT_EQ(runCli("apply " + job + " --result " + (field() / "result.json").string() + " --out " + out.string()).code, 0);
   std::map<std::string, std::string> before;
   for (const auto& e : fs::directory_iterator(out)) before[e.path().filename().string()] = slurp(e.path());
   ASSERT_EQ(before.size(), 4u);
@@ -407,8 +380,8 @@ TEST_F(Hardening, FailedApplyLeavesEveryEarlierOutput) {
   std::memcpy(&las[offset + 30000 * 30 + 22], &t, 8);  // format 6: GPS time at byte 22 of the record
   spit(bad / "strip_4.las", las);
   for (const char* threads : {"1", "2"}) {
-    const CliRun a = cli("apply " + (bad / "job.json").string() + " --result " + (dir() / "r2.json").string() + " --out " + out.string() +
-                         " --threads " + threads);
+    const CommandRun a = runCli("apply " + (bad / "job.json").string() + " --result " + (dir() / "r2.json").string() + " --out " +
+                                out.string() + " --threads " + threads);
     EXPECT_EQ(a.code, 2) << a.err;
     EXPECT_NE(a.err.find("strip_4.las:record 30000"), std::string::npos) << a.err;
     std::map<std::string, std::string> after;
@@ -417,7 +390,7 @@ TEST_F(Hardening, FailedApplyLeavesEveryEarlierOutput) {
     for (const auto& e : fs::directory_iterator(bad)) EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
   }
   // The same run on good strips replaces all four.
-  ASSERT_EQ(cli("apply " + job + " --result " + (dir() / "r2.json").string() + " --out " + out.string()).code, 0);
+  ASSERT_EQ(runCli("apply " + job + " --result " + (dir() / "r2.json").string() + " --out " + out.string()).code, 0);
   for (const auto& [name, content] : before) EXPECT_NE(slurp(out / name), content) << name;
 }
 
@@ -431,10 +404,10 @@ TEST_F(Hardening, PairFilesAreInputsAndNameTheirStrips) {
   });
   const fs::path pairs = dir() / "pairs";
   fs::create_directories(pairs);
-  ASSERT_EQ(cli("match " + job + " --pair 1 2 --out " + (pairs / "1_2.mcpair").string()).code, 0);
+  ASSERT_EQ(runCli("match " + job + " --pair 1 2 --out " + (pairs / "1_2.mcpair").string()).code, 0);
   const std::string pair_file = slurp(pairs / "1_2.mcpair");
-  const CliRun r =
-      cli("calibrate --quiet " + job + " --correspondences " + pairs.string() + " --result " + (pairs / "1_2.mcpair").string());
+  const CommandRun r =
+      runCli("calibrate --quiet " + job + " --correspondences " + pairs.string() + " --result " + (pairs / "1_2.mcpair").string());
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("is also an input of the job"), std::string::npos) << r.err;
   EXPECT_EQ(slurp(pairs / "1_2.mcpair"), pair_file);
@@ -445,10 +418,10 @@ TEST_F(Hardening, PairFilesAreInputsAndNameTheirStrips) {
     j.erase("check_points");
     for (auto& s : j["strips"]) s["id"] = "s" + s["id"].get<std::string>();
   });
-  const CliRun u = cli("calibrate --quiet " + renamed + " --correspondences " + pairs.string());
+  const CommandRun u = runCli("calibrate --quiet " + renamed + " --correspondences " + pairs.string());
   EXPECT_EQ(u.code, 2) << u.err;
   EXPECT_NE(u.err.find("1_2.mcpair: names strip '1', which"), std::string::npos) << u.err;
-  const CliRun self = cli("match " + job + " --pair 1 1 --out " + (pairs / "1_1.mcpair").string());
+  const CommandRun self = runCli("match " + job + " --pair 1 1 --out " + (pairs / "1_1.mcpair").string());
   EXPECT_EQ(self.code, 2) << self.err;
   EXPECT_NE(self.err.find("a pair of one strip"), std::string::npos) << self.err;
 }
@@ -480,7 +453,7 @@ TEST_F(Hardening, RegionsAndPlansAreBoundedBeforeTheWork) {
     p["lines"][0]["end"] = {50000, 0};
     p["lines"][0]["speed_mps"] = 0.5;
   });
-  CliRun r = cli("plan --no-candidates " + slow);
+  CommandRun r = runCli("plan --no-candidates " + slow);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("slow.json: survey 'bounded': flight line '1' takes 200000 s"), std::string::npos) << r.err;
   const std::string walking = plan("walking.json", [](json& p) {
@@ -489,16 +462,16 @@ TEST_F(Hardening, RegionsAndPlansAreBoundedBeforeTheWork) {
     for (auto& l : p["lines"]) l["speed_mps"] = 0.5;
     p["sensor"]["prf_hz"] = 2e6;
   });
-  r = cli("plan --no-candidates " + walking);
+  r = runCli("plan --no-candidates " + walking);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("walking.json: survey 'bounded': more than 2e+06 points stored"), std::string::npos) << r.err;
   const std::string far = plan("far.json", [](json& p) {
     for (auto& l : p["lines"]) l["start"][0] = l["start"][0].get<double>() + 5000, l["end"][0] = l["end"][0].get<double>() + 5000;
   });
-  r = cli("plan --no-candidates " + far);
+  r = runCli("plan --no-candidates " + far);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("far.json: no beam of the planned lines reaches the ground"), std::string::npos) << r.err;
-  EXPECT_EQ(cli("plan --no-candidates " + plan("ok.json", [](json&) {})).code, 0);
+  EXPECT_EQ(runCli("plan --no-candidates " + plan("ok.json", [](json&) {})).code, 0);
 }
 
 // "Nothing solved" is never success: strips cut into single records give no correspondence
@@ -513,7 +486,7 @@ TEST_F(Hardening, NothingSolvedIsNotSuccessAndAPassIsNotMatchedWithItself) {
                      {{"id", "b"}, {"path", file_b}, {"split", {{"field", "gps_time"}, {"part", part_b}, {"gap", 0}}}}};
     };
   };
-  const CliRun tiny = cli("calibrate --quiet " + variant("split_tiny.json", split(5, "strip_2.las", 7)));
+  const CommandRun tiny = runCli("calibrate --quiet " + variant("split_tiny.json", split(5, "strip_2.las", 7)));
   EXPECT_EQ(tiny.code, 1) << tiny.err;
   EXPECT_NE(tiny.err.find("not usable"), std::string::npos) << tiny.err;
   expectRefused("calibrate --quiet " + variant("split_self.json", split(5, "strip_1.las", 5)), "split_self.json:field 'strips[1]'",
@@ -535,17 +508,17 @@ TEST_F(Hardening, MalformedRequestsAreRefused) {
                                                }),
                 "p_twice.csv:line", "is listed twice (also on line 2)");
   for (const std::string profile : {"0,0,0,0", "0,0,10,10,1,7", "0,0,10", "0,0,x,1"}) {
-    const CliRun r = cli("calibrate --quiet " + job + " --profile " + profile + " --report " + (dir() / "p.html").string());
+    const CommandRun r = runCli("calibrate --quiet " + job + " --profile " + profile + " --report " + (dir() / "p.html").string());
     EXPECT_EQ(r.code, 2) << profile << ": " << r.err;
     EXPECT_NE(r.err.find("--profile " + profile), std::string::npos) << r.err;
   }
   expectRefused("convert " + (field() / "strip_1.las").string() + " " + (dir() / "out.txt").string(), "out.txt", "extension");
   EXPECT_FALSE(fs::exists(dir() / "out.txt"));
-  const CliRun unknown = cli("calibrat " + job);
+  const CommandRun unknown = runCli("calibrat " + job);
   EXPECT_EQ(unknown.code, 2);
   EXPECT_NE(unknown.err.find("unknown subcommand 'calibrat'"), std::string::npos) << unknown.err;
   // Absurd result values are the result file's fault.
-  ASSERT_EQ(cli("calibrate --quiet " + job).code, 0);
+  ASSERT_EQ(runCli("calibrate --quiet " + job).code, 0);
   json r = json::parse(slurp(field() / "result.json"));
   r["mounting"]["boresight_deg"][0] = 1e300;
   spit(dir() / "r_angle.json", r.dump());
@@ -559,7 +532,7 @@ TEST_F(Hardening, MalformedRequestsAreRefused) {
   EXPECT_FALSE(fs::exists(dir() / "o1") && !fs::is_empty(dir() / "o1"));
   // The simulator's truth: a lever arm of 1e300 m.
   spit(dir() / "sc_lever.json", R"({"preset": "paper-calibration-field", "true_mounting": {"lever_arm_m": [0, 1e300, 0]}})");
-  const CliRun s = cli("simulate " + (dir() / "sc_lever.json").string() + " --out " + (dir() / "lever").string());
+  const CommandRun s = runCli("simulate " + (dir() / "sc_lever.json").string() + " --out " + (dir() / "lever").string());
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.err.find("sc_lever.json:field 'true_mounting.lever_arm_m'"), std::string::npos) << s.err;
   EXPECT_FALSE(fs::exists(dir() / "lever" / "job.json"));
@@ -568,7 +541,7 @@ TEST_F(Hardening, MalformedRequestsAreRefused) {
   const std::uint32_t inside = 200;
   std::memcpy(&las[96], &inside, 4);
   spit(dir() / "inside.las", las);
-  const CliRun i = cli("info " + (dir() / "inside.las").string());
+  const CommandRun i = runCli("info " + (dir() / "inside.las").string());
   EXPECT_EQ(i.code, 2);
   EXPECT_NE(i.err.find("inside.las:byte 96: offset to point data 200 lies inside the header"), std::string::npos) << i.err;
   // A laser id beyond 32 bits in a raw CSV: refused naming the line, not wrapped to a valid id.
@@ -591,7 +564,7 @@ TEST_F(Hardening, ScenarioFieldsOfTheWrongTypeAreNamed) {
            {R"({"preset": "paper-calibration-field", "seed": 2.5})", "field 'seed'"},
            {R"({"preset": 7})", "field 'preset'"}}) {
     spit(dir() / "sc.json", text);
-    const CliRun r = cli("simulate " + (dir() / "sc.json").string() + " --out " + (dir() / "sc_out").string());
+    const CommandRun r = runCli("simulate " + (dir() / "sc.json").string() + " --out " + (dir() / "sc_out").string());
     EXPECT_EQ(r.code, 2) << text;
     EXPECT_NE(r.err.find("sc.json:" + field_name), std::string::npos) << text << "\n" << r.err;
   }
@@ -600,18 +573,18 @@ TEST_F(Hardening, ScenarioFieldsOfTheWrongTypeAreNamed) {
 // info: the CRS (WKT written by simulate --crs; GeoTIFF keys of the Gravity files), the
 // extra-bytes types, and points by class and return.
 TEST_F(Hardening, InfoShowsTheCrsAndTheExtraBytesTypes) {
-  const CliRun u = cliOut("info " + (utm() / "strip_1.las").string());
+  const CommandRun u = runCli("info " + (utm() / "strip_1.las").string());
   ASSERT_EQ(u.code, 0);
-  EXPECT_NE(u.err.find("CRS: EPSG:32611 'WGS 84 / UTM zone 11N' (WKT)"), std::string::npos) << u.err;
-  EXPECT_NE(u.err.find("points by class: 2: "), std::string::npos) << u.err;
-  EXPECT_NE(u.err.find("points by return number: 1: "), std::string::npos) << u.err;
-  const CliRun l = cliOut("info " + (field() / "strip_1.las").string());
-  EXPECT_NE(l.err.find("CRS: none declared"), std::string::npos) << l.err;
+  EXPECT_NE(u.out.find("CRS: EPSG:32611 'WGS 84 / UTM zone 11N' (WKT)"), std::string::npos) << u.out;
+  EXPECT_NE(u.out.find("points by class: 2: "), std::string::npos) << u.out;
+  EXPECT_NE(u.out.find("points by return number: 1: "), std::string::npos) << u.out;
+  const CommandRun l = runCli("info " + (field() / "strip_1.las").string());
+  EXPECT_NE(l.out.find("CRS: none declared"), std::string::npos) << l.out;
   REQUIRE_DATA("gravity/Car.las");
-  const CliRun g = cliOut("info " + dataFile("gravity/Car.las"));
+  const CommandRun g = runCli("info " + dataFile("gravity/Car.las"));
   ASSERT_EQ(g.code, 0);
   // The file's GeoKeyDirectory: ProjectedCSTypeGeoKey 32613 (UTM zone 13 N); its WKT record is empty.
-  EXPECT_NE(g.err.find("CRS: EPSG:32613 (GeoTIFF ProjectedCSTypeGeoKey)"), std::string::npos) << g.err;
-  EXPECT_NE(g.err.find("extra bytes: SensorX                  double"), std::string::npos) << g.err;
-  EXPECT_NE(g.err.find("extra bytes: frameNo                  int32"), std::string::npos) << g.err;
+  EXPECT_NE(g.out.find("CRS: EPSG:32613 (GeoTIFF ProjectedCSTypeGeoKey)"), std::string::npos) << g.out;
+  EXPECT_NE(g.out.find("extra bytes: SensorX                  double"), std::string::npos) << g.out;
+  EXPECT_NE(g.out.find("extra bytes: frameNo                  int32"), std::string::npos) << g.out;
 }

@@ -14,7 +14,9 @@
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/las_crs.hpp"
 #include "mountcal/io/pose_fields.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::io;
 namespace fs = std::filesystem;
@@ -24,13 +26,6 @@ namespace {
 std::string tmp(const std::string& name) {
   return (fs::temp_directory_path() / ("mountcal_las_" + std::to_string(::getpid()) + "_" + name)).string();
 }
-std::string slurp(const std::string& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 LasHeader header(std::uint8_t format, std::uint8_t minor, int extra) {
   LasHeader h;
   h.version_minor = minor;

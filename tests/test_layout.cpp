@@ -13,18 +13,15 @@
 #include <string>
 #include <vector>
 
+#include "support.hpp"
+
 namespace fs = std::filesystem;
+
+using namespace mountcal_tests;
 
 namespace {
 
 const fs::path kRoot = MOUNTCAL_SOURCE_DIR;
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 /// The project's own includes of a file, as paths relative to the root ("include/mountcal/…",
 /// "src/…"); system and third-party includes are left out.

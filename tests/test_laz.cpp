@@ -74,11 +74,11 @@ std::string md5(const std::vector<std::uint8_t>& data) {
   return hex;
 }
 
-std::vector<std::uint8_t> slurp(const std::string& p) {
+std::vector<std::uint8_t> slurpBytes(const std::string& p) {
   std::ifstream in(p, std::ios::binary);
   return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {});
 }
-void spit(const std::string& p, const std::vector<std::uint8_t>& b) {
+void spitBytes(const std::string& p, const std::vector<std::uint8_t>& b) {
   std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
 }
 std::string tmp(const std::string& name) {
@@ -91,7 +91,7 @@ std::vector<std::uint8_t> allRecords(LasReader& r, std::size_t chunk = 7777) {
 }
 /// The point records of an uncompressed LAS file, straight from its bytes.
 std::vector<std::uint8_t> twinRecords(const std::string& path) {
-  const std::vector<std::uint8_t> b = slurp(path);
+  const std::vector<std::uint8_t> b = slurpBytes(path);
   std::uint32_t offset;
   std::uint16_t len;
   std::uint32_t count32;
@@ -163,7 +163,7 @@ TEST(Laz, RealFilesDecodeToTheirExpectedRecords) {
     EXPECT_EQ(records.size(), e.count * static_cast<std::uint64_t>(e.record_length));
     EXPECT_EQ(md5(records), e.md5);
     if (e.kind == "points") {
-      EXPECT_TRUE(records == slurp(dataFile("laz/" + e.twin)));
+      EXPECT_TRUE(records == slurpBytes(dataFile("laz/" + e.twin)));
     }
     if (e.kind != "las") continue;
     const std::string twin = dataFile("laz/" + e.twin);
@@ -405,7 +405,7 @@ struct LazFile {
 };
 LazFile open(const std::string& path) {
   LazFile f;
-  f.bytes = slurp(path);
+  f.bytes = slurpBytes(path);
   std::memcpy(&f.offset_to_points, &f.bytes[96], 4);
   std::uint16_t header_size;
   std::memcpy(&header_size, &f.bytes[94], 2);
@@ -422,7 +422,7 @@ LazFile open(const std::string& path) {
 
 std::string errorOf(const std::vector<std::uint8_t>& bytes) {
   const std::string p = tmp("bad.laz");
-  spit(p, bytes);
+  spitBytes(p, bytes);
   try {
     LasReader r(p);
     allRecords(r);
@@ -511,7 +511,7 @@ TEST(Laz, CommandConvertsAndExplains) {
   auto run = [](const std::string& args, std::string* out) {
     const std::string file = tmp("cli_out.txt");
     const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + file + " 2>&1").c_str());
-    const std::vector<std::uint8_t> text = slurp(file);
+    const std::vector<std::uint8_t> text = slurpBytes(file);
     fs::remove(file);
     *out = std::string(text.begin(), text.end());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -520,20 +520,20 @@ TEST(Laz, CommandConvertsAndExplains) {
   ASSERT_EQ(run("convert " + las + " " + laz, &text), 0) << text;
   ASSERT_EQ(run("convert " + laz + " " + back, &text), 0) << text;
   // Only the generating software differs ("mountcal" would be wrong: the header is kept).
-  EXPECT_TRUE(slurp(back) == slurp(las));
+  EXPECT_TRUE(slurpBytes(back) == slurpBytes(las));
   ASSERT_EQ(run("info " + laz, &text), 0) << text;
   EXPECT_NE(text.find("LAZ: compressor 2 (point-wise chunked)"), std::string::npos) << text;
   EXPECT_NE(text.find("BYTE(27) v2"), std::string::npos) << text;
   EXPECT_NE(text.find("1 chunks of 50000 points"), std::string::npos) << text;
   EXPECT_EQ(run("convert " + laz + " " + laz, &text), 2);
   EXPECT_NE(text.find("is the input"), std::string::npos) << text;
-  std::vector<std::uint8_t> bad = slurp(laz);
+  std::vector<std::uint8_t> bad = slurpBytes(laz);
   bad.resize(bad.size() - 100);
-  spit(laz, bad);
+  spitBytes(laz, bad);
   EXPECT_EQ(run("convert " + laz + " " + back, &text), 2);
   EXPECT_NE(text.find(laz + ":"), std::string::npos) << text;
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
-  EXPECT_TRUE(slurp(back) == slurp(las)) << "a failed convert must leave the earlier output alone";
+  EXPECT_TRUE(slurpBytes(back) == slurpBytes(las)) << "a failed convert must leave the earlier output alone";
   fs::remove(laz);
   fs::remove(back);
 }

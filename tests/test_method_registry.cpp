@@ -10,33 +10,14 @@
 #include <sstream>
 
 #include "mountcal/mountcal.hpp"
+#include "support.hpp"
 
 namespace fs = std::filesystem;
 using namespace mountcal;
+using namespace mountcal_tests;
 using nlohmann::json;
 
 namespace {
-
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun run(const std::string& cli, const std::string& args) {
-  const std::string base = (fs::temp_directory_path() / ("mountcal_registry_" + std::to_string(::getpid()))).string();
-  const int status = std::system((cli + " " + args + " > " + base + ".out 2> " + base + ".err").c_str());
-  auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(base + ".out");
-  r.err = slurp(base + ".err");
-  return r;
-}
 
 json readJson(const std::string& path) {
   std::ifstream f(path);
@@ -214,13 +195,13 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
 
 TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {
   const std::string cli = MOUNTCAL_CLI_WITH_TEST_METHODS;
-  const CliRun listing = run(cli, "methods");
+  const CommandRun listing = runCommand(cli, "methods");
   ASSERT_EQ(listing.code, 0) << listing.err;
   EXPECT_NE(listing.out.find("\ntoy\n"), std::string::npos) << listing.out;
   EXPECT_NE(listing.out.find("lever_arm_z_m"), std::string::npos) << listing.out;
 
   const fs::path dir = freshDir("toy");
-  const CliRun sim = run(cli, "simulate --preset paper-calibration-field --seed 4 --out " + dir.string());
+  const CommandRun sim = runCommand(cli, "simulate --preset paper-calibration-field --seed 4 --out " + dir.string());
   ASSERT_EQ(sim.code, 0) << sim.err;
   json j = readJson((dir / "job.json").string());
   j["method"] = {"vtpm", "toy"};
@@ -229,7 +210,7 @@ TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {
   const std::string job = (dir / "job_toy.json").string();
   writeJson(job, j);
   const std::string result = (dir / "result_toy.json").string(), report = (dir / "report_toy.html").string();
-  const CliRun cal = run(cli, "calibrate " + job + " --result " + result + " --report " + report);
+  const CommandRun cal = runCommand(cli, "calibrate " + job + " --result " + result + " --report " + report);
   ASSERT_EQ(cal.code, 0) << cal.err << cal.out;
   EXPECT_NE(cal.out.find("Toy: measured lever arm z 0.1234 m"), std::string::npos) << cal.out;
   const json r = readJson(result);
@@ -249,14 +230,14 @@ TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {
   j["method"] = "toy";
   j["estimate"] = {{"lever_arm", {false, false, true}}, {"boresight", {false, false, false}}};
   writeJson(job, j);
-  const CliRun alone = run(cli, "calibrate " + job + " --quiet --result " + result);
+  const CommandRun alone = runCommand(cli, "calibrate " + job + " --quiet --result " + result);
   ASSERT_EQ(alone.code, 0) << alone.err;
   const json a = readJson(result);
   for (const char* key : {"ties", "rms_before_m", "rms_after_m", "residuals"}) EXPECT_TRUE(a[key].is_null()) << key << a.dump(1);
   EXPECT_NEAR(a["mounting"]["lever_arm_m"][2].get<double>(), 0.1234, 1e-9);
 
   // The shipped command does not know the toy: a job naming it is bad input.
-  const CliRun plain = run(MOUNTCAL_CLI, "calibrate " + job + " --quiet");
+  const CommandRun plain = runCommand(MOUNTCAL_CLI, "calibrate " + job + " --quiet");
   EXPECT_EQ(plain.code, 2);
   EXPECT_NE(plain.err.find("field 'toy': unknown field"), std::string::npos) << plain.err;
 }

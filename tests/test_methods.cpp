@@ -15,39 +15,17 @@
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "scatter.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
-
-/// The survey-grade noise of tests/test_calibration.cpp: 2 cm range, 0.001° scan angle, 5 mm
-/// strip-to-strip GNSS (Gauss–Markov 100 s), 0.001° roll/pitch and 0.002° heading noise
-/// (Gauss–Markov 0.1 s), 3 cm picking.
-NoiseModel surveyGrade() {
-  NoiseModel n = NoiseModel::realistic();
-  n.gnss_sigma_m = 0.005;
-  n.pick_sigma_m = 0.03;
-  return n;
-}
-
-/// The paper's crossing field (seed 000 experiment 1): four strips at 760 m and 1310 m, flat
-/// and gable roofs of four aspects (20°, 110°, 200°, 290°), ground targets.
-const SimulatedSurvey& field(std::uint64_t seed, bool noise) {
-  static std::map<std::string, std::unique_ptr<SimulatedSurvey>> cache;
-  auto& slot = cache[std::to_string(seed) + (noise ? "n" : "q")];
-  if (!slot) {
-    Scene scene;
-    SurveyConfig c;
-    makePreset("paper-calibration-field", seed, &c, &scene);
-    c.noise = noise ? surveyGrade() : NoiseModel::none();
-    c.roi_radius_m = 12.0;
-    slot = std::make_unique<SimulatedSurvey>(simulate(c, scene));
-  }
-  return *slot;
-}
+/// The paper's crossing field (seed 000 experiment 1: four strips at 760 m and 1310 m, flat and
+/// gable roofs of four aspects, ground targets), with points within 12 m of the features.
+const SimulatedSurvey& denseField(std::uint64_t seed, bool noise) { return crossingField(seed, noise, 12.0); }
 
 /// The seeds of the "every estimate within 3σ" tests. The sanitizer build runs one of them: it
 /// looks for memory errors and undefined behaviour on the same code, and the three noisy surveys
@@ -119,7 +97,7 @@ void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const Mounting
 // features so that all six parameters are estimated.
 
 TEST(PlaneMethod, GivenRegionsRecoverTheTruthNoiseFree) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   CalibrationData d = withControl(s);
   ASSERT_GE(d.plane_regions.size(), 6u);  // two flat roofs, four gable faces
   auto o = methodOptions({"planes"});
@@ -141,7 +119,7 @@ TEST(PlaneMethod, GivenRegionsRecoverTheTruthNoiseFree) {
 }
 
 TEST(PlaneMethod, AutomaticPatchesRecoverTheTruthNoiseFree) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   CalibrationData d = withControl(s);
   d.plane_regions.clear();  // nothing given
   auto o = methodOptions({"planes"}, /*automatic=*/true);
@@ -160,7 +138,7 @@ TEST(PlaneMethod, AutomaticPatchesRecoverTheTruthNoiseFree) {
 }
 
 TEST(CorrespondenceMethod, RecoversTheTruthNoiseFree) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   CalibrationData d = withControl(s);
   auto o = methodOptions({"correspondences"});
   o.strip_offset_sigma_m = 0;
@@ -176,7 +154,7 @@ TEST(CorrespondenceMethod, RecoversTheTruthNoiseFree) {
 }
 
 TEST(CorrespondenceMethod, LibraryCallReturnsCorrespondencesAndStatistics) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   const CalibrationData d = toCalibrationData(s);
   CorrespondenceOptions o;
   o.budget = 800;
@@ -218,7 +196,7 @@ TEST(CorrespondenceMethod, LibraryCallReturnsCorrespondencesAndStatistics) {
 TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
-    const SimulatedSurvey& s = field(seed, true);
+    const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"})));
     expectWithinThreeSigma(S, s.config.true_mounting, "planes, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
@@ -230,7 +208,7 @@ TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
-    const SimulatedSurvey& s = field(seed, true);
+    const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"}, true)));
     expectWithinThreeSigma(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
@@ -242,7 +220,7 @@ TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
-    const SimulatedSurvey& s = field(seed, true);
+    const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"correspondences"})));
     expectWithinThreeSigma(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
@@ -254,7 +232,7 @@ TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
 // ---- the first paper's comparison: VTPM against the plane method ------------------------------
 
 TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
-  const SimulatedSurvey& s = field(1, true);
+  const SimulatedSurvey& s = denseField(1, true);
   // VTPM with the paper's five ties (12 observations).
   CalibrationData ties = toCalibrationData(s);
   ties.ties = paperFiveTies(s);
@@ -289,7 +267,7 @@ TEST(MethodComparison, FlatGroundLeavesPlanesWeakInPlanWhereFiveTiesAreNot) {
 }
 
 TEST(MethodComparison, CombiningTiesAndPlanesNeverWidensSigma) {
-  const SimulatedSurvey& s = field(1, true);
+  const SimulatedSurvey& s = denseField(1, true);
   CalibrationData d = toCalibrationData(s);
   auto o = noisy(methodOptions({"vtpm"}));
   o.estimate[kLeverZ] = false;
@@ -319,7 +297,7 @@ TEST(MethodComparison, CombiningTiesAndPlanesNeverWidensSigma) {
 TEST(Adjustment, EliminatingPlaneParametersReproducesCeresCovariance) {
   // The reduced normal matrix (every plane, control and strip-offset block eliminated by a
   // Schur complement) inverted against ceres::Covariance on the mounting block.
-  const SimulatedSurvey& s = field(2, true);
+  const SimulatedSurvey& s = denseField(2, true);
   auto o = noisy(methodOptions({"planes"}));
   const auto S = calibrate(withControl(s), o);
   ASSERT_TRUE(S.IsSolutionUsable());
@@ -338,7 +316,7 @@ TEST(Adjustment, EliminatingPlaneParametersReproducesCeresCovariance) {
 TEST(Adjustment, PlanePointJacobiansMatchTheAnalyticDerivatives) {
   // ∂x/∂a_b = R_mb, ∂x/∂δ = −R_mb [R_bs r_s]× (first order), and r = n̂·(x + o − c)/σ − d/σ:
   // an independent check of the model, not of the differencing alone.
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   CalibrationData d = toCalibrationData(s);
   PlaneOptions po;
   PlaneObservations planes(d, po);
@@ -413,7 +391,7 @@ TEST(Adjustment, PlanePointJacobiansMatchTheAnalyticDerivatives) {
 TEST(Adjustment, TheExactDifferentialFormEqualsGeoreferenceModel) {
   // The methods move a point by R_mb[(R_bs(M) − R_bs(M_used)) r_s + (a − a_used)] from its
   // position at M_used (SPEC §2 eq. 1 differenced): equal to GeoreferenceModel at M.
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   const CalibrationData d = toCalibrationData(s);
   PlaneObservations planes(d, PlaneOptions{});
   const MountingParameters M = d.mounting_used.withArray(std::array<double, 6>{0.3, -0.2, 0.1, 0.2 * kDeg, -0.3 * kDeg, 0.4 * kDeg}.data());
@@ -464,13 +442,13 @@ TEST(Adjustment, OptionsGroupsValidateTheirFields) {
   o.methods.clear();
   EXPECT_FALSE(o.IsValid(&why));
   // Invalid options: no solve, a summary that says why.
-  const auto S = calibrate(toCalibrationData(field(1, false)), o);
+  const auto S = calibrate(toCalibrationData(denseField(1, false)), o);
   EXPECT_EQ(S.termination, TerminationType::kInvalidInput);
   EXPECT_NE(S.message.find("methods"), std::string::npos);
 }
 
 TEST(PlaneMethod, RegionsThatCannotBeUsedAreRejectedWithAReason) {
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   CalibrationData d = withControl(s);
   const PlaneRegion good = d.plane_regions.front();
   d.plane_regions.push_back({"nowhere", 5000, 5000, 5010, 5010});                                               // no strip there
@@ -494,7 +472,7 @@ TEST(Adjustment, CorrespondenceResidualEqualsGeoreferenceModel) {
   // The correspondence residual gathers its sums once (exact regrouping of SPEC §2 eq. 1
   // differenced); evaluated at any mounting it must equal n·(x_A(M) − x̄_B(M))/σ with every
   // point georeferenced by GeoreferenceModel.
-  const SimulatedSurvey& s = field(1, false);
+  const SimulatedSurvey& s = denseField(1, false);
   const CalibrationData d = toCalibrationData(s);
   CorrespondenceObservations obs(d, CorrespondenceOptions{});
   const std::array<double, 6> m_match{0.05, -0.02, 0.1, 0.03 * kDeg, -0.05 * kDeg, 0.08 * kDeg};

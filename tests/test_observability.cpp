@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "mountcal/mountcal.hpp"
+#include "support.hpp"
 
 namespace mountcal {
+using namespace mountcal_tests;
+
 namespace {
 
 using namespace simulation;
-
-constexpr double kDeg = kPi / 180.0;
 
 /// The crossing field at two heights, noise-free, with the picks and the roof regions.
 const SimulatedSurvey& noiseFreeField(SurveyConfig* config_out = nullptr) {

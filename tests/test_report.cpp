@@ -15,18 +15,14 @@
 #include "mountcal/report/report.hpp"
 #include "mountcal/simulation/survey.hpp"
 
+#include "support.hpp"
+
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::simulation;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string slurp(const std::string& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::uint32_t be32(const std::string& s, std::size_t at) {
   return (static_cast<std::uint32_t>(static_cast<unsigned char>(s[at])) << 24) | (static_cast<unsigned char>(s[at + 1]) << 16) |

@@ -1,0 +1,89 @@
+#pragma once
+// What several test files need, in one place: reading and writing whole files, running a command
+// and keeping its exit code and output, the survey-grade noise and the simulated crossing field
+// (simulated once per seed, noise and region size, for every test of the program).
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "mountcal/core/rotation.hpp"
+#include "mountcal/simulation/survey.hpp"
+
+namespace mountcal_tests {
+
+inline constexpr double kDeg = mountcal::kPi / 180.0;
+
+/// The whole file (empty when it cannot be read).
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+inline void spit(const std::filesystem::path& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
+
+/// A command's exit code (-1 when it did not exit) and what it printed.
+struct CommandRun {
+  int code = -1;
+  std::string out, err;
+};
+
+/// Runs `program args` through the shell, keeping standard output and error apart.
+inline CommandRun runCommand(const std::string& program, const std::string& args) {
+  static std::atomic<int> counter{0};
+  const std::string base =
+      (std::filesystem::temp_directory_path() / ("mountcal_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+  const int status = std::system((program + " " + args + " > " + base + ".out 2> " + base + ".err").c_str());
+  CommandRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(base + ".out");
+  r.err = slurp(base + ".err");
+  std::filesystem::remove(base + ".out");
+  std::filesystem::remove(base + ".err");
+  return r;
+}
+
+/// The built command (`build/mountcal`).
+inline CommandRun runCli(const std::string& args) { return runCommand(MOUNTCAL_CLI, args); }
+
+/// The stated "realistic" noise of the calibration tests (survey-grade, post-processed): 2 cm
+/// range, 0.001° scan-angle encoder, 5 mm strip-to-strip GNSS (Gauss–Markov, 100 s), 0.001° roll
+/// and pitch and 0.002° heading noise (Gauss–Markov, 0.1 s), 3 cm tie picking.
+inline mountcal::simulation::NoiseModel surveyGrade() {
+  mountcal::simulation::NoiseModel n = mountcal::simulation::NoiseModel::realistic();
+  n.gnss_sigma_m = 0.005;
+  n.pick_sigma_m = 0.03;
+  return n;
+}
+
+/// A preset survey (by default the paper's crossing field, seed 000 experiment 1: four strips at
+/// 760 m and 1310 m, flat and gable roofs of four aspects, ground targets), with survey-grade noise
+/// or none, points kept within `roi_radius_m` of the features. Simulated once per key.
+inline const mountcal::simulation::SimulatedSurvey& crossingField(std::uint64_t seed, bool noise, double roi_radius_m,
+                                                                  const std::string& preset = "paper-calibration-field") {
+  using namespace mountcal::simulation;
+  static std::map<std::string, std::unique_ptr<SimulatedSurvey>> cache;
+  const std::string key = preset + "/" + std::to_string(seed) + (noise ? "n/" : "q/") + std::to_string(roi_radius_m);
+  auto& slot = cache[key];
+  if (!slot) {
+    Scene scene;
+    SurveyConfig c;
+    makePreset(preset, seed, &c, &scene);
+    c.noise = noise ? surveyGrade() : NoiseModel::none();
+    c.roi_radius_m = roi_radius_m;
+    slot = std::make_unique<SimulatedSurvey>(simulate(c, scene));
+  }
+  return *slot;
+}
+
+}  // namespace mountcal_tests
