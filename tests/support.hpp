@@ -32,6 +32,11 @@ inline std::string slurp(const std::filesystem::path& path) {
 
 inline void spit(const std::filesystem::path& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
 
+/// A path in the temporary folder, unique to this process: "mountcal_<prefix>_<pid>_<name>".
+inline std::string tempPath(const std::string& prefix, const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mountcal_" + prefix + "_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
 /// A command's exit code (-1 when it did not exit) and what it printed.
 struct CommandRun {
   int code = -1;

@@ -29,7 +29,8 @@ using namespace mountcal;
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-namespace {
+// The fixture is outside an anonymous namespace: the TEST_F classes derive from it (GCC's
+// -Wsubobject-linkage in the unity build of the tests).
 
 /// A simulated survey (local frame, and the same in UTM zone 11 with an SBET), made once.
 class Hardening : public ::testing::Test {
@@ -109,8 +110,6 @@ std::string replaceField(const std::string& line, int field, const std::string& 
   for (std::size_t i = 0; i < f.size(); ++i) out += (i ? "," : "") + f[i];
   return out;
 }
-
-}  // namespace
 
 // Outputs never replace inputs or each other, and a failed run writes nothing.
 TEST_F(Hardening, OutputsNeverReplaceInputs) {

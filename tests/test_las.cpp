@@ -23,9 +23,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string tmp(const std::string& name) {
-  return (fs::temp_directory_path() / ("mountcal_las_" + std::to_string(::getpid()) + "_" + name)).string();
-}
 LasHeader header(std::uint8_t format, std::uint8_t minor, int extra) {
   LasHeader h;
   h.version_minor = minor;
@@ -93,7 +90,7 @@ TEST(Las, EveryFormatRoundTripsWithExtraBytesVlrsAndEvlrs) {
   for (const auto& c : cases) {
     const LasHeader h = header(c.format, c.minor, 5);
     const auto pts = points(h, 3000, c.format * 10u + c.minor);
-    const std::string a = tmp("a.las"), b = tmp("b.las");
+    const std::string a = tempPath("las", "a.las"), b = tempPath("las", "b.las");
     writeLas(a, h, pts);
     LasHeader h2;
     std::vector<LasPoint> back;
@@ -133,7 +130,7 @@ TEST(Las, ScanAngleInBothFormsAndStreamingInChunks) {
   setScanAngleDeg(h1, -17.4, &p);
   EXPECT_EQ(scanAngleDeg(h1, p), -17.0);  // whole degrees (rank)
   const auto pts = points(h6, 10007, 3);
-  const std::string a = tmp("c.las");
+  const std::string a = tempPath("las", "c.las");
   writeLas(a, h6, pts);
   LasReader r(a);
   std::vector<LasPoint> chunk;
@@ -150,11 +147,11 @@ TEST(Las, ScanAngleInBothFormsAndStreamingInChunks) {
 
 TEST(Las, MalformedHeadersAreRefusedNamingFileAndByte) {
   const LasHeader h = header(3, 2, 0);
-  const std::string a = tmp("d.las");
+  const std::string a = tempPath("las", "d.las");
   writeLas(a, h, points(h, 10, 4));
   const std::string good = slurp(a);
   auto expectError = [&](std::string bytes, const std::string& what) {
-    const std::string p = tmp("bad.las");
+    const std::string p = tempPath("las", "bad.las");
     std::ofstream(p, std::ios::binary) << bytes;
     try {
       LasReader r(p);
@@ -195,7 +192,7 @@ TEST(Las, MalformedHeadersAreRefusedNamingFileAndByte) {
   expectError(s, "signature");
   fs::remove(a);
   // Writing never leaves a half file: a writer that is not closed leaves nothing behind.
-  const std::string w = tmp("unfinished.las");
+  const std::string w = tempPath("las", "unfinished.las");
   {
     LasWriter writer(w, h);
     writer.write(points(h, 5, 1));
@@ -260,7 +257,7 @@ TEST(Las, QuantizeRoundsHalvesAwayFromZeroAndRefusesWhatDoesNotFit) {
   LasHeader h = header(1, 2, 0);
   h.offset = {100.0, -50.0, 0.0};
   h.scale = {0.01, 0.25, 1.0};
-  const std::string path = tmp("quantize.las");
+  const std::string path = tempPath("las", "quantize.las");
   {
     LasWriter writer(path, h);
     std::mt19937_64 rng(7);
@@ -312,7 +309,7 @@ TEST(Las, RecordsWrittenAsStoredGiveTheHeaderOfRecordsWrittenOneByOne) {
         p.number_of_returns = 7;
         p.gps_time = 1.0;
       }
-      const std::string one = tmp("one_by_one.las"), raw = tmp("as_stored.las");
+      const std::string one = tempPath("las", "one_by_one.las"), raw = tempPath("las", "as_stored.las");
       {
         LasWriter w(one, h);
         w.write(pts);
@@ -347,7 +344,7 @@ TEST(Las, BlockQuantizeEqualsStdRoundAndNamesTheFirstRecordThatDoesNotFit) {
   LasHeader h = header(1, 2, 0);
   h.offset = {100.0, -50.0, 0.0};
   h.scale = {0.01, 0.25, 1.0};
-  const std::string path = tmp("quantize_block.las");
+  const std::string path = tempPath("las", "quantize_block.las");
   {
     LasWriter writer(path, h);
     std::mt19937_64 rng(11);

@@ -20,7 +20,9 @@
 #include "mountcal/core/error.hpp"
 #include "mountcal/io/las.hpp"
 #include "mountcal/io/laz.hpp"
+#include "support.hpp"
 
+using namespace mountcal_tests;
 using namespace mountcal;
 using namespace mountcal::io;
 namespace fs = std::filesystem;
@@ -80,9 +82,6 @@ std::vector<std::uint8_t> slurpBytes(const std::string& p) {
 }
 void spitBytes(const std::string& p, const std::vector<std::uint8_t>& b) {
   std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
-}
-std::string tmp(const std::string& name) {
-  return (fs::temp_directory_path() / ("mountcal_laz_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 std::vector<std::uint8_t> allRecords(LasReader& r, std::size_t chunk = 7777) {
   std::vector<std::uint8_t> all, part;
@@ -220,7 +219,7 @@ TEST(Laz, RealFilesRoundTripAtTheReferenceSize) {
     LasReader r(path);
     const LasHeader h = r.header();
     const std::vector<std::uint8_t> records = allRecords(r);
-    const std::string out = tmp("rt.laz");
+    const std::string out = tempPath("laz", "rt.laz");
     {
       LasWriter w(out, h);
       ASSERT_TRUE(w.compressed());
@@ -342,7 +341,7 @@ TEST(Laz, SimulatedStripsRoundTripInEveryFormat) {
       h.scale = {0.001, 0.001, 0.001};
       const std::size_t n = 50001;  // two chunks, the last of one point
       const std::vector<std::uint8_t> records = simulatedRecords(format, extra, n, 11u + format);
-      const std::string out = tmp("sim.laz");
+      const std::string out = tempPath("laz", "sim.laz");
       {
         LasWriter w(out, h);
         w.writeRaw(records.data(), n);
@@ -378,21 +377,21 @@ TEST(Laz, LasPointsWriteTheSameAsLas) {
     pts[i].nir = static_cast<std::uint16_t>(i * 3);
     pts[i].extra = {static_cast<std::uint8_t>(i), 9};
   }
-  writeLas(tmp("p.las"), h, pts);
-  writeLas(tmp("p.laz"), h, pts);
+  writeLas(tempPath("laz", "p.las"), h, pts);
+  writeLas(tempPath("laz", "p.laz"), h, pts);
   LasHeader ha, hb;
   std::vector<LasPoint> a, b;
-  readLas(tmp("p.las"), &ha, &a);
-  readLas(tmp("p.laz"), &hb, &b);
-  LasReader ra(tmp("p.las")), rb(tmp("p.laz"));
+  readLas(tempPath("laz", "p.las"), &ha, &a);
+  readLas(tempPath("laz", "p.laz"), &hb, &b);
+  LasReader ra(tempPath("laz", "p.las")), rb(tempPath("laz", "p.laz"));
   EXPECT_TRUE(allRecords(ra) == allRecords(rb));
   EXPECT_EQ(ha.min, hb.min);
   EXPECT_EQ(ha.max, hb.max);
   EXPECT_EQ(ha.points_by_return, hb.points_by_return);
   ASSERT_EQ(hb.evlrs.size(), 1u);
   EXPECT_TRUE(hb.evlrs[0].data == h.evlrs[0].data);
-  fs::remove(tmp("p.las"));
-  fs::remove(tmp("p.laz"));
+  fs::remove(tempPath("laz", "p.las"));
+  fs::remove(tempPath("laz", "p.laz"));
 }
 
 namespace {
@@ -421,7 +420,7 @@ LazFile open(const std::string& path) {
 }
 
 std::string errorOf(const std::vector<std::uint8_t>& bytes) {
-  const std::string p = tmp("bad.laz");
+  const std::string p = tempPath("laz", "bad.laz");
   spitBytes(p, bytes);
   try {
     LasReader r(p);
@@ -507,9 +506,9 @@ TEST(Laz, MalformedFilesAreRefusedNamingWhere) {
 // and refuses to write over its input; a corrupt LAZ gets exit 2 and one line naming the file.
 TEST(Laz, CommandConvertsAndExplains) {
   REQUIRE_DATA("laz/extrabytes.las");
-  const std::string las = dataFile("laz/extrabytes.las"), laz = tmp("cli.laz"), back = tmp("cli.las");
+  const std::string las = dataFile("laz/extrabytes.las"), laz = tempPath("laz", "cli.laz"), back = tempPath("laz", "cli.las");
   auto run = [](const std::string& args, std::string* out) {
-    const std::string file = tmp("cli_out.txt");
+    const std::string file = tempPath("laz", "cli_out.txt");
     const int status = std::system((std::string(MOUNTCAL_CLI) + " " + args + " > " + file + " 2>&1").c_str());
     const std::vector<std::uint8_t> text = slurpBytes(file);
     fs::remove(file);
@@ -540,7 +539,7 @@ TEST(Laz, CommandConvertsAndExplains) {
 
 // simulate --laz writes LAZ strips that calibrate as LAS ones do; apply --format converts.
 TEST(Laz, SimulatedSurveyInLazCalibratesAndApplies) {
-  const std::string dir = tmp("survey");
+  const std::string dir = tempPath("laz", "survey");
   fs::remove_all(dir);
   const std::string cli = MOUNTCAL_CLI;
   ASSERT_EQ(std::system((cli + " simulate --preset paper-calibration-field --seed 3 --laz --out " + dir + " > /dev/null").c_str()), 0);

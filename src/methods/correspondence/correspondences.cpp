@@ -221,6 +221,14 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
 
 }  // namespace
 
+// Matcher (declared in the public header, so not file-local itself) holds this file's local
+// types: GCC warns about that when the file is not the main file of its translation unit (the
+// sanitizer build is a unity build), not a problem here — nothing outside this file sees them.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wsubobject-linkage"
+#endif
+
 /// The matching machinery: every overlapping pair's candidate neighbourhoods — found once,
 /// from the strips (pairs on all threads) or given (a workflow's pair files) — and the
 /// matchings at each round's mounting, which select from them.
@@ -561,6 +569,10 @@ class Matcher {
   std::vector<Ref> refs_;  // of the last matching's correspondences
   double spacing_ = 0, r_ = 0;
 };
+
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 }  // namespace detail
 
