@@ -14,6 +14,7 @@
 #include "geometry/point_geometry.hpp"
 #include "io/bytes.hpp"
 #include "mountcal/io/las.hpp"
+#include "mountcal/report/evaluation.hpp"
 
 namespace mountcal {
 namespace {
@@ -203,6 +204,39 @@ TEST(LasRecordLayout, TimeAndIntegersWhereTheSpecificationPutsThem) {
   std::int32_t back[3];
   io::LasRecordLayout::integers(record, back);
   EXPECT_TRUE(std::equal(xyz, xyz + 3, back));
+}
+
+// The pass-to-pass discrepancy on two planar grids of spacing s, the second 5 cm above the first
+// and shifted by half a cell: every used point is 0.05 m from the plane of its neighbours (a
+// plane fitted to coplanar points is exact). The size gates' defaults fit centimetre spacing; at
+// 0.5 m (an airborne strip) k = 10 neighbours span √λ_max ≈ 0.45 m, so without the spacing rule
+// no point passes, and with it, every one.
+std::vector<Vec3> grid(double spacing_m, double z_m, double shift_m) {
+  std::vector<Vec3> x;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j) x.emplace_back(shift_m + i * spacing_m, shift_m + j * spacing_m, z_m);
+  return x;
+}
+
+TEST(Discrepancy, GatesWidenWithThePointSpacingOfSparseStrips) {
+  const DiscrepancyOptions d;
+  // r = s √(k/π): 0.5 · √(10/π) = 0.892 m; extent 1.5 r = 1.338 m, nearest 3 s = 1.5 m.
+  const DiscrepancyOptions sparse = d.forSpacing(0.5);
+  EXPECT_NEAR(sparse.max_extent_m, 1.5 * 0.5 * std::sqrt(10.0 / 3.14159265358979), 1e-12);
+  EXPECT_DOUBLE_EQ(sparse.max_neighbour_distance_m, 1.5);
+  const DiscrepancyOptions dense = d.forSpacing(0.05);  // a UAV pass keeps the defaults
+  EXPECT_DOUBLE_EQ(dense.max_extent_m, 0.3);
+  EXPECT_DOUBLE_EQ(dense.max_neighbour_distance_m, 1.0);
+  for (double s : {0.05, 0.5}) {
+    const DiscrepancyStats widened = pointToPlaneDiscrepancy(grid(s, 0.05, s / 2), grid(s, 0.0, 0.0));
+    EXPECT_GT(widened.used, widened.queries / 2) << s;
+    EXPECT_NEAR(widened.median_m, 0.05, 1e-9) << s;
+    EXPECT_NEAR(widened.p90_m, 0.05, 1e-9) << s;
+  }
+  DiscrepancyOptions fixed;
+  fixed.from_spacing = false;
+  EXPECT_EQ(pointToPlaneDiscrepancy(grid(0.5, 0.05, 0.25), grid(0.5, 0.0, 0.0), fixed).used, 0u);
+  EXPECT_GT(pointToPlaneDiscrepancy(grid(0.05, 0.05, 0.025), grid(0.05, 0.0, 0.0), fixed).used, 1000u);
 }
 
 }  // namespace

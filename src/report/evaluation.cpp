@@ -7,6 +7,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "geometry/kd_tree.hpp"
+#include "geometry/point_geometry.hpp"
 #include "methods/common/vtp_strip.hpp"
 #include "mountcal/core/georeference_model.hpp"
 
@@ -113,6 +114,15 @@ bool DiscrepancyOptions::IsValid(std::string* why) const {
   return true;
 }
 
+DiscrepancyOptions DiscrepancyOptions::forSpacing(double spacing_m) const {
+  DiscrepancyOptions o = *this;
+  if (!from_spacing || !(spacing_m > 0) || !std::isfinite(spacing_m)) return o;
+  const double disc_radius_m = spacing_m * std::sqrt(static_cast<double>(neighbours) / kPi);
+  o.max_extent_m = std::max(max_extent_m, 1.5 * disc_radius_m);
+  o.max_neighbour_distance_m = std::max(max_neighbour_distance_m, 3.0 * spacing_m);
+  return o;
+}
+
 namespace {
 
 DiscrepancyStats statsOf(std::vector<double> d, std::size_t queries) {
@@ -138,11 +148,12 @@ DiscrepancyStats statsOf(std::vector<double> d, std::size_t queries) {
 }
 
 /// The used points' distances of `query` against `reference` (the gates of DiscrepancyOptions).
-std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& options,
+std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& given,
                               std::size_t* queries) {
   std::vector<double> out;
   *queries = 0;
-  if (query.empty() || reference.size() < static_cast<std::size_t>(options.neighbours)) return out;
+  if (query.empty() || reference.size() < static_cast<std::size_t>(given.neighbours)) return out;
+  const DiscrepancyOptions options = given.forSpacing(given.from_spacing ? detail::planSpacing(reference) : 0.0);
   // Coordinates relative to the reference's first point: kilometre-size values never enter the tree.
   const Vec3 origin = reference.front();
   std::vector<double> ref(3 * reference.size());

@@ -45,6 +45,12 @@ std::vector<CheckPlaneResult> evaluateCheckPlanes(const CalibrationData& data, c
 /// nearest neighbours there is planar (σ of the fit ≤ `max_plane_sigma_m`), a surface and not
 /// a line (second/largest spread ≥ `min_spread_ratio`) and local (largest spread ≤
 /// `max_extent_m`). The distance is |n·(x − c)| to that plane.
+///
+/// The gates' defaults fit UAV passes (centimetre spacing). With `from_spacing` (the default) the
+/// two size gates are widened for sparser strips, never narrowed: from the larger strip's mean
+/// plan spacing s, k neighbours fill a disc of radius r = s·√(k/π); the extent gate becomes at
+/// least 1.5 r and the neighbour distance at least 3 s — an airborne strip at 0.5 m spacing gets
+/// 1.34 m and 1.5 m, a UAV pass at 5 cm keeps 0.3 m and 1 m.
 struct DiscrepancyOptions {
   int neighbours = 10;                    ///< k [-]
   double max_neighbour_distance_m = 1.0;  ///< [m]
@@ -52,7 +58,10 @@ struct DiscrepancyOptions {
   double min_spread_ratio = 0.2;          ///< √(λ_mid/λ_max) [-]
   double max_extent_m = 0.3;              ///< √λ_max [m]
   std::size_t max_queries = 200000;       ///< larger query strips are strided evenly [-]
+  bool from_spacing = true;               ///< widen the size gates for sparse strips (above)
   bool IsValid(std::string* why) const;
+  /// The gates used against a reference strip of mean plan spacing `spacing_m`.
+  DiscrepancyOptions forSpacing(double spacing_m) const;
 };
 
 struct DiscrepancyStats {
