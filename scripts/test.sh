@@ -8,8 +8,9 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$root/scripts/deps.sh"
 # Headless Chromium renders the visual report in tests/test_report.cpp; Snakemake runs the block
 # workflow (workflows/block) in tests/test_block.cpp; ccache keeps the objects of unchanged sources
-# between builds (CMakeLists.txt uses it when present).
-mountcal_ensure_deps chromium snakemake ccache
+# between builds (CMakeLists.txt uses it when present); munge and slurm-wlm make the one-node Slurm
+# cluster of tests/slurm/slurm_workflow.sh (its daemons are started and stopped by the test).
+mountcal_ensure_deps chromium snakemake ccache munge slurm-wlm
 
 # MOUNTCAL_CCACHE=OFF (.ci/run sets it): a clean machine has an empty cache, and a miss costs
 # ccache's preprocessing pass on top of the compile (+12 % on a library source, 2026-11-26).

@@ -248,7 +248,8 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
     const DiscrepancyOptions d;
     std::printf(
         "pass-to-pass discrepancy (each point of the smaller strip against the local plane of the larger's %d nearest:\n"
-        "  nearest within %.2f m, plane sigma <= %.3f m, sqrt(l_mid/l_max) >= %.2f, extent <= %.2f m):\n",
+        "  nearest within %.2f m, plane sigma <= %.3f m, sqrt(l_mid/l_max) >= %.2f, extent <= %.2f m;\n"
+        "  for a sparse larger strip of spacing s, nearest within 3 s and extent <= 1.5 s sqrt(k/pi) where larger):\n",
         d.neighbours, d.max_neighbour_distance_m, d.max_plane_sigma_m, d.min_spread_ratio, d.max_extent_m);
     std::printf("  %-12s %-12s %8s %8s   median  before/after [m]     RMS before/after [m]     P90 before/after [m]\n", "query",
                 "reference", "points", "used");
@@ -536,7 +537,9 @@ Command addSimulate(CLI::App& app) {
   auto a = std::make_shared<Args>();
   CLI::App* c = app.add_subcommand("simulate", "Simulate a survey with known mounting truth (SPEC §4)");
   c->add_option("scenario", a->scenario, "Scenario JSON file (a preset with overrides)");
-  c->add_option("--preset", a->preset, "Preset: paper-calibration-field, paper-check-block, uav-vlp16");
+  std::string presets;
+  for (const std::string& n : mountcal::simulation::presetNames()) presets += (presets.empty() ? "" : ", ") + n;
+  c->add_option("--preset", a->preset, "Preset: " + presets + " (12 strips), block-N (N strips, N even from 4 to 256)");
   c->add_option("--seed", a->seed, "Random seed for the noise")->capture_default_str();
   c->add_option("--out", a->out, "Output folder")->required();
   c->add_flag("--no-noise", a->no_noise, "Switch every noise source off");
