@@ -40,16 +40,20 @@ expect_status 17 running
 echo "slurm test: status.py answers as specified without Slurm"
 
 T="$work/cluster"; mkdir -p "$T/state" "$T/spool" "$T/log"
+# The daemons' PIDs, read from their PID files as each starts and kept here: stop() must not
+# depend on files that a clean-up could have removed.
 pids=()
+remember_pid() {  # PID_FILE
+  local i
+  for i in $(seq 50); do [ -s "$1" ] && break; sleep 0.2; done
+  [ -s "$1" ] && pids+=("$(cat "$1")")
+}
 stop() {
-  local f
-  for f in "$T/slurmd.pid" "$T/slurmctld.pid" "$T/munged.pid"; do
-    [ -s "$f" ] && kill "$(cat "$f")" 2> /dev/null || true
-  done
+  local p
+  for p in "${pids[@]}"; do kill "$p" 2> /dev/null || true; done
   sleep 1
-  for f in "$T/slurmd.pid" "$T/slurmctld.pid" "$T/munged.pid"; do
-    [ -s "$f" ] && kill -9 "$(cat "$f")" 2> /dev/null || true
-  done
+  for p in "${pids[@]}"; do kill -9 "$p" 2> /dev/null || true; done
+  pids=()
 }
 trap stop EXIT
 
@@ -58,6 +62,7 @@ dd if=/dev/urandom of="$T/munge.key" bs=1024 count=1 status=none
 chmod 400 "$T/munge.key"
 munged --force --key-file="$T/munge.key" --socket="$T/munge.sock" --pid-file="$T/munged.pid" \
   --log-file="$T/log/munged.log" --seed-file="$T/munged.seed"
+remember_pid "$T/munged.pid"
 
 free_port() { python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 cat > "$T/slurm.conf" <<CONF
@@ -91,7 +96,9 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
 CONF
 export SLURM_CONF="$T/slurm.conf"
 slurmctld -f "$SLURM_CONF"
+remember_pid "$T/slurmctld.pid"
 slurmd -f "$SLURM_CONF" -N localhost
+remember_pid "$T/slurmd.pid"
 for i in $(seq 60); do
   state="$(sinfo -h -o %T 2> /dev/null || true)"
   [ "$state" = "idle" ] && break
@@ -141,5 +148,10 @@ PY
   fi
 done
 [ "$fail" = 0 ] && echo "slurm test: the profile and the built-in executor equal the local run (mounting, pair files, strips)"
+stop
+# Nothing of the cluster may outlive the test.
+if pgrep -f "$T/slurm.conf" > /dev/null || pgrep -f "$T/munge.key" > /dev/null; then
+  echo "slurm test: a daemon is still running after stop:"; pgrep -af "$T/"; fail=1
+fi
 [ "$fail" = 0 ] && rm -rf "$work"
 exit "$fail"
