@@ -147,13 +147,18 @@ DiscrepancyStats statsOf(std::vector<double> d, std::size_t queries) {
   return s;
 }
 
-/// The used points' distances of `query` against `reference` (the gates of DiscrepancyOptions).
-std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& given,
+/// The mean plan spacing of `points` when `opts` widens its gates with it (0 otherwise: no grid built).
+double gateSpacing(const std::vector<Vec3>& points, const DiscrepancyOptions& opts) {
+  return opts.from_spacing ? detail::planSpacing(points) : 0.0;
+}
+
+/// The used points' distances of `query` against `reference`, with the gates of `options` as
+/// given (already widened for the reference's spacing: DiscrepancyOptions::forSpacing).
+std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& options,
                               std::size_t* queries) {
   std::vector<double> out;
   *queries = 0;
-  if (query.empty() || reference.size() < static_cast<std::size_t>(given.neighbours)) return out;
-  const DiscrepancyOptions options = given.forSpacing(given.from_spacing ? detail::planSpacing(reference) : 0.0);
+  if (query.empty() || reference.size() < static_cast<std::size_t>(options.neighbours)) return out;
   // Coordinates relative to the reference's first point: kilometre-size values never enter the tree.
   const Vec3 origin = reference.front();
   std::vector<double> ref(3 * reference.size());
@@ -201,6 +206,23 @@ std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const Mo
   return x;
 }
 
+/// Every strip pair of `x`, the smaller strip (q) against the larger (r): f(q, r, distances,
+/// queries). Each strip's spacing is found once, not once per pair.
+template <typename F>
+void forEachPair(const std::vector<std::vector<Vec3>>& x, const DiscrepancyOptions& opts, F&& f) {
+  std::vector<double> spacing(x.size());
+  for (std::size_t s = 0; s < x.size(); ++s) spacing[s] = gateSpacing(x[s], opts);
+  for (std::size_t a = 0; a < x.size(); ++a) {
+    for (std::size_t b = a + 1; b < x.size(); ++b) {
+      const bool a_smaller = x[a].size() <= x[b].size();
+      const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
+      std::size_t queries = 0;
+      std::vector<double> d = distances(x[q], x[r], opts.forSpacing(spacing[r]), &queries);
+      f(q, r, std::move(d), queries);
+    }
+  }
+}
+
 }  // namespace
 
 DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
@@ -208,43 +230,29 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::size_t queries = 0;
-  std::vector<double> d = distances(query, reference, opts, &queries);
+  std::vector<double> d = distances(query, reference, opts.forSpacing(gateSpacing(reference, opts)), &queries);
   return statsOf(std::move(d), queries);
 }
 
 std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
-  const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
   std::vector<PairDiscrepancy> out;
-  for (std::size_t a = 0; a < x.size(); ++a) {
-    for (std::size_t b = a + 1; b < x.size(); ++b) {
-      const bool a_smaller = x[a].size() <= x[b].size();
-      const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
-      std::size_t queries = 0;
-      std::vector<double> d = distances(x[q], x[r], opts, &queries);
-      if (d.empty()) continue;
-      out.push_back({data.strips[q].id, data.strips[r].id, statsOf(std::move(d), queries)});
-    }
-  }
+  forEachPair(stripPoints(data, m), opts, [&](std::size_t q, std::size_t r, std::vector<double> d, std::size_t queries) {
+    if (!d.empty()) out.push_back({data.strips[q].id, data.strips[r].id, statsOf(std::move(d), queries)});
+  });
   return out;
 }
 
 DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
-  const std::vector<std::vector<Vec3>> x = stripPoints(data, m);
   std::vector<double> all;
   std::size_t total = 0;
-  for (std::size_t a = 0; a < x.size(); ++a) {
-    for (std::size_t b = a + 1; b < x.size(); ++b) {
-      const bool a_smaller = x[a].size() <= x[b].size();
-      std::size_t queries = 0;
-      std::vector<double> d = distances(x[a_smaller ? a : b], x[a_smaller ? b : a], opts, &queries);
-      all.insert(all.end(), d.begin(), d.end());
-      total += queries;
-    }
-  }
+  forEachPair(stripPoints(data, m), opts, [&](std::size_t, std::size_t, std::vector<double> d, std::size_t queries) {
+    all.insert(all.end(), d.begin(), d.end());
+    total += queries;
+  });
   return statsOf(std::move(all), total);
 }
 
