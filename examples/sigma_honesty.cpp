@@ -5,6 +5,8 @@
 //   sigma_honesty [--method vtpm|planes|planes_auto|correspondences|features|vtpm+planes]
 //                 [--seeds N] [--first-seed S] [--noise realistic|navigation_drift]
 //                 [--model-attitude-drift]   (state the attitude drift as PulseNoise's random effect)
+//                 [--corrections P,A]        (estimate per-strip trajectory corrections: position
+//                                             degree P, attitude degree A; StochasticOptions::corrections)
 //
 // The field is the first paper's crossing field (two heights, roofs of several aspects; pulses
 // cast within 12 m of every feature), or the VLP-16 UAV preset for `features`. Noise
@@ -28,6 +30,7 @@ int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1;
   bool model_drift = false, trajectory_none = false;
   double offset_sigma = 0.02;
+  int corr_position = 0, corr_attitude = -1;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -49,6 +52,8 @@ int main(int argc, char** argv) {
       position_tau = std::atof(argv[++i]);
     else if (a == "--offset-sigma" && i + 1 < argc)
       offset_sigma = std::atof(argv[++i]);
+    else if (a == "--corrections" && i + 1 < argc && std::sscanf(argv[i + 1], "%d,%d", &corr_position, &corr_attitude) == 2)
+      ++i;
     else {
       std::fprintf(stderr,
                    "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift] [--model-attitude-drift]\n",
@@ -73,7 +78,7 @@ int main(int argc, char** argv) {
     }
   }
   const bool uav = method == "features";
-  std::array<double, 6> z2{};
+  std::array<double, 6> z2{}, e2{};
   std::array<int, 6> within{}, counted{};
   double vf = 0;
   int used = 0;
@@ -98,6 +103,8 @@ int main(int argc, char** argv) {
     o.trajectory.attitude_correlation_s = attitude_tau;
     o.trajectory.position_correlation_s = position_tau;
     if (trajectory_none) o.trajectory = TrajectoryAccuracy::none();
+    o.corrections.position_degree = corr_position;
+    o.corrections.attitude_degree = corr_attitude;
     if (model_drift) {  // the attitude drift as the calibrator's random effect (ties only, today)
       o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.drift_attitude_sigma_rad);
       o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.drift_attitude_sigma_rad);
@@ -115,15 +122,17 @@ int main(int argc, char** argv) {
       if (!summary.estimated[j] || !(summary.sigma[j] > 0)) continue;
       const double z = (e[j] - t[j]) / summary.sigma[j];
       z2[j] += z * z;
+      e2[j] += (e[j] - t[j]) * (e[j] - t[j]);
       within[j] += std::abs(z) <= 2.0;
       ++counted[j];
     }
   }
-  std::printf("%-20s %14s %12s\n", "parameter", "RMS error/σ", "within 2σ");
+  std::printf("%-20s %14s %12s %16s\n", "parameter", "RMS error/σ", "within 2σ", "RMS error");
   for (std::size_t j = 0; j < 6; ++j) {
     if (counted[j] == 0) continue;
-    std::printf("%-20s %14.2f %11.0f%%\n", mountingParameterNames()[j].c_str(), std::sqrt(z2[j] / counted[j]),
-                100.0 * within[j] / counted[j]);
+    const double rms = std::sqrt(e2[j] / counted[j]);
+    std::printf("%-20s %14.2f %11.0f%% %12.4g %s\n", mountingParameterNames()[j].c_str(), std::sqrt(z2[j] / counted[j]),
+                100.0 * within[j] / counted[j], j < 3 ? rms : rad2deg(rms), j < 3 ? "m" : "deg");
   }
   std::printf("mean variance factor %.2f over %d usable solves\n", used ? vf / used : 0.0, used);
   return used == seeds ? 0 : 1;

@@ -286,9 +286,23 @@ std::string MountingCalibrator::Summary::FullReport() const {
   r << "sigma: " << sigma_model << (sigma_model == "formal" ? "\n" : " (formal: observations taken as independent)\n");
   if (!observability_report.empty()) r << "\nObservability:\n" << observability_report;
   if (!std::isnan(time_offset_s)) {
-    std::snprintf(buf, sizeof buf, "Time offset (first order, not applied): %+.4g ms, sigma %.4g ms\n", 1e3 * time_offset_s,
+    std::snprintf(buf, sizeof buf, "Time offset (%s): %+.4g ms, sigma %.4g ms\n",
+                  time_offset_in_solve ? "estimated with the mounting" : "first order, not applied", 1e3 * time_offset_s,
                   1e3 * time_offset_sigma_s);
     r << buf;
+  }
+  if (!strip_corrections.empty()) {
+    r << "Trajectory corrections per strip (estimated with the mounting; at the start -> end of each strip):\n";
+    for (const auto& c : strip_corrections) {
+      std::snprintf(
+          buf, sizeof buf,
+          "  %-12s %8.1f s  position %+.3f %+.3f %+.3f -> %+.3f %+.3f %+.3f m  attitude %+.4f %+.4f %+.4f -> %+.4f %+.4f %+.4f deg\n",
+          c.strip_id.c_str(), c.t_end_s - c.t_start_s, c.position_start_m.x(), c.position_start_m.y(), c.position_start_m.z(),
+          c.position_end_m.x(), c.position_end_m.y(), c.position_end_m.z(), rad2deg(c.attitude_start_rad.x()),
+          rad2deg(c.attitude_start_rad.y()), rad2deg(c.attitude_start_rad.z()), rad2deg(c.attitude_end_rad.x()),
+          rad2deg(c.attitude_end_rad.y()), rad2deg(c.attitude_end_rad.z()));
+      r << buf;
+    }
   }
   for (const auto& ms : model_sensitivity) r << "Model sensitivity: " << ms.text() << "\n";
   if (resolve.done) r << "Re-solve check: " << resolve.text() << "\n";

@@ -33,6 +33,16 @@ fs::path freshDir(const std::string& name) {
   return d;
 }
 
+/// The smallest valid job: one strip, ties, a local frame (files need not exist to be read).
+json minimalJob() {
+  return {{"frame", {{"type", "local"}}},
+          {"trajectory", {{"path", "t.csv"}}},
+          {"sensor", {{"type", "line"}}},
+          {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
+          {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
+          {"ties", "ties.csv"}};
+}
+
 }  // namespace
 
 TEST(Registry, BuiltInMethodsComeFirstInTheOrderTheyJoinTheAdjustment) {
@@ -69,14 +79,9 @@ TEST(Registry, DeclaredRangesAreCheckedAndTheMessageNamesMethodAndOption) {
 TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
   const fs::path dir = freshDir("options");
   // A job naming every method's every option with a value other than its default.
-  json j = {{"frame", {{"type", "local"}}},
-            {"trajectory", {{"path", "t.csv"}}},
-            {"sensor", {{"type", "line"}}},
-            {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
-            {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
-            {"ties", "ties.csv"},
-            {"targets", "targets.csv"},
-            {"method", {"vtpm", "planes", "correspondences", "features"}}};
+  json j = minimalJob();
+  j["targets"] = "targets.csv";
+  j["method"] = {"vtpm", "planes", "correspondences", "features"};
   j["planes"] = {{"regions", "auto"}};
   std::map<std::string, std::map<std::string, double>> given;
   for (const auto& m : registeredMethods()) {
@@ -156,13 +161,8 @@ TEST(Registry, EarlierJobKeysAreStillReadWithANotice) {
 
 TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
   const fs::path dir = freshDir("trajectory_accuracy");
-  json j = {{"frame", {{"type", "local"}}},
-            {"trajectory", {{"path", "t.csv"}}},
-            {"sensor", {{"type", "line"}}},
-            {"mounting_used", {{"lever_arm_m", {0, 0, 0}}, {"boresight_deg", {0, 0, 0}}}},
-            {"strips", {{{"id", "1"}, {"path", "1.las"}}}},
-            {"ties", "ties.csv"},
-            {"stochastic", {{"trajectory", {{"position_sigma_m", 0.05}, {"heading_sigma_deg", 0.02}}}, {"time_offset_sigma_s", 0.003}}}};
+  json j = minimalJob();
+  j["stochastic"] = {{"trajectory", {{"position_sigma_m", 0.05}, {"heading_sigma_deg", 0.02}}}, {"time_offset_sigma_s", 0.003}};
   const std::string path = (dir / "job.json").string();
   writeJson(path, j);
   const Job job = readJob(path);
@@ -191,6 +191,50 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
   } catch (const FileError& e) {
     EXPECT_NE(std::string(e.what()).find("position_sigma_m"), std::string::npos) << e.what();
   }
+}
+
+TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked) {
+  const fs::path dir = freshDir("trajectory_corrections");
+  json j = minimalJob();
+  j["stochastic"] = {{"corrections", {{"position_degree", 2}, {"attitude_degree", 1}, {"heading_sigma_deg", 0.02}}},
+                     {"time_offset_sigma_s", 0.004},
+                     {"estimate_time_offset", true}};
+  const std::string path = (dir / "job.json").string();
+  writeJson(path, j);
+  const Job job = readJob(path);
+  EXPECT_EQ(job.options.corrections.position_degree, 2);
+  EXPECT_EQ(job.options.corrections.attitude_degree, 1);
+  EXPECT_EQ(job.options.corrections.heading_sigma_deg, 0.02);
+  EXPECT_EQ(job.options.corrections.position_sigma_m, TrajectoryCorrections().position_sigma_m);  // the default kept
+  EXPECT_TRUE(job.options.estimate_time_offset);
+  const std::string again = (dir / "again.json").string();
+  std::ofstream(again) << jobJson(job);
+  const Job back = readJob(again);
+  EXPECT_EQ(back.options.corrections.position_degree, 2);
+  EXPECT_EQ(back.options.corrections.attitude_degree, 1);
+  EXPECT_EQ(back.options.corrections.heading_sigma_deg, 0.02);
+  EXPECT_TRUE(back.options.estimate_time_offset);
+  auto refused = [&](const json& bad, const std::string& field) {
+    writeJson(path, bad);
+    try {
+      readJob(path);
+      ADD_FAILURE() << "accepted: " << bad["stochastic"].dump();
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  json bad = j;
+  bad["stochastic"]["corrections"]["position_degree"] = 4;
+  refused(bad, "position_degree");
+  bad = j;
+  bad["stochastic"]["corrections"]["attitude_degree"] = -2;
+  refused(bad, "attitude_degree");
+  bad = j;
+  bad["stochastic"]["corrections"]["splines"] = true;
+  refused(bad, "splines");
+  bad = j;
+  bad["stochastic"].erase("time_offset_sigma_s");
+  refused(bad, "estimate_time_offset");
 }
 
 TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {

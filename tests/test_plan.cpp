@@ -120,6 +120,34 @@ TEST(Planner, HeadingNeedsLaterallyOffsetOrCrossingLines) {
   std::printf("%s", a.text().c_str());
 }
 
+TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
+  // The plan's "stochastic" object is the job's: with the time offset estimated, lines all at
+  // one speed leave it an along-track lever arm (the prediction says "two speeds"); two speeds
+  // (60 and 40 m/s) determine it. Per-strip trajectory corrections can only widen the σ.
+  json j = village(kTwoHeights, false);
+  j["stochastic"] = {{"time_offset_sigma_s", 0.005}, {"estimate_time_offset", true}};
+  const Prediction one = predict(load(j));
+  EXPECT_NE(one.observability.find("fly the lines at two speeds"), std::string::npos) << one.observability;
+  j["lines"][1]["speed_mps"] = 40;
+  j["lines"][3]["speed_mps"] = 40;
+  const Prediction two = predict(load(j));
+  EXPECT_EQ(two.observability.find("two speeds"), std::string::npos) << two.observability;
+  EXPECT_LT(two.sigma[kLeverX], 0.7 * one.sigma[kLeverX]);
+  json k = village(kTwoHeights, false);
+  const Prediction plain = predict(load(k));
+  k["stochastic"] = {{"corrections", {{"position_degree", 1}, {"attitude_degree", 0}}}};
+  const Prediction corrected = predict(load(k));
+  for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
+    EXPECT_GE(corrected.sigma[p], 0.999 * plain.sigma[p]) << mountingParameterNames()[p];
+  k["stochastic"]["corrections"]["attitude_degree"] = 7;
+  try {
+    load(k);
+    ADD_FAILURE() << "attitude_degree 7 accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("attitude_degree"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Planner, TheVerticalLeverArmNeedsGroundControl) {
   auto lines = kTwoHeights;
   lines.push_back({"5", 0, -400, 0, 400, 500});  // a crossing line: heading determined too

@@ -1,6 +1,8 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/core/rotation.hpp"
 
+#include "adjustment/corrected_cost.hpp"
+
 #include <ceres/ceres.h>
 
 #include <Eigen/Eigenvalues>
@@ -95,9 +97,23 @@ bool TrajectoryAccuracy::IsValid(std::string* error) const {
   return true;
 }
 
+bool TrajectoryCorrections::IsValid(std::string* error) const {
+  if (position_degree < 0 || position_degree > 3)
+    return failWith(error, "corrections.position_degree must be 0 (the strip offset alone) to 3");
+  if (attitude_degree < -1 || attitude_degree > 3) return failWith(error, "corrections.attitude_degree must be -1 (none) to 3");
+  if (position_degree > 0 && !(position_sigma_m > 0 && position_sigma_m <= 100))
+    return failWith(error, "corrections.position_sigma_m must be in (0, 100] m when position_degree > 0");
+  if (attitude_degree >= 0 && !(roll_pitch_sigma_deg > 0 && roll_pitch_sigma_deg <= 10 && heading_sigma_deg > 0 && heading_sigma_deg <= 10))
+    return failWith(error, "corrections.roll_pitch_sigma_deg and heading_sigma_deg must be in (0, 10] deg when attitude_degree >= 0");
+  return true;
+}
+
 bool StochasticOptions::IsValid(std::string* error) const {
   if (!pulse_noise.IsValid(error)) return false;
   if (!trajectory.IsValid(error)) return false;
+  if (!corrections.IsValid(error)) return false;
+  if (estimate_time_offset && !(time_offset_sigma_s > 0))
+    return failWith(error, "estimate_time_offset needs time_offset_sigma_s > 0 (the time offset's prior)");
   if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m))
     return failWith(error, "strip_offset_sigma_m must be finite and non-negative");
   if (loss != LossType::kTrivial && !(loss_scale_m > 0)) return failWith(error, "loss_scale_m must be positive for a robust loss");
@@ -159,7 +175,13 @@ AdjustmentProblem::AdjustmentProblem(const std::array<double, 6>& mounting, doub
   problem_ = std::make_unique<ceres::Problem>(po);
 }
 
-AdjustmentProblem::~AdjustmentProblem() = default;
+AdjustmentProblem::~AdjustmentProblem() {
+  if (committed_) return;  // Ceres owns them
+  for (Record& rec : records_) {
+    delete rec.cost;
+    delete rec.loss;
+  }
+}
 
 namespace {
 
@@ -314,9 +336,91 @@ int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_s
     else
       loss = new ceres::CauchyLoss(scale);
   }
-  problem_->AddResidualBlock(cost, loss, blocks);
-  records_.push_back({cost, blocks, source_, loss_sigma_m, {}});
+  if (committed_) problem_->AddResidualBlock(cost, loss, blocks);  // after commit(): straight to Ceres
+  records_.push_back({cost, blocks, source_, loss_sigma_m, {}, loss});
   return static_cast<int>(records_.size()) - 1;
+}
+
+void AdjustmentProblem::setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s) {
+  corrections_ = corrections;
+  time_offset_sigma_s_ = time_offset_sigma_s;
+}
+
+void AdjustmentProblem::commit() {
+  if (committed_) return;
+  const bool corr = corrections_.any();
+  const bool time = time_offset_sigma_s_ > 0;
+  if (corr || time) attachCorrections(corr, time);
+  for (const Record& rec : records_) problem_->AddResidualBlock(rec.cost, rec.loss, rec.blocks);
+  committed_ = true;
+}
+
+void AdjustmentProblem::attachCorrections(bool corr, bool time) {
+  // Each strip's span: the times of its observations (TrajectoryCorrections' τ ∈ [−1, 1]).
+  std::map<const double*, std::pair<double, double>> span;  // offset block → (t_min, t_max)
+  bool moving = false;
+  for (const Record& rec : records_)
+    for (const Epoch& e : rec.epochs) {
+      auto [it, fresh] = span.try_emplace(e.offset, e.time_s, e.time_s);
+      if (!fresh) it->second = {std::min(it->second.first, e.time_s), std::max(it->second.second, e.time_s)};
+      moving |= e.moving;
+    }
+  time = time && moving;
+  std::map<const double*, std::size_t> index;  // offset block → corrections_blocks_
+  const int src = source_;
+  source_ = -1;  // the priors belong to no source
+  if (corr) {
+    const int dp = corrections_.position_degree, n = corrections_.size();
+    std::vector<double> w(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) {
+      const int axis = j % 3;
+      w[static_cast<std::size_t>(j)] = j < 3 * dp
+                                           ? 1.0 / corrections_.position_sigma_m
+                                           : 1.0 / deg2rad(axis == 2 ? corrections_.heading_sigma_deg : corrections_.roll_pitch_sigma_deg);
+    }
+    const std::vector<double> zero(static_cast<std::size_t>(n), 0.0);
+    for (const auto& [id, o3] : offsets_) {
+      auto it = span.find(o3.data());
+      if (it == span.end()) continue;
+      // Non-eliminable: it shares residual blocks with the sources' own nuisance blocks.
+      double* block = addNuisanceBlock(n, zero.data(), nullptr, false);
+      addResidualBlock(new BlockPrior(n, zero, w), 0.0, {block});
+      index[o3.data()] = corrections_blocks_.size();
+      corrections_blocks_.push_back(
+          {id, block, 0.5 * (it->second.first + it->second.second), 0.5 * (it->second.second - it->second.first)});
+    }
+  }
+  if (time) {
+    const double zero = 0.0;
+    time_offset_block_ = addNuisanceBlock(1, &zero, nullptr, false);
+    addResidualBlock(new BlockPrior(1, {0.0}, {1.0 / time_offset_sigma_s_}), 0.0, {time_offset_block_});
+  }
+  source_ = src;
+  for (Record& rec : records_) {
+    if (rec.epochs.empty()) continue;
+    std::vector<detail::CorrectionTerm> terms;
+    std::vector<double*> extra;
+    for (const Epoch& e : rec.epochs) {
+      detail::CorrectionTerm term;
+      term.offset_block = e.block;
+      term.u_m = e.u_m;
+      if (time && e.moving) term.motion_m_s = e.velocity_m_s + e.rate_rad_s.cross(e.u_m);
+      auto it = index.find(e.offset);
+      if (it != index.end()) {
+        const StripCorrection& sc = corrections_blocks_[it->second];
+        term.tau = sc.half_span_s > 0 ? std::clamp((e.time_s - sc.t_mid_s) / sc.half_span_s, -1.0, 1.0) : 0.0;
+        term.correction_block = static_cast<int>(rec.blocks.size() + extra.size());
+        extra.push_back(sc.values);
+      }
+      terms.push_back(term);
+    }
+    const int n_corr = static_cast<int>(extra.size());
+    if (time) extra.push_back(time_offset_block_);
+    if (extra.empty()) continue;
+    rec.cost = new detail::CorrectedCost(rec.cost, std::move(terms), corrections_.position_degree, corr ? corrections_.attitude_degree : -1,
+                                         n_corr, time);
+    rec.blocks.insert(rec.blocks.end(), extra.begin(), extra.end());
+  }
 }
 
 void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m, bool in_sigma) {
@@ -677,6 +781,21 @@ class Estimation {
   /// source has an observation.
   bool estimate(const std::array<bool, 6>& est, std::array<double, 6> m) {
     S_.rematch_rounds = 0;
+    // A matching source matches at the mounting alone: from an a-priori mounting its first
+    // matches are biased, and per-strip corrections in time (many weakly determined directions)
+    // would follow them. They join once the matching has settled without them.
+    const bool staged = any_rematch_ && (o_.corrections.any() || o_.estimate_time_offset);
+    if (staged) {
+      without_corrections_ = true;
+      const bool ok = rematchLoop(est, m);
+      without_corrections_ = false;
+      if (!ok) return false;
+      m = P_->mountingValues();
+    }
+    return rematchLoop(est, m);
+  }
+
+  bool rematchLoop(const std::array<bool, 6>& est, std::array<double, 6> m) {
     std::vector<std::array<double, 6>> history;  // the mountings each round started from
     for (int round = 0; round < o_.max_rematch_rounds; ++round) {
       if (!buildProblem(est, m)) return false;
@@ -859,6 +978,7 @@ class Estimation {
     covariance(est, N_red);
     modelSensitivity(est, N_red);
     timeOffset(est);
+    trajectoryCorrections(est);
     for (std::size_t k = 0; k < sources_.size(); ++k) S_.kinds.push_back({sources_[k]->kind(), 0, 0});
     for (const auto& r : P_->records()) {
       if (r.source < 0) continue;
@@ -878,6 +998,7 @@ class Estimation {
     P_ = std::make_unique<AdjustmentProblem>(m, o_.strip_offset_sigma_m, o_.loss, o_.loss_scale_m, o_.numeric_diff_relative_step);
     P_->setPulseNoise(o_.pulse_noise);
     if (o_.time_offset_sigma_s > 0) P_->setMotion(motion_);
+    if (!without_corrections_) P_->setCorrections(o_.corrections, o_.estimate_time_offset ? o_.time_offset_sigma_s : 0.0);
     for (std::size_t k = 0; k < sources_.size(); ++k) {
       P_->setSource(static_cast<int>(k));
       sources_[k]->addBlocks(m, P_.get());
@@ -899,6 +1020,7 @@ class Estimation {
       problem.SetParameterBlockConstant(P_->mounting());
     else if (!fixed.empty())
       problem.SetManifold(P_->mounting(), new ceres::SubsetManifold(6, fixed));
+    P_->commit();
     return true;
   }
 
@@ -923,11 +1045,19 @@ class Estimation {
     }
     for (auto& entry : P_->stripOffsets()) ordering->AddElementToGroup(const_cast<double*>(entry.second.data()), 1);
     ordering->AddElementToGroup(P_->mounting(), 1);
+    // The blocks that are not eliminated first: dense while few (the mounting and the strip
+    // offsets), sparse once per-strip trajectory corrections make them many (each observation
+    // holds the blocks of its one or two strips only).
+    int kept = 6 + 3 * static_cast<int>(P_->stripOffsets().size());
+    for (const auto& b : P_->nuisanceBlocks())
+      if (!b.eliminable) kept += b.size;
+    const bool sparse = kept > 120 && (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+                                       ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE));
     if (any_e) {
-      so.linear_solver_type = ceres::DENSE_SCHUR;
+      so.linear_solver_type = sparse ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
       so.linear_solver_ordering = ordering;
     } else {
-      so.linear_solver_type = ceres::DENSE_QR;
+      so.linear_solver_type = sparse ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
     }
     so.max_num_iterations = capped() ? o_.max_iterations_per_matching : o_.max_iterations;
     so.function_tolerance = o_.function_tolerance;
@@ -1003,11 +1133,17 @@ class Estimation {
       co.num_threads = o_.num_threads;
       ceres::Covariance covariance(co);
       double* mb = P_->mounting();
-      const std::vector<std::pair<const double*, const double*>> blocks{{mb, mb}};
+      std::vector<std::pair<const double*, const double*>> blocks{{mb, mb}};
+      const std::vector<const double*> extra = estimatedNuisance();
+      for (std::size_t a = 0; a < extra.size(); ++a) {
+        blocks.emplace_back(mb, extra[a]);
+        for (std::size_t b = a; b < extra.size(); ++b) blocks.emplace_back(extra[a], extra[b]);
+      }
       Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
       if (covariance.Compute(blocks, &P_->ceresProblem()) && covariance.GetCovarianceBlock(mb, mb, c.data())) {
         cov = c * scale;
         S_.covariance_source = "ceres::Covariance";
+        nuisanceCovariance(covariance, extra, scale);
       } else {
         const Mat6 inv = inverseOnEstimated(N_red, est);
         for (int a = 0; a < 6; ++a)
@@ -1030,7 +1166,7 @@ class Estimation {
         S_.sigma_model = "formal + trajectory errors in time";
       }
     }
-    if (n_est > 0 && o_.time_offset_sigma_s > 0) {
+    if (n_est > 0 && o_.time_offset_sigma_s > 0 && !o_.estimate_time_offset) {
       // The time offset as a consider parameter: the mounting moves by s = −N⁻¹ n_mt per second.
       time_ = timeOffsetSystem(*P_);
       if (time_.any) {
@@ -1097,6 +1233,10 @@ class Estimation {
   /// 0.7 of the prior — that it is not determined, with the parameter it is most correlated with
   /// (at one speed δt is an along-track lever arm, v·δt).
   void timeOffset(const std::array<bool, 6>& est) {
+    if (o_.estimate_time_offset) {
+      estimatedTimeOffset(est);
+      return;
+    }
     if (!time_.any) {
       if (o_.time_offset_sigma_s > 0)
         S_.observability_report += "The time offset is not analysed: no strip's motion is known (per-point poses carry their own time).\n";
@@ -1149,6 +1289,142 @@ class Estimation {
     S_.model_sensitivity.push_back(ms);
   }
 
+  /// The nuisance blocks estimated beside the mounting whose covariance the summary reports:
+  /// each strip's trajectory corrections, then the time offset (StochasticOptions).
+  std::vector<const double*> estimatedNuisance() const {
+    std::vector<const double*> out;
+    for (const auto& sc : P_->stripCorrections()) out.push_back(sc.values);
+    if (P_->timeOffsetBlock()) out.push_back(P_->timeOffsetBlock());
+    return out;
+  }
+
+  /// Joint covariance of the mounting and the estimated nuisance blocks (estimatedNuisance()
+  /// order, after the mounting's 6 columns), from the computed ceres::Covariance.
+  void nuisanceCovariance(const ceres::Covariance& covariance, const std::vector<const double*>& extra, double scale) {
+    if (extra.empty()) return;
+    std::vector<int> first{6};
+    for (const double* b : extra) first.push_back(first.back() + blockSize(b));
+    const int n = first.back();
+    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n, n);
+    using RM = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const double* mb = P_->mounting();
+    for (std::size_t a = 0; a < extra.size(); ++a) {
+      const int na = blockSize(extra[a]);
+      RM ma(6, na);
+      if (!covariance.GetCovarianceBlock(mb, extra[a], ma.data())) return;
+      C.block(0, first[a], 6, na) = ma;
+      C.block(first[a], 0, na, 6) = ma.transpose();
+      for (std::size_t b = a; b < extra.size(); ++b) {
+        const int nb = blockSize(extra[b]);
+        RM ab(na, nb);
+        if (!covariance.GetCovarianceBlock(extra[a], extra[b], ab.data())) return;
+        C.block(first[a], first[b], na, nb) = ab;
+        C.block(first[b], first[a], nb, na) = ab.transpose();
+      }
+    }
+    nuisance_cov_ = C * scale;
+    nuisance_first_ = first;
+  }
+  int blockSize(const double* b) const {
+    for (const auto& nb : P_->nuisanceBlocks())
+      if (nb.values == b) return nb.size;
+    return 0;
+  }
+
+  /// StochasticOptions::estimate_time_offset: the solved δt, its σ, and how far the mounting
+  /// would move with δt held at 0 instead (first order, −C_mt C_tt⁻¹ δt̂).
+  void estimatedTimeOffset(const std::array<bool, 6>& est) {
+    const double* tb = P_->timeOffsetBlock();
+    if (!tb) {
+      S_.observability_report += "The time offset is not estimated: no strip's motion is known (per-point poses carry their own time).\n";
+      return;
+    }
+    S_.time_offset_in_solve = true;
+    S_.time_offset_s = *tb;
+    const auto extra = estimatedNuisance();
+    const int k = nuisance_first_.empty() ? -1 : nuisance_first_[extra.size() - 1];
+    if (k < 0) return;  // no covariance: the estimate alone
+    const double var_t = nuisance_cov_(k, k);
+    S_.time_offset_sigma_s = std::sqrt(std::max(var_t, 0.0));
+    if (!(var_t > 0)) return;
+    AdjustmentSummary::ModelSensitivity ms;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "the time offset held at 0 instead of estimated (%+.3g ± %.3g ms)", 1e3 * S_.time_offset_s,
+                  1e3 * S_.time_offset_sigma_s);
+    ms.change = buf;
+    ms.rejected_in_sigma = std::abs(S_.time_offset_s) / S_.time_offset_sigma_s;
+    int worst = -1;
+    double worst_rho = 0;
+    for (int j = 0; j < 6; ++j) {
+      if (!est[j] || !(S_.sigma[j] > 0)) continue;
+      const double c_mt = nuisance_cov_(j, k);
+      ms.shift[static_cast<std::size_t>(j)] = -c_mt / var_t * S_.time_offset_s;
+      ms.shift_in_sigma[static_cast<std::size_t>(j)] = std::abs(ms.shift[static_cast<std::size_t>(j)]) / S_.sigma[j];
+      const double rho = c_mt / (S_.sigma[j] * S_.time_offset_sigma_s);
+      if (std::abs(rho) > std::abs(worst_rho)) worst = j, worst_rho = rho;
+    }
+    S_.model_sensitivity.push_back(ms);
+    if (S_.time_offset_sigma_s > 0.7 * o_.time_offset_sigma_s) {
+      std::snprintf(buf, sizeof buf, "The time offset is not determined by these data (σ %.3g ms against its prior %.3g ms)",
+                    1e3 * S_.time_offset_sigma_s, 1e3 * o_.time_offset_sigma_s);
+      S_.observability_report += buf;
+      if (worst >= 0) {
+        std::snprintf(buf, sizeof buf, "; it can hardly be told from %s (correlation %+.3f)", mountingParameterNames()[worst].c_str(),
+                      worst_rho);
+        S_.observability_report += buf;
+      }
+      S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
+    }
+  }
+
+  /// StochasticOptions::corrections: each strip's correction at its ends, and how far the
+  /// mounting would move with every correction held at 0 (first order, −C_mc C_cc⁻¹ ĉ).
+  void trajectoryCorrections(const std::array<bool, 6>& est) {
+    const auto& blocks = P_->stripCorrections();
+    if (blocks.empty()) return;
+    const TrajectoryCorrections& tc = o_.corrections;
+    Eigen::VectorXd c_hat(static_cast<Eigen::Index>(blocks.size()) * tc.size());
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const auto& b = blocks[i];
+      AdjustmentSummary::StripCorrection out;
+      out.strip_id = b.strip_id;
+      out.t_start_s = b.t_mid_s - b.half_span_s;
+      out.t_end_s = b.t_mid_s + b.half_span_s;
+      for (int j = 0; j < tc.size(); ++j) c_hat[static_cast<Eigen::Index>(i) * tc.size() + j] = b.values[j];
+      for (int k = 1; k <= tc.position_degree; ++k)
+        for (int a = 0; a < 3; ++a) {
+          const double c = b.values[3 * (k - 1) + a];
+          out.position_end_m[a] += c;
+          out.position_start_m[a] += (k % 2 ? -c : c);
+        }
+      for (int k = 0; k <= tc.attitude_degree; ++k)
+        for (int a = 0; a < 3; ++a) {
+          const double c = b.values[3 * tc.position_degree + 3 * k + a];
+          out.attitude_end_rad[a] += c;
+          out.attitude_start_rad[a] += (k % 2 ? -c : c);
+        }
+      S_.strip_corrections.push_back(out);
+    }
+    if (nuisance_first_.empty()) return;
+    const int n = static_cast<int>(c_hat.size());
+    const Eigen::MatrixXd Ccc = nuisance_cov_.block(6, 6, n, n);
+    const Eigen::MatrixXd Cmc = nuisance_cov_.block(0, 6, 6, n);
+    const Eigen::VectorXd z = Ccc.completeOrthogonalDecomposition().solve(c_hat);
+    const Eigen::VectorXd shift = -Cmc * z;
+    AdjustmentSummary::ModelSensitivity ms;
+    ms.change = "the trajectory corrections held at 0 (strip offsets only)";
+    // How strongly the data reject "no corrections": χ² = ĉᵀ C_cc⁻¹ ĉ with n degrees of
+    // freedom, as a normal deviate (Wilson–Hilferty).
+    const double chi2 = std::max(c_hat.dot(z), 0.0), h = 2.0 / (9.0 * n);
+    ms.rejected_in_sigma = std::max(0.0, (std::cbrt(chi2 / n) - (1.0 - h)) / std::sqrt(h));
+    for (int j = 0; j < 6; ++j) {
+      if (!est[j] || !(S_.sigma[j] > 0)) continue;
+      ms.shift[static_cast<std::size_t>(j)] = shift[j];
+      ms.shift_in_sigma[static_cast<std::size_t>(j)] = std::abs(shift[j]) / S_.sigma[j];
+    }
+    S_.model_sensitivity.push_back(ms);
+  }
+
   const MountingAdjustment::Options& o_;
   const MotionFunction& motion_;
   const std::vector<ObservationSource*>& sources_;
@@ -1163,6 +1439,9 @@ class Estimation {
   bool first_ = true;
   std::ostringstream report_;
   TimeOffsetSystem time_;
+  bool without_corrections_ = false;  ///< estimate()'s first stage (see there)
+  Eigen::MatrixXd nuisance_cov_;      ///< nuisanceCovariance(): mounting, then estimatedNuisance()
+  std::vector<int> nuisance_first_;   ///< first column of each estimated nuisance block there
 };
 
 }  // namespace

@@ -80,7 +80,21 @@ void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out)
   if (std::isnan(summary.time_offset_s))
     j["time_offset"] = nullptr;
   else
-    j["time_offset"] = {{"estimate_s", summary.time_offset_s}, {"sigma_s", summary.time_offset_sigma_s}, {"applied", false}};
+    j["time_offset"] = {{"estimate_s", summary.time_offset_s},
+                        {"sigma_s", numOrNull(summary.time_offset_sigma_s)},
+                        {"in_solve", summary.time_offset_in_solve},
+                        {"applied", false}};
+  json corr = json::array();
+  for (const auto& c : summary.strip_corrections) {
+    const Vec3 a0 = c.attitude_start_rad * (180.0 / kPi), a1 = c.attitude_end_rad * (180.0 / kPi);
+    corr.push_back({{"strip", c.strip_id},
+                    {"time_s", {c.t_start_s, c.t_end_s}},
+                    {"position_start_m", vec(c.position_start_m)},
+                    {"position_end_m", vec(c.position_end_m)},
+                    {"attitude_start_deg", vec(a0)},
+                    {"attitude_end_deg", vec(a1)}});
+  }
+  j["trajectory_corrections"] = corr;
   if (summary.resolve.done) {
     const auto& rc = summary.resolve;
     json shift = json::array(), z = json::array();

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "io/json_fields.hpp"
+#include "job/stochastic_fields.hpp"
 #include "mountcal/methods/method.hpp"
 #include "mountcal/core/error.hpp"
 #include "mountcal/io/atomic_file.hpp"
@@ -140,14 +141,38 @@ void readMethodSections(const std::string& path, const Fields& top, const json& 
   }
 }
 
+}  // namespace
+
+void detail::readTrajectoryModel(const Fields& st, StochasticOptions* options) {
+  StochasticOptions& opts = *options;
+  opts.time_offset_sigma_s = st.num("time_offset_sigma_s", opts.time_offset_sigma_s, 0.0, 10.0);
+  opts.estimate_time_offset = st.boolean("estimate_time_offset", opts.estimate_time_offset);
+  if (opts.estimate_time_offset && !(opts.time_offset_sigma_s > 0))
+    st.fail("estimate_time_offset", "needs \"time_offset_sigma_s\" > 0, the time offset's prior σ");
+  if (st.has("corrections")) {
+    // Per-strip trajectory corrections in time (Legendre polynomials over each strip's span).
+    const Fields c =
+        st.sub("corrections", {"position_degree", "attitude_degree", "position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"});
+    TrajectoryCorrections& tc = opts.corrections;
+    tc.position_degree = c.integer("position_degree", tc.position_degree, 0, 3);
+    tc.attitude_degree = c.integer("attitude_degree", tc.attitude_degree, -1, 3);
+    tc.position_sigma_m = c.num("position_sigma_m", tc.position_sigma_m, 1e-6, 100.0);
+    tc.roll_pitch_sigma_deg = c.num("roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg, 1e-6, 10.0);
+    tc.heading_sigma_deg = c.num("heading_sigma_deg", tc.heading_sigma_deg, 1e-6, 10.0);
+  }
+}
+
+namespace {
+
 /// The stochastic settings every method shares: "stochastic" (and the earlier
 /// "vtpm.strip_offset_sigma_m", with a notice).
 void readStochastic(const Fields& top, const json& j, Job* job) {
   MountingCalibrator::Options& opts = job->options;
   if (top.has("stochastic")) {
-    const Fields st = top.sub("stochastic", {"strip_offset_sigma_m", "trajectory", "time_offset_sigma_s"});
+    const Fields st =
+        top.sub("stochastic", {"strip_offset_sigma_m", "trajectory", "time_offset_sigma_s", "estimate_time_offset", "corrections"});
     opts.strip_offset_sigma_m = st.num("strip_offset_sigma_m", opts.strip_offset_sigma_m, 0.0, 1000.0);
-    opts.time_offset_sigma_s = st.num("time_offset_sigma_s", opts.time_offset_sigma_s, 0.0, 10.0);
+    detail::readTrajectoryModel(st, &opts);
     if (st.has("trajectory") && st.at("trajectory").is_string()) {
       if (st.str("trajectory") != "none") st.fail("trajectory", "expected \"none\" or an object of σ and τ");
       opts.trajectory = TrajectoryAccuracy::none();
@@ -604,6 +629,17 @@ std::string jobJson(const Job& job) {
   }
   if (opts.strip_offset_sigma_m != def.strip_offset_sigma_m) j["stochastic"]["strip_offset_sigma_m"] = opts.strip_offset_sigma_m;
   if (opts.time_offset_sigma_s != def.time_offset_sigma_s) j["stochastic"]["time_offset_sigma_s"] = opts.time_offset_sigma_s;
+  if (opts.estimate_time_offset) j["stochastic"]["estimate_time_offset"] = true;
+  const TrajectoryCorrections& tc = opts.corrections;
+  const TrajectoryCorrections& tcd = def.corrections;
+  if (tc.position_degree != tcd.position_degree || tc.attitude_degree != tcd.attitude_degree ||
+      tc.position_sigma_m != tcd.position_sigma_m || tc.roll_pitch_sigma_deg != tcd.roll_pitch_sigma_deg ||
+      tc.heading_sigma_deg != tcd.heading_sigma_deg)
+    j["stochastic"]["corrections"] = {{"position_degree", tc.position_degree},
+                                      {"attitude_degree", tc.attitude_degree},
+                                      {"position_sigma_m", tc.position_sigma_m},
+                                      {"roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg},
+                                      {"heading_sigma_deg", tc.heading_sigma_deg}};
   const TrajectoryAccuracy& ta = opts.trajectory;
   const TrajectoryAccuracy& td = def.trajectory;
   if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "io/json_fields.hpp"
+#include "job/stochastic_fields.hpp"
 #include "mountcal/core/error.hpp"
 
 namespace mountcal::plan {
@@ -303,6 +304,10 @@ void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
   noise.point_sigma_m = sig.num("plane_m", std::max(n.range_sigma_m, 0.005), 1e-4, 1.0);
   for (const auto& m : registeredMethods()) m->adoptNoise(noise, &opts.method_options.at(m->name(), m->defaultOptions()));
   opts.strip_offset_sigma_m = sig.num("strip_offset_m", n.gnss_sigma_m, 0.0, 10.0);
+  // The trajectory model the calibration will use, as in a job: per-strip corrections in time and
+  // the time offset (at one speed it is an along-track lever arm: the prediction says so).
+  if (top.has("stochastic"))
+    detail::readTrajectoryModel(top.sub("stochastic", {"corrections", "time_offset_sigma_s", "estimate_time_offset"}), &opts);
   opts.pulse_noise.range_m = n.range_sigma_m;
   opts.pulse_noise.beam_deg = rad2deg(n.scan_angle_sigma_rad);
   opts.pulse_noise.roll_pitch_deg = rad2deg(n.attitude_sigma_rad);
@@ -317,8 +322,8 @@ void readPlanMethods(const std::string& path, const Fields& top, Plan& p) {
 Plan readPlan(const std::string& path) {
   const json j = detail::parseJsonFile(path, "plan");
   const Fields top(path, j, "",
-                   {"name", "sensor", "noise", "mounting", "lines", "ground", "gcps", "method", "estimate", "sigma", "roi_radius_m",
-                    "trajectory_rate_hz"});
+                   {"name", "sensor", "noise", "mounting", "lines", "ground", "gcps", "method", "estimate", "sigma", "stochastic",
+                    "roi_radius_m", "trajectory_rate_hz"});
   Plan p;
   p.path = path;
   p.name = top.str("name", "plan");

@@ -31,7 +31,8 @@
 
 namespace ceres {
 class Problem;
-}
+class LossFunction;
+}  // namespace ceres
 
 namespace mountcal {
 
@@ -131,6 +132,33 @@ struct TrajectoryAccuracy {
   bool IsValid(std::string* error) const;
 };
 
+/// Trajectory corrections estimated per strip — what TerraMatch, OPALS StripAdjust (Glira et al.
+/// 2016) and BayesStripAlign estimate beside the mounting: a strip's position and attitude errors
+/// as polynomials in its time,
+///
+///   δp(t) = o + Σ_{k=1..d_p} c_k P_k(τ),   δψ(t) = Σ_{k=0..d_a} e_k P_k(τ),
+///
+/// τ ∈ [−1, 1] over the time span of the strip's observations, P_k the Legendre polynomials
+/// (P₁ = τ, P₂ = (3τ² − 1)/2, P₃ = (5τ³ − 3τ)/2). The constant strip offset o (strip_offset_sigma_m)
+/// is the degree-0 position term. An observation at u = x − p (IMU → point, mapping frame) moves by
+/// δp(t) + δψ(t) × u. Each coefficient has a zero-mean prior of the σ below, per axis (the size of
+/// the correction it makes at a strip's end). Nuisance blocks of the one adjustment, eliminated in
+/// the mounting's covariance; what the polynomials absorb of the trajectory errors in time is then
+/// no longer in their consider term (its Jacobians are the reduced ones, orthogonal to these
+/// blocks), only what they cannot follow. Corrections need the sources' epochs
+/// (AdjustmentProblem::setEpoch: every built-in method states them).
+struct TrajectoryCorrections {
+  int position_degree = 0;              ///< 0: the strip offset alone; 1: + linear drift; up to 3
+  int attitude_degree = -1;             ///< −1: none; 0: a constant attitude error per strip; up to 3
+  double position_sigma_m = 0.05;       ///< prior of each position coefficient, per axis [m]
+  double roll_pitch_sigma_deg = 0.005;  ///< prior of each attitude coefficient about x, y [deg]
+  double heading_sigma_deg = 0.01;      ///< prior of each attitude coefficient about z [deg]
+  bool any() const { return position_degree > 0 || attitude_degree >= 0; }
+  /// Coefficients per strip: 3 d_p position, then 3 (d_a + 1) attitude.
+  int size() const { return 3 * position_degree + 3 * (attitude_degree + 1); }
+  bool IsValid(std::string* error) const;
+};
+
 /// Velocity [m/s] and angular rate [rad/s] of the IMU in the mapping frame at a strip's time
 /// (d/dt of p_m and R_mb = [ω]× R_mb); false when unknown.
 using MotionFunction = std::function<bool(const std::string& strip_id, double time_s, Vec3* velocity_m_s, Vec3* rate_rad_s)>;
@@ -159,6 +187,13 @@ struct StochasticOptions {
   /// the platform's motion (MountingAdjustment::setMotion; MountingCalibrator sets it from the
   /// trajectory; strips with per-point poses carry their own time and are left out).
   double time_offset_sigma_s = 0.0;
+  /// With time_offset_sigma_s > 0: estimate δt in the solve (a parameter beside the mounting
+  /// under that prior, eliminated in the mounting's covariance; Summary::time_offset_s is then
+  /// the solved value) instead of only considering it. It does not change the mounting's model
+  /// of the strips: δt moves every point by δt (v + ω × u).
+  bool estimate_time_offset = false;
+  /// Per-strip trajectory corrections in time (see above); off by default (the strip offsets).
+  TrajectoryCorrections corrections;
   bool IsValid(std::string* error) const;
 };
 
@@ -266,6 +301,25 @@ class AdjustmentProblem {
   /// Adds the priors of the random effects created by the sources (called by the adjustment
   /// after every source's addBlocks).
   void addRandomEffectPriors();
+  /// Trajectory corrections and the time offset to estimate (StochasticOptions), set before the
+  /// sources add their blocks; they are attached to the residual blocks in commit().
+  void setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s);
+  /// Hands every residual block to Ceres (called by the adjustment once the problem is complete).
+  /// Blocks are kept until then, so that the trajectory corrections (StochasticOptions::
+  /// corrections) and the time offset can be attached to those with epochs: their cost becomes
+  /// the source's cost at the corrected strip offsets, with the correction blocks (one per strip,
+  /// created here with their priors) and the time offset's block appended to their blocks.
+  void commit();
+  /// The per-strip correction block (TrajectoryCorrections order), its time span (centre, half
+  /// width [s]); empty before commit() or without corrections.
+  struct StripCorrection {
+    std::string strip_id;
+    double* values = nullptr;
+    double t_mid_s = 0.0, half_span_s = 0.0;
+  };
+  const std::vector<StripCorrection>& stripCorrections() const { return corrections_blocks_; }
+  /// The estimated time offset's block [s] (null unless estimated and some epoch moves).
+  double* timeOffsetBlock() { return time_offset_block_; }
 
   /// States when and where residual block `record` saw strip `strip_id` (whose offset block it
   /// holds): the pulse time [s] and u = x − p (IMU → point, mapping frame) [m]. The adjustment
@@ -298,6 +352,7 @@ class AdjustmentProblem {
     int source = -1;
     double loss_sigma_m = 0.0;
     std::vector<Epoch> epochs;
+    ceres::LossFunction* loss = nullptr;  ///< handed to Ceres with the cost in commit()
   };
   struct Block {
     double* values = nullptr;
@@ -328,6 +383,12 @@ class AdjustmentProblem {
   MotionFunction motion_;
   std::map<std::pair<std::string, long long>, double*> attitude_errors_;
   int source_ = -1;
+  TrajectoryCorrections corrections_;
+  double time_offset_sigma_s_ = 0.0;  ///< > 0: the time offset is estimated
+  std::vector<StripCorrection> corrections_blocks_;
+  double* time_offset_block_ = nullptr;
+  bool committed_ = false;
+  void attachCorrections(bool corrections, bool time_offset);
 };
 
 /// A kind of observation of the mounting (a method). A source never solves: it adds blocks.
@@ -426,6 +487,18 @@ struct AdjustmentSummary {
   /// model_sensitivity says how far it would move.
   double time_offset_s = std::numeric_limits<double>::quiet_NaN();
   double time_offset_sigma_s = std::numeric_limits<double>::quiet_NaN();
+  /// True when the time offset above was estimated in the solve (StochasticOptions::
+  /// estimate_time_offset), false when it is the first-order estimate beside it.
+  bool time_offset_in_solve = false;
+  /// StochasticOptions::corrections: each strip's estimated correction at the start and the end
+  /// of its observations' time span (position [m] and attitude [rad], mapping axes) and the span.
+  struct StripCorrection {
+    std::string strip_id;
+    double t_start_s = 0.0, t_end_s = 0.0;
+    Vec3 position_start_m = Vec3::Zero(), position_end_m = Vec3::Zero();  ///< without the strip offset
+    Vec3 attitude_start_rad = Vec3::Zero(), attitude_end_rad = Vec3::Zero();
+  };
+  std::vector<StripCorrection> strip_corrections;
 
   /// Residual blocks and residuals per kind of observation, in the order of the sources.
   struct KindCount {

@@ -1,0 +1,116 @@
+#include "adjustment/corrected_cost.hpp"
+
+#include <algorithm>
+#include <array>
+
+namespace mountcal::detail {
+
+double legendre(int k, double tau) {
+  switch (k) {
+    case 0:
+      return 1.0;
+    case 1:
+      return tau;
+    case 2:
+      return 0.5 * (3.0 * tau * tau - 1.0);
+    default:
+      return 0.5 * (5.0 * tau * tau - 3.0) * tau;
+  }
+}
+
+CorrectedCost::CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionTerm> terms, int position_degree, int attitude_degree,
+                             int correction_blocks, bool time_block)
+    : inner_(inner),
+      terms_(std::move(terms)),
+      dp_(std::max(position_degree, 0)),
+      da_(attitude_degree),
+      n_inner_(static_cast<int>(inner->parameter_block_sizes().size())),
+      n_corr_(correction_blocks),
+      size_(3 * dp_ + 3 * (attitude_degree + 1)),
+      time_(time_block) {
+  set_num_residuals(inner->num_residuals());
+  *mutable_parameter_block_sizes() = inner->parameter_block_sizes();
+  for (int c = 0; c < n_corr_; ++c) mutable_parameter_block_sizes()->push_back(size_);
+  if (time_) mutable_parameter_block_sizes()->push_back(1);
+}
+
+void CorrectedCost::basis(const CorrectionTerm& term, double* B) const {
+  std::fill(B, B + 3 * size_, 0.0);
+  for (int k = 1; k <= dp_; ++k) {
+    const double w = legendre(k, term.tau);
+    for (int a = 0; a < 3; ++a) B[a * size_ + 3 * (k - 1) + a] = w;
+  }
+  // δψ × u = −[u]× δψ
+  const Vec3& u = term.u_m;
+  const double ux[3][3] = {{0, u.z(), -u.y()}, {-u.z(), 0, u.x()}, {u.y(), -u.x(), 0}};
+  for (int k = 0; k <= da_; ++k) {
+    const double w = legendre(k, term.tau);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) B[a * size_ + 3 * dp_ + 3 * k + b] = w * ux[a][b];
+  }
+}
+
+bool CorrectedCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const int nr = num_residuals();
+  const std::size_t nt = terms_.size();
+  const double dt = time_ ? parameters[n_inner_ + n_corr_][0] : 0.0;
+  std::vector<const double*> params(parameters, parameters + n_inner_);
+  std::vector<std::array<double, 3>> offsets(nt);
+  std::vector<double> B(nt * 3 * static_cast<std::size_t>(size_));
+  for (std::size_t t = 0; t < nt; ++t) {
+    const CorrectionTerm& term = terms_[t];
+    const double* o = parameters[term.offset_block];
+    Vec3 x(o[0], o[1], o[2]);
+    if (term.correction_block >= 0) {
+      double* Bt = B.data() + t * 3 * static_cast<std::size_t>(size_);
+      basis(term, Bt);
+      const double* c = parameters[term.correction_block];
+      for (int a = 0; a < 3; ++a)
+        for (int j = 0; j < size_; ++j) x[a] += Bt[a * size_ + j] * c[j];
+    }
+    x += dt * term.motion_m_s;
+    offsets[t] = {x.x(), x.y(), x.z()};
+    params[static_cast<std::size_t>(term.offset_block)] = offsets[t].data();
+  }
+  if (!jacobians) return inner_->Evaluate(params.data(), residuals, nullptr);
+  // The source's Jacobian with respect to each offset is needed for the corrections' and the
+  // time offset's, also when Ceres does not ask for the offset's own (a constant block).
+  std::vector<double*> jin(jacobians, jacobians + n_inner_);
+  std::vector<std::vector<double>> local(nt);
+  const bool time_jac = time_ && jacobians[n_inner_ + n_corr_];
+  for (std::size_t t = 0; t < nt; ++t) {
+    const CorrectionTerm& term = terms_[t];
+    const bool needed = time_jac || (term.correction_block >= 0 && jacobians[term.correction_block]);
+    if (needed && !jin[static_cast<std::size_t>(term.offset_block)]) {
+      local[t].resize(static_cast<std::size_t>(nr) * 3);
+      jin[static_cast<std::size_t>(term.offset_block)] = local[t].data();
+    }
+  }
+  if (!inner_->Evaluate(params.data(), residuals, jin.data())) return false;
+  for (int c = 0; c < n_corr_; ++c)
+    if (jacobians[n_inner_ + c]) std::fill(jacobians[n_inner_ + c], jacobians[n_inner_ + c] + nr * size_, 0.0);
+  if (time_jac) std::fill(jacobians[n_inner_ + n_corr_], jacobians[n_inner_ + n_corr_] + nr, 0.0);
+  for (std::size_t t = 0; t < nt; ++t) {
+    const CorrectionTerm& term = terms_[t];
+    const double* Jo = jin[static_cast<std::size_t>(term.offset_block)];
+    if (!Jo) continue;
+    if (term.correction_block >= 0 && jacobians[term.correction_block]) {
+      const double* Bt = B.data() + t * 3 * static_cast<std::size_t>(size_);
+      double* Jc = jacobians[term.correction_block];
+      for (int i = 0; i < nr; ++i)
+        for (int a = 0; a < 3; ++a) {
+          const double g = Jo[i * 3 + a];
+          if (g == 0.0) continue;
+          for (int j = 0; j < size_; ++j) Jc[i * size_ + j] += g * Bt[a * size_ + j];
+        }
+    }
+    if (time_jac) {
+      double* Jt = jacobians[n_inner_ + n_corr_];
+      for (int i = 0; i < nr; ++i)
+        Jt[i] += Jo[i * 3] * term.motion_m_s.x() + Jo[i * 3 + 1] * term.motion_m_s.y() + Jo[i * 3 + 2] * term.motion_m_s.z();
+    }
+  }
+  return true;
+}
+
+}  // namespace mountcal::detail

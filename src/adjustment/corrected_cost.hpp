@@ -1,0 +1,49 @@
+#pragma once
+/// \file corrected_cost.hpp
+/// A source's residual block at corrected strip offsets (internal to the adjustment): the
+/// trajectory corrections in time and the time offset of StochasticOptions, attached to any
+/// source's cost through its strip-offset blocks — a strip offset o enters an observation as a
+/// shift of its point, so a correction δ(t, u) of that point is the offset o + δ.
+
+#include <memory>
+#include <vector>
+
+#include <ceres/cost_function.h>
+
+#include "mountcal/core/rotation.hpp"
+
+namespace mountcal::detail {
+
+/// Legendre polynomial P_k(τ), k ≤ 3.
+double legendre(int k, double tau);
+
+/// Where one strip's offset block enters the source's cost and how the point moves there.
+struct CorrectionTerm {
+  int offset_block = 0;            ///< index of the strip's offset among the source's blocks
+  int correction_block = -1;       ///< index of the strip's correction block in the wrapped cost, −1: none
+  double tau = 0.0;                ///< the epoch's time on the strip's span, [−1, 1]
+  Vec3 u_m = Vec3::Zero();         ///< IMU → point, mapping frame [m]
+  Vec3 motion_m_s = Vec3::Zero();  ///< ∂x/∂δt = v + ω × u [m/s]; zero: no time offset
+};
+
+/// The wrapped cost: the source's blocks, then the correction blocks, then (time_block ≥ 0)
+/// the time offset's block of size 1. Point shift at a term (TrajectoryCorrections):
+///   δ = Σ_{k=1..d_p} c_k P_k(τ) + (Σ_{k=0..d_a} e_k P_k(τ)) × u + δt (v + ω × u),
+/// passed to the source as its offset o + δ; Jacobians by the chain rule through ∂r/∂o.
+class CorrectedCost final : public ceres::CostFunction {
+ public:
+  CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionTerm> terms, int position_degree, int attitude_degree,
+                int correction_blocks, bool time_block);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  const ceres::CostFunction& inner() const { return *inner_; }
+
+ private:
+  /// 3 × size basis: ∂δ/∂(coefficients) at a term.
+  void basis(const CorrectionTerm& term, double* B) const;
+  std::unique_ptr<ceres::CostFunction> inner_;
+  std::vector<CorrectionTerm> terms_;
+  int dp_, da_, n_inner_, n_corr_, size_;
+  bool time_;
+};
+
+}  // namespace mountcal::detail
