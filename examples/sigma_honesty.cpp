@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1;
   bool model_drift = false, trajectory_none = false;
   double offset_sigma = 0.02;
-  int corr_position = 0, corr_attitude = -1;
+  int corr_position = 0, corr_attitude = 0;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

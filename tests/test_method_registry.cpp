@@ -227,7 +227,7 @@ TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked
   bad["stochastic"]["corrections"]["position_degree"] = 4;
   refused(bad, "position_degree");
   bad = j;
-  bad["stochastic"]["corrections"]["attitude_degree"] = -2;
+  bad["stochastic"]["corrections"]["attitude_degree"] = -1;
   refused(bad, "attitude_degree");
   bad = j;
   bad["stochastic"]["corrections"]["splines"] = true;

@@ -135,7 +135,7 @@ TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
   EXPECT_LT(two.sigma[kLeverX], 0.7 * one.sigma[kLeverX]);
   json k = village(kTwoHeights, false);
   const Prediction plain = predict(load(k));
-  k["stochastic"] = {{"corrections", {{"position_degree", 1}, {"attitude_degree", 0}}}};
+  k["stochastic"] = {{"corrections", {{"position_degree", 1}, {"attitude_degree", 1}}}};
   const Prediction corrected = predict(load(k));
   for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
     EXPECT_GE(corrected.sigma[p], 0.999 * plain.sigma[p]) << mountingParameterNames()[p];

@@ -26,7 +26,7 @@ CorrectedCost::CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionT
       da_(attitude_degree),
       n_inner_(static_cast<int>(inner->parameter_block_sizes().size())),
       n_corr_(correction_blocks),
-      size_(3 * dp_ + 3 * (attitude_degree + 1)),
+      size_(3 * dp_ + 3 * std::max(attitude_degree, 0)),
       time_(time_block) {
   set_num_residuals(inner->num_residuals());
   *mutable_parameter_block_sizes() = inner->parameter_block_sizes();
@@ -43,10 +43,10 @@ void CorrectedCost::basis(const CorrectionTerm& term, double* B) const {
   // δψ × u = −[u]× δψ
   const Vec3& u = term.u_m;
   const double ux[3][3] = {{0, u.z(), -u.y()}, {-u.z(), 0, u.x()}, {u.y(), -u.x(), 0}};
-  for (int k = 0; k <= da_; ++k) {
+  for (int k = 1; k <= da_; ++k) {
     const double w = legendre(k, term.tau);
     for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) B[a * size_ + 3 * dp_ + 3 * k + b] = w * ux[a][b];
+      for (int b = 0; b < 3; ++b) B[a * size_ + 3 * dp_ + 3 * (k - 1) + b] = w * ux[a][b];
   }
 }
 

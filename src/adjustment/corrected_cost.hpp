@@ -28,7 +28,7 @@ struct CorrectionTerm {
 
 /// The wrapped cost: the source's blocks, then the correction blocks, then (time_block ≥ 0)
 /// the time offset's block of size 1. Point shift at a term (TrajectoryCorrections):
-///   δ = Σ_{k=1..d_p} c_k P_k(τ) + (Σ_{k=0..d_a} e_k P_k(τ)) × u + δt (v + ω × u),
+///   δ = Σ_{k=1..d_p} c_k P_k(τ) + (Σ_{k=1..d_a} e_k P_k(τ)) × u + δt (v + ω × u),
 /// passed to the source as its offset o + δ; Jacobians by the chain rule through ∂r/∂o.
 class CorrectedCost final : public ceres::CostFunction {
  public:

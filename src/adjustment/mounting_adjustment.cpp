@@ -100,11 +100,12 @@ bool TrajectoryAccuracy::IsValid(std::string* error) const {
 bool TrajectoryCorrections::IsValid(std::string* error) const {
   if (position_degree < 0 || position_degree > 3)
     return failWith(error, "corrections.position_degree must be 0 (the strip offset alone) to 3");
-  if (attitude_degree < -1 || attitude_degree > 3) return failWith(error, "corrections.attitude_degree must be -1 (none) to 3");
+  if (attitude_degree < 0 || attitude_degree > 3)
+    return failWith(error, "corrections.attitude_degree must be 0 (none) to 3 (a constant attitude error is the boresight itself)");
   if (position_degree > 0 && !(position_sigma_m > 0 && position_sigma_m <= 100))
     return failWith(error, "corrections.position_sigma_m must be in (0, 100] m when position_degree > 0");
-  if (attitude_degree >= 0 && !(roll_pitch_sigma_deg > 0 && roll_pitch_sigma_deg <= 10 && heading_sigma_deg > 0 && heading_sigma_deg <= 10))
-    return failWith(error, "corrections.roll_pitch_sigma_deg and heading_sigma_deg must be in (0, 10] deg when attitude_degree >= 0");
+  if (attitude_degree > 0 && !(roll_pitch_sigma_deg > 0 && roll_pitch_sigma_deg <= 10 && heading_sigma_deg > 0 && heading_sigma_deg <= 10))
+    return failWith(error, "corrections.roll_pitch_sigma_deg and heading_sigma_deg must be in (0, 10] deg when attitude_degree > 0");
   return true;
 }
 
@@ -417,7 +418,7 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
     const int n_corr = static_cast<int>(extra.size());
     if (time) extra.push_back(time_offset_block_);
     if (extra.empty()) continue;
-    rec.cost = new detail::CorrectedCost(rec.cost, std::move(terms), corrections_.position_degree, corr ? corrections_.attitude_degree : -1,
+    rec.cost = new detail::CorrectedCost(rec.cost, std::move(terms), corrections_.position_degree, corr ? corrections_.attitude_degree : 0,
                                          n_corr, time);
     rec.blocks.insert(rec.blocks.end(), extra.begin(), extra.end());
   }
@@ -1397,9 +1398,9 @@ class Estimation {
           out.position_end_m[a] += c;
           out.position_start_m[a] += (k % 2 ? -c : c);
         }
-      for (int k = 0; k <= tc.attitude_degree; ++k)
+      for (int k = 1; k <= tc.attitude_degree; ++k)
         for (int a = 0; a < 3; ++a) {
-          const double c = b.values[3 * tc.position_degree + 3 * k + a];
+          const double c = b.values[3 * tc.position_degree + 3 * (k - 1) + a];
           out.attitude_end_rad[a] += c;
           out.attitude_start_rad[a] += (k % 2 ? -c : c);
         }

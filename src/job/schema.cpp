@@ -155,7 +155,7 @@ void detail::readTrajectoryModel(const Fields& st, StochasticOptions* options) {
         st.sub("corrections", {"position_degree", "attitude_degree", "position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"});
     TrajectoryCorrections& tc = opts.corrections;
     tc.position_degree = c.integer("position_degree", tc.position_degree, 0, 3);
-    tc.attitude_degree = c.integer("attitude_degree", tc.attitude_degree, -1, 3);
+    tc.attitude_degree = c.integer("attitude_degree", tc.attitude_degree, 0, 3);
     tc.position_sigma_m = c.num("position_sigma_m", tc.position_sigma_m, 1e-6, 100.0);
     tc.roll_pitch_sigma_deg = c.num("roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg, 1e-6, 10.0);
     tc.heading_sigma_deg = c.num("heading_sigma_deg", tc.heading_sigma_deg, 1e-6, 10.0);

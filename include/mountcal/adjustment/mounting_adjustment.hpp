@@ -136,11 +136,13 @@ struct TrajectoryAccuracy {
 /// 2016) and BayesStripAlign estimate beside the mounting: a strip's position and attitude errors
 /// as polynomials in its time,
 ///
-///   δp(t) = o + Σ_{k=1..d_p} c_k P_k(τ),   δψ(t) = Σ_{k=0..d_a} e_k P_k(τ),
+///   δp(t) = o + Σ_{k=1..d_p} c_k P_k(τ),   δψ(t) = Σ_{k=1..d_a} e_k P_k(τ),
 ///
 /// τ ∈ [−1, 1] over the time span of the strip's observations, P_k the Legendre polynomials
 /// (P₁ = τ, P₂ = (3τ² − 1)/2, P₃ = (5τ³ − 3τ)/2). The constant strip offset o (strip_offset_sigma_m)
-/// is the degree-0 position term. An observation at u = x − p (IMU → point, mapping frame) moves by
+/// is the degree-0 position term. The attitude has no degree-0 term: a constant attitude error of a
+/// strip rotates its every beam as that strip's boresight would (for level flight exactly), so the
+/// data cannot tell it from the mounting. An observation at u = x − p (IMU → point, mapping frame) moves by
 /// δp(t) + δψ(t) × u. Each coefficient has a zero-mean prior of the σ below, per axis (the size of
 /// the correction it makes at a strip's end). Nuisance blocks of the one adjustment, eliminated in
 /// the mounting's covariance; what the polynomials absorb of the trajectory errors in time is then
@@ -149,13 +151,13 @@ struct TrajectoryAccuracy {
 /// (AdjustmentProblem::setEpoch: every built-in method states them).
 struct TrajectoryCorrections {
   int position_degree = 0;              ///< 0: the strip offset alone; 1: + linear drift; up to 3
-  int attitude_degree = -1;             ///< −1: none; 0: a constant attitude error per strip; up to 3
+  int attitude_degree = 0;              ///< 0: none; 1: linear attitude drift; up to 3
   double position_sigma_m = 0.05;       ///< prior of each position coefficient, per axis [m]
   double roll_pitch_sigma_deg = 0.005;  ///< prior of each attitude coefficient about x, y [deg]
   double heading_sigma_deg = 0.01;      ///< prior of each attitude coefficient about z [deg]
-  bool any() const { return position_degree > 0 || attitude_degree >= 0; }
-  /// Coefficients per strip: 3 d_p position, then 3 (d_a + 1) attitude.
-  int size() const { return 3 * position_degree + 3 * (attitude_degree + 1); }
+  bool any() const { return position_degree > 0 || attitude_degree > 0; }
+  /// Coefficients per strip: 3 d_p position, then 3 d_a attitude.
+  int size() const { return 3 * position_degree + 3 * attitude_degree; }
   bool IsValid(std::string* error) const;
 };
 
