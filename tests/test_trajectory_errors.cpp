@@ -554,7 +554,10 @@ TEST(TrajectoryCorrections, KnownDriftAndAttitudeErrorsPerStripAreAbsorbedByEver
   // keeps a misfit (σ₀² 0.93 noise-free; heading 2.8σ off): named open in the docs.
   const simulation::SimulatedSurvey& s = mountcal_tests::crossingField(1, false, 8.0);
   const CalibrationData d = withTrajectoryErrors(s, driftPerStrip);
-  for (const char* method : {"vtpm", "planes", "correspondences"}) {
+  // Under the sanitizers one method runs (the wrapped cost is the same for every method).
+  const std::vector<const char*> methods =
+      mountcal_tests::kSanitizerBuild ? std::vector<const char*>{"planes"} : std::vector<const char*>{"vtpm", "planes", "correspondences"};
+  for (const char* method : methods) {
     MountingCalibrator::Options o;
     o.methods = {method};
     o.estimate = {true, true, false, true, true, true};
@@ -583,6 +586,8 @@ TEST(TrajectoryCorrections, KnownDriftAndAttitudeErrorsPerStripAreAbsorbedByEver
                 rad2deg(with.strip_corrections[1].attitude_start_rad.x()), 1e-12);
     EXPECT_NE(with.FullReport().find("Trajectory corrections per strip"), std::string::npos);
   }
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: planes only, for memory errors; vtpm and correspondences are checked in the Release suite";
 }
 
 TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
