@@ -35,7 +35,6 @@ class CorrectedCost final : public ceres::CostFunction {
   CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionTerm> terms, int position_degree, int attitude_degree,
                 int correction_blocks, bool time_block);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
-  const ceres::CostFunction& inner() const { return *inner_; }
 
  private:
   /// 3 × size basis: ∂δ/∂(coefficients) at a term.

@@ -1265,7 +1265,6 @@ class Estimation {
                   1e3 * S_.time_offset_sigma_s);
     ms.change = buf;
     ms.rejected_in_sigma = S_.time_offset_sigma_s > 0 ? std::abs(S_.time_offset_s) / S_.time_offset_sigma_s : 0.0;
-    const auto& names = mountingParameterNames();
     int worst = -1;
     double worst_rho = 0;
     for (int a = 0; a + 1 < k; ++a) {
@@ -1275,19 +1274,24 @@ class Estimation {
       const double rho = Ainv(a, k - 1) / std::sqrt(std::max(Ainv(a, a) * Ainv(k - 1, k - 1), 1e-300));
       if (std::abs(rho) > std::abs(worst_rho)) worst = j, worst_rho = rho;
     }
-    // An absolute rule, as for the mounting: the data determine δt only if they shrink its σ
-    // well below the prior's.
-    if (S_.time_offset_sigma_s > 0.7 * o_.time_offset_sigma_s) {
-      std::snprintf(buf, sizeof buf, "The time offset is not determined by these data (σ %.3g ms against its prior %.3g ms)",
-                    1e3 * S_.time_offset_sigma_s, 1e3 * o_.time_offset_sigma_s);
-      S_.observability_report += buf;
-      if (worst >= 0) {
-        std::snprintf(buf, sizeof buf, "; it can hardly be told from %s (correlation %+.3f)", names[worst].c_str(), worst_rho);
-        S_.observability_report += buf;
-      }
-      S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
-    }
+    reportTimeOffsetDetermination(worst, worst_rho);
     S_.model_sensitivity.push_back(ms);
+  }
+
+  /// An absolute rule, as for the mounting: the data determine δt only if they shrink its σ
+  /// (S_.time_offset_sigma_s) well below the prior's; if not, the report says so and names the
+  /// parameter `worst` it is most correlated with (correlation `rho`; −1: none).
+  void reportTimeOffsetDetermination(int worst, double rho) {
+    if (!(S_.time_offset_sigma_s > 0.7 * o_.time_offset_sigma_s)) return;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "The time offset is not determined by these data (σ %.3g ms against its prior %.3g ms)",
+                  1e3 * S_.time_offset_sigma_s, 1e3 * o_.time_offset_sigma_s);
+    S_.observability_report += buf;
+    if (worst >= 0) {
+      std::snprintf(buf, sizeof buf, "; it can hardly be told from %s (correlation %+.3f)", mountingParameterNames()[worst].c_str(), rho);
+      S_.observability_report += buf;
+    }
+    S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
   }
 
   /// The nuisance blocks estimated beside the mounting whose covariance the summary reports:
@@ -1326,11 +1330,8 @@ class Estimation {
     nuisance_cov_ = C * scale;
     nuisance_first_ = first;
   }
-  int blockSize(const double* b) const {
-    for (const auto& nb : P_->nuisanceBlocks())
-      if (nb.values == b) return nb.size;
-    return 0;
-  }
+  /// Size of an estimatedNuisance() block: the time offset's 1, a strip's corrections' size().
+  int blockSize(const double* b) const { return b == P_->timeOffsetBlock() ? 1 : o_.corrections.size(); }
 
   /// StochasticOptions::estimate_time_offset: the solved δt, its σ, and how far the mounting
   /// would move with δt held at 0 instead (first order, −C_mt C_tt⁻¹ δt̂).
@@ -1365,17 +1366,7 @@ class Estimation {
       if (std::abs(rho) > std::abs(worst_rho)) worst = j, worst_rho = rho;
     }
     S_.model_sensitivity.push_back(ms);
-    if (S_.time_offset_sigma_s > 0.7 * o_.time_offset_sigma_s) {
-      std::snprintf(buf, sizeof buf, "The time offset is not determined by these data (σ %.3g ms against its prior %.3g ms)",
-                    1e3 * S_.time_offset_sigma_s, 1e3 * o_.time_offset_sigma_s);
-      S_.observability_report += buf;
-      if (worst >= 0) {
-        std::snprintf(buf, sizeof buf, "; it can hardly be told from %s (correlation %+.3f)", mountingParameterNames()[worst].c_str(),
-                      worst_rho);
-        S_.observability_report += buf;
-      }
-      S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
-    }
+    reportTimeOffsetDetermination(worst, worst_rho);
   }
 
   /// StochasticOptions::corrections: each strip's correction at its ends, and how far the
@@ -1395,14 +1386,14 @@ class Estimation {
       for (int k = 1; k <= tc.position_degree; ++k)
         for (int a = 0; a < 3; ++a) {
           const double c = b.values[3 * (k - 1) + a];
-          out.position_end_m[a] += c;
-          out.position_start_m[a] += (k % 2 ? -c : c);
+          out.position_end_m[a] += c * detail::legendre(k, 1.0);
+          out.position_start_m[a] += c * detail::legendre(k, -1.0);
         }
       for (int k = 1; k <= tc.attitude_degree; ++k)
         for (int a = 0; a < 3; ++a) {
           const double c = b.values[3 * tc.position_degree + 3 * (k - 1) + a];
-          out.attitude_end_rad[a] += c;
-          out.attitude_start_rad[a] += (k % 2 ? -c : c);
+          out.attitude_end_rad[a] += c * detail::legendre(k, 1.0);
+          out.attitude_start_rad[a] += c * detail::legendre(k, -1.0);
         }
       S_.strip_corrections.push_back(out);
     }
