@@ -1,6 +1,8 @@
 // Survey simulator tests (issue: survey simulator).
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
 #include <map>
 
 #include "mountcal/core/error.hpp"
@@ -243,6 +245,42 @@ TEST(Simulator, MultiBeamPresetScansTheGroundAroundTheTargets) {
   EXPECT_GE(s.ties.size(), ties);
 }
 
+// Per-laser errors (issue 28): the rays are cast with the table plus the errors, the points are
+// georeferenced with the table. Through the true trajectory and mounting, the vector of the table
+// plus the errors reaches the surface hit exactly; the table's own vector misses it.
+TEST(Simulator, PerLaserErrorsAreCastWhileThePointsUseTheTable) {
+  Scene scene;
+  SurveyConfig c;
+  makePreset("uav-vlp16", 1, &c, &scene);
+  c.noise = NoiseModel::none();
+  c.roi_radius_m = 1.5;
+  keepOneHeight(&c);
+  c.multibeam.laser_errors = drawLaserErrors(c.multibeam.model.laserCount(), 5, deg2rad(0.1), deg2rad(0.05), 0.005, 0.01);
+  MultiBeamModel real = c.multibeam.model;
+  for (int i = 0; i < real.laserCount(); ++i) {
+    LaserSpec& l = real.lasers()[static_cast<std::size_t>(i)];
+    const LaserSpec& e = c.multibeam.laser_errors[static_cast<std::size_t>(i)];
+    l.elevation_rad += e.elevation_rad;
+    l.azimuth_offset_rad += e.azimuth_offset_rad;
+    l.vertical_offset_m += e.vertical_offset_m;
+    l.range_offset_m += e.range_offset_m;
+  }
+  const SimulatedSurvey s = simulate(c, scene);
+  const GeoreferenceModel truth(s.true_trajectory, c.true_mounting);
+  std::size_t n = 0, off = 0;
+  for (const SimulatedStrip& strip : s.strips) {
+    for (std::size_t k = 0; k < strip.pulses.size(); k += 11) {
+      const RawPulse& p = strip.pulses[k];
+      EXPECT_LT((p.r_s - c.multibeam.model.vector(p.laser_id, p.angle_rad, p.range_m)).norm(), 1e-9);  // the table's vector
+      EXPECT_LT((truth.forward(p.time_s, real.vector(p.laser_id, p.angle_rad, p.range_m)) - strip.true_points_m[k]).norm(), 1e-6);
+      off += (truth.forward(p.time_s, p.r_s) - strip.true_points_m[k]).norm() > 1e-3;
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 100u);
+  EXPECT_GT(off, n * 9 / 10);  // errors of 0.1°, 5 mm and 1 cm move nearly every point by over 1 mm
+}
+
 TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {
   Scene scene;
   SurveyConfig c;
@@ -314,3 +352,31 @@ TEST(SimulationNoise, WithoutDriftTheSurveyIsUnchanged) {
 
 }  // namespace
 }  // namespace mountcal::simulation
+
+// The scenario key "laser_errors" draws the errors for a multi-beam preset, and is refused for a
+// line scanner with the file and the field named.
+TEST(Scenario, LaserErrorsAreDrawnForAMultiBeamPresetAndRefusedForALineScanner) {
+  const std::string path = testing::TempDir() + "mountcal_scenario_lasers.json";
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"elevation_sigma_deg": 0.1, "range_sigma_m": 0.01, "seed": 4}})";
+  SurveyConfig c;
+  Scene scene;
+  loadScenario(path, &c, &scene);
+  const std::vector<LaserSpec> want = drawLaserErrors(16, 4, deg2rad(0.1), 0.0, 0.0, 0.01);
+  ASSERT_EQ(c.multibeam.laser_errors.size(), 16u);
+  for (std::size_t i = 0; i < want.size(); ++i) {
+    EXPECT_EQ(c.multibeam.laser_errors[i].elevation_rad, want[i].elevation_rad);
+    EXPECT_EQ(c.multibeam.laser_errors[i].range_offset_m, want[i].range_offset_m);
+    EXPECT_EQ(c.multibeam.laser_errors[i].azimuth_offset_rad, 0.0);
+  }
+  std::ofstream(path) << R"({"preset": "paper-calibration-field", "laser_errors": {"elevation_sigma_deg": 0.1}})";
+  try {
+    loadScenario(path, &c, &scene);
+    FAIL() << "a line scanner has no lasers to be off";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("laser_errors"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"elevation_sigma_deg": 5}})";
+  EXPECT_THROW(loadScenario(path, &c, &scene), FileError);  // 5°: not an error of a laser table
+  std::remove(path.c_str());
+}

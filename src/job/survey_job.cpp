@@ -170,6 +170,19 @@ void writeSimulatedTruth(const SimulatedSurvey& survey, const std::string& dir) 
       {"ties", survey.ties.size()},
       {"check_points", survey.check_points.size()},
   };
+  if (!c.multibeam.laser_errors.empty()) {  // by laser id: how the real sensor differs from its table
+    nlohmann::json e = {{"elevation_deg", nlohmann::json::array()},
+                        {"azimuth_deg", nlohmann::json::array()},
+                        {"vertical_offset_m", nlohmann::json::array()},
+                        {"range_offset_m", nlohmann::json::array()}};
+    for (const LaserSpec& l : c.multibeam.laser_errors) {
+      e["elevation_deg"].push_back(rad2deg(l.elevation_rad));
+      e["azimuth_deg"].push_back(rad2deg(l.azimuth_offset_rad));
+      e["vertical_offset_m"].push_back(l.vertical_offset_m);
+      e["range_offset_m"].push_back(l.range_offset_m);
+    }
+    truth["laser_errors"] = e;
+  }
   io::writeFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
 }
 
@@ -185,6 +198,7 @@ void writeSimulatedJobs(const SimulatedSurvey& survey, Job job, const SurveyWrit
   } else {
     job.sensor = SensorModel::multiBeam(c.multibeam.model);
     job.sensor_model = c.multibeam.model.name();
+    job.laser_field = "user_data";  // each point's laser id, as writeStrip stores it
   }
   job.mounting_used = c.nominal_mounting;
   job.check_points_path = at("check_points.csv");

@@ -94,6 +94,17 @@ void validate(const SurveyConfig& c) {
     if (c.multibeam.model.laserCount() == 0 || !(c.multibeam.rotation_hz > 0)) {
       throw InvalidInput("survey '" + c.name + "': multi-beam needs a laser table and a rotation rate");
     }
+    const std::vector<LaserSpec>& e = c.multibeam.laser_errors;
+    if (!e.empty() && static_cast<int>(e.size()) != c.multibeam.model.laserCount()) {
+      throw InvalidInput("survey '" + c.name + "': " + std::to_string(e.size()) + " laser errors for " +
+                         std::to_string(c.multibeam.model.laserCount()) + " lasers");
+    }
+    for (const LaserSpec& l : e) {
+      if (!std::isfinite(l.elevation_rad) || !std::isfinite(l.azimuth_offset_rad) || !std::isfinite(l.vertical_offset_m) ||
+          !std::isfinite(l.range_offset_m) || std::abs(l.elevation_rad) > 0.1 || std::abs(l.azimuth_offset_rad) > 0.1 ||
+          std::abs(l.vertical_offset_m) > 1.0 || std::abs(l.range_offset_m) > 1.0)
+        throw InvalidInput("survey '" + c.name + "': a laser error beyond 0.1 rad or 1 m (or not finite)");
+    }
   } else {
     throw InvalidInput("survey '" + c.name + "': the simulator scans with a line or multi-beam sensor");
   }
@@ -536,7 +547,15 @@ class LineSimulator {
         raw.laser_id = laser;
         double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
         raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
-        const LaserSpec& spec = mb.laser(laser);
+        // The laser as it really is: its table entry plus the sensor's error (SurveyConfig).
+        LaserSpec spec = mb.laser(laser);
+        if (!config.multibeam.laser_errors.empty()) {
+          const LaserSpec& e = config.multibeam.laser_errors[static_cast<std::size_t>(laser)];
+          spec.elevation_rad += e.elevation_rad;
+          spec.azimuth_offset_rad += e.azimuth_offset_rad;
+          spec.vertical_offset_m += e.vertical_offset_m;
+          spec.range_offset_m += e.range_offset_m;
+        }
         const double ce = std::cos(spec.elevation_rad);
         const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
         const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
@@ -649,10 +668,12 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
     strip.id = s.id;
     strip.time_s.reserve(s.pulses.size());
     strip.r_s.reserve(s.pulses.size());
+    const bool lasers = survey.config.sensor == SensorType::kMultiBeam;
     for (const RawPulse& p : s.pulses) {
       strip.time_s.push_back(p.time_s);
       strip.r_s.push_back(p.r_s);
       strip.intensity.push_back(p.intensity);
+      if (lasers) strip.laser.push_back(static_cast<std::uint16_t>(p.laser_id));
     }
     strip.x_m = s.points_m;
     d.strips.push_back(std::move(strip));
@@ -663,6 +684,30 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
   for (const PlanePatch& p : survey.plane_regions) d.plane_regions.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
   for (const PlanePatch& p : survey.target_regions) d.target_regions.push_back({p.id, p.xmin, p.ymin, p.xmax, p.ymax});
   return d;
+}
+
+std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double elevation_sigma_rad, double azimuth_sigma_rad,
+                                       double vertical_sigma_m, double range_sigma_m) {
+  if (lasers <= 0) return {};
+  detail::Rng rng(seed);
+  std::vector<LaserSpec> e(static_cast<std::size_t>(lasers));
+  LaserSpec mean;
+  for (LaserSpec& l : e) {
+    l.elevation_rad = elevation_sigma_rad * rng.normal();
+    l.azimuth_offset_rad = azimuth_sigma_rad * rng.normal();
+    l.vertical_offset_m = vertical_sigma_m * rng.normal();
+    l.range_offset_m = range_sigma_m * rng.normal();
+    mean.elevation_rad += l.elevation_rad / lasers;
+    mean.azimuth_offset_rad += l.azimuth_offset_rad / lasers;
+    mean.vertical_offset_m += l.vertical_offset_m / lasers;
+  }
+  // The common parts are the mounting's (see the declaration); a common range offset is not.
+  for (LaserSpec& l : e) {
+    l.elevation_rad -= mean.elevation_rad;
+    l.azimuth_offset_rad -= mean.azimuth_offset_rad;
+    l.vertical_offset_m -= mean.vertical_offset_m;
+  }
+  return e;
 }
 
 std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& s) {

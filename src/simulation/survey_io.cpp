@@ -53,12 +53,26 @@ void readNoise(const std::string& path, const detail::Fields& top, NoiseModel* m
     top.fail("noise", "drift periods need 0 < period_min_s <= period_max_s");
 }
 
+/// "laser_errors": {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m",
+/// "range_sigma_m", "seed"} — per-laser errors of a multi-beam sensor drawn by drawLaserErrors.
+void readLaserErrors(const detail::Fields& top, SurveyConfig* config) {
+  if (config->sensor != SensorType::kMultiBeam) top.fail("laser_errors", "the preset's sensor is not a multi-beam scanner");
+  const detail::Fields e =
+      top.sub("laser_errors", {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m", "range_sigma_m", "seed"});
+  const double seed = e.num("seed", 1.0, 0.0, 9007199254740992.0);
+  if (seed != std::floor(seed)) e.fail("seed", "expected an integer in [0, 2^53]");
+  config->multibeam.laser_errors = drawLaserErrors(
+      config->multibeam.model.laserCount(), static_cast<std::uint64_t>(seed), deg2rad(e.num("elevation_sigma_deg", 0.0, 0.0, 1.0)),
+      deg2rad(e.num("azimuth_sigma_deg", 0.0, 0.0, 1.0)), e.num("vertical_sigma_m", 0.0, 0.0, 0.1), e.num("range_sigma_m", 0.0, 0.0, 0.1));
+}
+
 }  // namespace
 
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
   const nlohmann::json j = detail::parseJsonFile(path, "scenario");
-  const detail::Fields top(path, j, "",
-                           {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m", "one_height", "max_points"});
+  const detail::Fields top(
+      path, j, "",
+      {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m", "one_height", "max_points", "laser_errors"});
   const std::string preset = top.str("preset");
   double seed = 1;
   if (top.has("seed")) {  // any 64-bit seed a preset takes; 2.5 or -1 is an error
@@ -84,6 +98,7 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
   config->roi_radius_m = top.num("roi_radius_m", config->roi_radius_m, 0.0, 1e4);  // 0: whole strips
   if (top.has("noise")) readNoise(path, top, &config->noise);
   config->max_points = top.num("max_points", config->max_points, 1.0, 1e9);  // the memory budget (SurveyConfig)
+  if (top.has("laser_errors")) readLaserErrors(top, config);
 }
 
 }  // namespace mountcal::simulation

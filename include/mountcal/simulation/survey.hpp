@@ -36,10 +36,24 @@ struct LineScannerConfig {
 };
 
 struct MultiBeamConfig {
+  /// The laser table the strips are georeferenced with (the driver's calibration file).
   MultiBeamModel model = MultiBeamModel::VLP16();
   double rotation_hz = 10.0;   ///< spin rate, 5–20 Hz [Hz]
   double max_range_m = 100.0;  ///< returns beyond this are lost [m]
+  /// Per laser id, how the real sensor differs from `model` (empty: not at all): the rays are
+  /// cast with elevation + δω, azimuth offset + δα, vertical offset + δz and range offset + δρ,
+  /// while the points are georeferenced with `model` — as a driver with a slightly wrong
+  /// calibration file writes them. Sizes other than 0 or the laser count are refused; the
+  /// firing offsets are not used. Tie picks see the true geometry.
+  std::vector<LaserSpec> laser_errors;
 };
+
+/// Per-laser errors of a spinning multi-beam sensor drawn from a seed: each laser's elevation,
+/// azimuth, vertical and range offsets normal with the given σ, then the mean over the lasers
+/// removed from each (a common elevation or azimuth offset is the boresight's, a common vertical
+/// offset the lever arm's, so a calibration cannot tell them from the mounting).
+std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double elevation_sigma_rad, double azimuth_sigma_rad = 0.0,
+                                       double vertical_sigma_m = 0.0, double range_sigma_m = 0.0);
 
 /// A straight flight line at constant height and speed.
 struct FlightLine {
@@ -204,8 +218,10 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 /// Loads a scenario file: a preset with overrides. Fields (all but "preset" optional):
 /// `{"preset": NAME, "seed": N, "true_mounting": {"lever_arm_m": [..], "boresight_deg": [..]},
 ///   "nominal_mounting": {...}, "noise": "none" | "realistic" | {"range_sigma_m", ...},
-///   "roi_radius_m": R}`. Throws FileError naming the file and the field for anything unknown
-/// or malformed.
+///   "roi_radius_m": R, "laser_errors": {"elevation_sigma_deg", "azimuth_sigma_deg",
+///   "vertical_sigma_m", "range_sigma_m", "seed"}}` (the last for a multi-beam preset: per-laser
+///   errors drawn by drawLaserErrors). Throws FileError naming the file and the field for
+///   anything unknown or malformed.
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
 
 }  // namespace mountcal::simulation
