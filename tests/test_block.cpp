@@ -250,7 +250,8 @@ TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
   const fs::path dir = tempDir("snakemake");
   {
     std::ofstream sc(dir / "scenario.json");
-    sc << "{\"preset\": \"block-8\", \"seed\": 7, \"roi_radius_m\": 5}\n";
+    // block-4: every rule of the workflow on six pairs (block-8 took 67 s under the sanitizers).
+    sc << "{\"preset\": \"block-4\", \"seed\": 7, \"roi_radius_m\": 5}\n";
   }
   ShellRun r = sh(cli() + " simulate " + (dir / "scenario.json").string() + " --no-ties --out " + (dir / "block").string());
   ASSERT_EQ(r.code, 0) << r.out;
@@ -278,16 +279,16 @@ TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
   const std::vector<double> serial = mounting(dir / "serial.json"), workflow = mounting(dir / "wf" / "result.json");
   ASSERT_EQ(serial.size(), 6u);
   for (int j = 0; j < 6; ++j) EXPECT_NEAR(workflow[j], serial[j], 1e-9) << "parameter " << j;
-  // Eight strips applied, one job each, equal to applying the serial result to the whole job.
+  // Four strips applied, one job each, equal to applying the serial result to the whole job.
   int strips = 0;
   for (const auto& e : fs::directory_iterator(dir / "wf" / "strips")) strips += e.path().extension() == ".las";
-  EXPECT_EQ(strips, 8);
+  EXPECT_EQ(strips, 4);
   r = sh(cli() + " apply " + job + " --result " + (dir / "serial.json").string() + " --out " + (dir / "whole").string() + " --threads 2");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(slurp(dir / "wf" / "strips" / "strip_ew2.las"), slurp(dir / "whole" / "strip_ew2.las"));
-  EXPECT_EQ(slurp(dir / "wf" / "strips" / "strip_ns4.las"), slurp(dir / "whole" / "strip_ns4.las"));
+  EXPECT_EQ(slurp(dir / "wf" / "strips" / "strip_ns2.las"), slurp(dir / "whole" / "strip_ns2.las"));
   // Delete one pair's file: the rerun matches that pair only, then solves and applies again.
-  const fs::path victim = dir / "wf" / "pairs" / "ew2__ns3.mcpair";
+  const fs::path victim = dir / "wf" / "pairs" / "ew2__ns1.mcpair";
   ASSERT_TRUE(fs::exists(victim));
   const std::string before = slurp(victim);
   fs::remove(victim);
@@ -299,7 +300,7 @@ TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
     return n;
   };
   EXPECT_EQ(count("match"), 1u) << r.out;
-  EXPECT_NE(r.out.find("wildcards: a=ew2, b=ns3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wildcards: a=ew2, b=ns1"), std::string::npos) << r.out;
   EXPECT_EQ(count("solve"), 1u);
   EXPECT_EQ(slurp(victim), before);  // the same pair file again
   const std::vector<double> again = mounting(dir / "wf" / "result.json");

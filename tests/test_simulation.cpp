@@ -254,7 +254,7 @@ TEST(Simulator, PerLaserErrorsAreCastWhileThePointsUseTheTable) {
   makePreset("uav-vlp16", 1, &c, &scene);
   c.noise = NoiseModel::none();
   c.roi_radius_m = 1.5;
-  keepOneHeight(&c);
+  c.lines.resize(1);  // one line: 33 s under the sanitizers with the three at 50 m
   c.multibeam.laser_errors = drawLaserErrors(c.multibeam.model.laserCount(), 5, deg2rad(0.1), deg2rad(0.05), 0.005, 0.01);
   MultiBeamModel real = c.multibeam.model;
   for (int i = 0; i < real.laserCount(); ++i) {
