@@ -581,6 +581,10 @@ TEST(SimulatedLaserErrors, AreZeroMeanDrawnFromTheSeedAndRefusedWhenTheyDoNotFit
 }
 
 TEST(CorrespondenceMethod, DenseMatchingRecoversEachLasersElevationErrorOnSimulatedTruth) {
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: the dense per-laser solve runs under the sanitizers on the Gravity passes "
+                    "(Sets/GravityCalibration.*, 32 elevation offsets each; 52 s here for this survey); its recovery of "
+                    "simulated truth is checked in the Release suite";
   const PerLaserSurvey& s = perLaserSurvey();
   const std::vector<LaserSpec>& truth = s.config.multibeam.laser_errors;
   const auto t = s.config.true_mounting.toArray();
@@ -598,9 +602,6 @@ TEST(CorrespondenceMethod, DenseMatchingRecoversEachLasersElevationErrorOnSimula
   EXPECT_LT(c.median_after_m, 2e-4);
   // Without the lasers' offsets the same data give a boresight off by hundredths of a degree
   // and passes millimetres apart: the test can fail.
-  if (mountcal_tests::kSanitizerBuild)
-    GTEST_SKIP() << "sanitizer build: the per-laser path ran with every assertion above; the same data without the offsets (a "
-                    "second dense solve) are compared in the Release suite";
   const auto without = denseCalibration(s, 0.0);
   ASSERT_TRUE(without.IsSolutionUsable()) << without.FullReport();
   const auto e0 = without.mounting.toArray();
