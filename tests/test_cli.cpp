@@ -298,8 +298,8 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
   // The field within 8 m of its features (the preset: 12 m): five calibrations of the same kinds
   // on half the points.
   fs::create_directories(base);
-  std::ofstream(base + "_scenario.json") << R"({"preset": "paper-calibration-field", "seed": 3, "roi_radius_m": 8})";
-  const std::string scenario = base + "_scenario.json";
+  const std::string scenario = base + "/scenario.json";
+  std::ofstream(scenario) << R"({"preset": "paper-calibration-field", "seed": 3, "roi_radius_m": 8})";
   const CommandRun sim = runCli("simulate " + scenario + " --no-ties --out " + base);
   ASSERT_EQ(sim.code, 0) << sim.err;
   ASSERT_FALSE(fs::exists(base + "/ties.csv"));
@@ -360,7 +360,6 @@ TEST(Cli, EveryMethodAndCombinationRunsFromJobFiles) {
   ASSERT_EQ(res["kinds"].size(), 2u);
   EXPECT_EQ(res["methods"], nlohmann::json({"vtpm", "planes"}));
   fs::remove_all(base);
-  fs::remove(scenario);
 }
 
 // Issue 26: a calibration that should not be used exits 1 with the reason; the result file and

@@ -256,15 +256,9 @@ TEST(Simulator, PerLaserErrorsAreCastWhileThePointsUseTheTable) {
   c.roi_radius_m = 1.5;
   c.lines.resize(1);  // one line: 33 s under the sanitizers with the three at 50 m
   c.multibeam.laser_errors = drawLaserErrors(c.multibeam.model.laserCount(), 5, deg2rad(0.1), deg2rad(0.05), 0.005, 0.01);
-  MultiBeamModel real = c.multibeam.model;
-  for (int i = 0; i < real.laserCount(); ++i) {
-    LaserSpec& l = real.lasers()[static_cast<std::size_t>(i)];
-    const LaserSpec& e = c.multibeam.laser_errors[static_cast<std::size_t>(i)];
-    l.elevation_rad += e.elevation_rad;
-    l.azimuth_offset_rad += e.azimuth_offset_rad;
-    l.vertical_offset_m += e.vertical_offset_m;
-    l.range_offset_m += e.range_offset_m;
-  }
+  const MultiBeamModel real = firedModel(c.multibeam);
+  ASSERT_EQ(real.laser(3).elevation_rad, c.multibeam.model.laser(3).elevation_rad + c.multibeam.laser_errors[3].elevation_rad);
+  ASSERT_EQ(real.laser(3).range_offset_m, c.multibeam.model.laser(3).range_offset_m + c.multibeam.laser_errors[3].range_offset_m);
   const SimulatedSurvey s = simulate(c, scene);
   const GeoreferenceModel truth(s.true_trajectory, c.true_mounting);
   std::size_t n = 0, off = 0;

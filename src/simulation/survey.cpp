@@ -229,6 +229,7 @@ struct SurveyContext {
   std::set<std::string> check_ids;
   std::vector<const FeaturePoint*> features;
   std::vector<Vec3> roi;
+  MultiBeamModel fired;                               // the lasers as they fire: firedModel()
   double roi_extra = 0;                               // check planes may be larger than the ROI radius
   mutable std::atomic<std::size_t> points_stored{0};  // by every line: SurveyConfig::max_points
 
@@ -241,7 +242,8 @@ struct SurveyContext {
         M_nom(c.nominal_mounting),
         R_bs_true(M_true.R_bs()),
         R_bs_nom(M_nom.R_bs()),
-        check_ids(c.check_point_ids.begin(), c.check_point_ids.end()) {
+        check_ids(c.check_point_ids.begin(), c.check_point_ids.end()),
+        fired(c.sensor == SensorType::kMultiBeam ? firedModel(c.multibeam) : MultiBeamModel{}) {
     const std::set<std::string> ignored(c.ignored_feature_ids.begin(), c.ignored_feature_ids.end());
     for (const FeaturePoint& fp : scene.features())
       if (!ignored.count(fp.id)) features.push_back(&fp);
@@ -547,15 +549,7 @@ class LineSimulator {
         raw.laser_id = laser;
         double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
         raw.angle_rad = az - 2 * kPi * std::floor(az / (2 * kPi));
-        // The laser as it really is: its table entry plus the sensor's error (SurveyConfig).
-        LaserSpec spec = mb.laser(laser);
-        if (!config.multibeam.laser_errors.empty()) {
-          const LaserSpec& e = config.multibeam.laser_errors[static_cast<std::size_t>(laser)];
-          spec.elevation_rad += e.elevation_rad;
-          spec.azimuth_offset_rad += e.azimuth_offset_rad;
-          spec.vertical_offset_m += e.vertical_offset_m;
-          spec.range_offset_m += e.range_offset_m;
-        }
+        const LaserSpec& spec = c_.fired.laser(laser);  // as it really fires (MultiBeamConfig::laser_errors)
         const double ce = std::cos(spec.elevation_rad);
         const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
         const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
@@ -663,12 +657,12 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
   CalibrationData d;
   d.trajectory = survey.measured_trajectory;
   d.mounting_used = survey.config.nominal_mounting;
+  const bool lasers = survey.config.sensor == SensorType::kMultiBeam;
   for (const SimulatedStrip& s : survey.strips) {
     StripData strip;
     strip.id = s.id;
     strip.time_s.reserve(s.pulses.size());
     strip.r_s.reserve(s.pulses.size());
-    const bool lasers = survey.config.sensor == SensorType::kMultiBeam;
     for (const RawPulse& p : s.pulses) {
       strip.time_s.push_back(p.time_s);
       strip.r_s.push_back(p.r_s);
@@ -708,6 +702,22 @@ std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double el
     l.vertical_offset_m -= mean.vertical_offset_m;
   }
   return e;
+}
+
+MultiBeamModel firedModel(const MultiBeamConfig& config) {
+  MultiBeamModel m = config.model;
+  if (config.laser_errors.empty()) return m;
+  if (static_cast<int>(config.laser_errors.size()) != m.laserCount())
+    throw InvalidInput(std::to_string(config.laser_errors.size()) + " laser errors for " + std::to_string(m.laserCount()) + " lasers");
+  for (std::size_t i = 0; i < config.laser_errors.size(); ++i) {
+    LaserSpec& l = m.lasers()[i];
+    const LaserSpec& e = config.laser_errors[i];
+    l.elevation_rad += e.elevation_rad;
+    l.azimuth_offset_rad += e.azimuth_offset_rad;
+    l.vertical_offset_m += e.vertical_offset_m;
+    l.range_offset_m += e.range_offset_m;
+  }
+  return m;
 }
 
 std::vector<TieObservation> paperFiveTies(const SimulatedSurvey& s) {

@@ -53,16 +53,23 @@ void readNoise(const std::string& path, const detail::Fields& top, NoiseModel* m
     top.fail("noise", "drift periods need 0 < period_min_s <= period_max_s");
 }
 
+/// A seed field: any integer a 64-bit seed takes up to 2^53 (JSON numbers are doubles); 2.5 or
+/// -1 is an error naming the field.
+std::uint64_t readSeed(const detail::Fields& f, const std::string& key, std::uint64_t def) {
+  if (!f.has(key)) return def;
+  const double seed = f.num(key);
+  if (seed != std::floor(seed) || seed < 0 || seed > 9007199254740992.0) f.fail(key, "expected an integer in [0, 2^53]");
+  return static_cast<std::uint64_t>(seed);
+}
+
 /// "laser_errors": {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m",
 /// "range_sigma_m", "seed"} — per-laser errors of a multi-beam sensor drawn by drawLaserErrors.
 void readLaserErrors(const detail::Fields& top, SurveyConfig* config) {
   if (config->sensor != SensorType::kMultiBeam) top.fail("laser_errors", "the preset's sensor is not a multi-beam scanner");
   const detail::Fields e =
       top.sub("laser_errors", {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m", "range_sigma_m", "seed"});
-  const double seed = e.num("seed", 1.0, 0.0, 9007199254740992.0);
-  if (seed != std::floor(seed)) e.fail("seed", "expected an integer in [0, 2^53]");
   config->multibeam.laser_errors = drawLaserErrors(
-      config->multibeam.model.laserCount(), static_cast<std::uint64_t>(seed), deg2rad(e.num("elevation_sigma_deg", 0.0, 0.0, 1.0)),
+      config->multibeam.model.laserCount(), readSeed(e, "seed", 1), deg2rad(e.num("elevation_sigma_deg", 0.0, 0.0, 1.0)),
       deg2rad(e.num("azimuth_sigma_deg", 0.0, 0.0, 1.0)), e.num("vertical_sigma_m", 0.0, 0.0, 0.1), e.num("range_sigma_m", 0.0, 0.0, 0.1));
 }
 
@@ -74,13 +81,9 @@ void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene) {
       path, j, "",
       {"preset", "seed", "true_mounting", "nominal_mounting", "noise", "roi_radius_m", "one_height", "max_points", "laser_errors"});
   const std::string preset = top.str("preset");
-  double seed = 1;
-  if (top.has("seed")) {  // any 64-bit seed a preset takes; 2.5 or -1 is an error
-    seed = top.num("seed");
-    if (seed != std::floor(seed) || seed < 0 || seed > 9007199254740992.0) top.fail("seed", "expected an integer in [0, 2^53]");
-  }
+  const std::uint64_t seed = readSeed(top, "seed", 1);
   try {
-    makePreset(preset, static_cast<std::uint64_t>(seed), config, scene);
+    makePreset(preset, seed, config, scene);
   } catch (const InvalidInput& e) {
     top.fail("preset", e.what());
   }

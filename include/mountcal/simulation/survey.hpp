@@ -55,6 +55,11 @@ struct MultiBeamConfig {
 std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double elevation_sigma_rad, double azimuth_sigma_rad = 0.0,
                                        double vertical_sigma_m = 0.0, double range_sigma_m = 0.0);
 
+/// The laser table as the sensor really fires: `config.model` with `config.laser_errors` added to
+/// each laser's elevation, azimuth, vertical and range offsets (`config.model` itself when there
+/// are none). Throws InvalidInput when the errors are not one per laser.
+MultiBeamModel firedModel(const MultiBeamConfig& config);
+
 /// A straight flight line at constant height and speed.
 struct FlightLine {
   std::string id;             ///< strip id in the outputs
