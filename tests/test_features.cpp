@@ -177,10 +177,6 @@ TEST(FeatureMethod, NoiseFreeClosedFormAndRigorousRecoverTheBoresight) {
 }
 
 TEST(FeatureMethod, OneHeightNamesThePitchLeverArmCouplingTwoHeightsDetermineBoth) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  GTEST_SKIP() << "runs in the Release suite: 55-85 s under the sanitizers, on the feature code that "
-                  "FeatureMethod.NoiseFreeClosedForm…, UnusableRegions… and CommandRuns… run there";
-#endif
   const Uav& one = uav(1, false, true);
   const auto S1 = calibrate(toCalibrationData(one.survey), featureOptions(true));
   ASSERT_EQ(one.survey.strips.size(), 3u);
@@ -262,10 +258,6 @@ TEST(FeatureMethod, UnusableRegionsAreRejectedWithTheirReasonsTheRestStillUsed) 
 }
 
 TEST(FeatureMethod, SurveyGradeNoiseEveryRigorousEstimateWithinThreeSigma) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  GTEST_SKIP() << "runs in the Release suite: 55-85 s under the sanitizers, on the feature code that "
-                  "FeatureMethod.NoiseFreeClosedForm…, UnusableRegions… and CommandRuns… run there";
-#endif
   const std::vector<std::uint64_t> seeds = {3, 4, 5};
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : seeds) {
@@ -283,10 +275,6 @@ TEST(FeatureMethod, SurveyGradeNoiseEveryRigorousEstimateWithinThreeSigma) {
 }
 
 TEST(FeatureMethod, HouseCornersAfterCorrectionWithinTenCentimetres) {
-#ifdef MOUNTCAL_SANITIZE_BUILD
-  GTEST_SKIP() << "runs in the Release suite: 55-85 s under the sanitizers, on the feature code that "
-                  "FeatureMethod.NoiseFreeClosedForm…, UnusableRegions… and CommandRuns… run there";
-#endif
   // The paper's check (seed 002 Tables 1–2): eave corners of the gable-roof houses, surveyed, against
   // where each strip puts them. The strip georeferences a corner from the pulse that hit it: the
   // raw vector that the true trajectory and mounting send to the corner, at the moment the

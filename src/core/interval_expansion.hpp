@@ -83,6 +83,27 @@ inline Vec3 originExpanded(const IntervalExpansion& e, double time_s) {
   return acc;
 }
 
+/// The ray of one pulse, origin p(s) + R_mb(s)(R_bs o + a) and direction R_mb(s) R_bs u: the
+/// sums of forwardExpanded(o) and rotateExpanded(u) in one pass, written on scalars. Most pulses of
+/// a multi-beam sensor point away from the regions and are dropped after this: no Eigen temporaries
+/// (which an unoptimised or instrumented build keeps in memory) for them.
+inline void rayExpanded(const IntervalExpansion& e, double time_s, const Vec3& o, const Vec3& u, Vec3* origin, Vec3* dir) {
+  const double s = (time_s - e.t0) * e.inv_h;
+  double ox = 0, oy = 0, oz = 0, dx = 0, dy = 0, dz = 0;
+  for (int j = kTerms - 1; j >= 0; --j) {
+    const double* M = e.M[j].data();  // column-major
+    const double* m = e.m[j].data();
+    dx = dx * s + (M[0] * u[0] + M[3] * u[1] + M[6] * u[2]);
+    dy = dy * s + (M[1] * u[0] + M[4] * u[1] + M[7] * u[2]);
+    dz = dz * s + (M[2] * u[0] + M[5] * u[1] + M[8] * u[2]);
+    ox = ox * s + (M[0] * o[0] + M[3] * o[1] + M[6] * o[2] + m[0]);
+    oy = oy * s + (M[1] * o[0] + M[4] * o[1] + M[7] * o[2] + m[1]);
+    oz = oz * s + (M[2] * o[0] + M[5] * o[1] + M[8] * o[2] + m[2]);
+  }
+  *origin = Vec3(ox, oy, oz);
+  *dir = Vec3(dx, dy, dz);
+}
+
 /// rotateExpanded() of r = (0, y, z), the line scanner's scan direction (sin θ, cos θ): the
 /// zero component's products left out.
 inline Vec3 rotateExpandedYZ(const IntervalExpansion& e, double time_s, double y, double z) {

@@ -544,7 +544,8 @@ class LineSimulator {
       for (int laser = 0; laser < mb.laserCount(); ++laser) {
         const double t = f.t0 + mb.firingTime(laser, s);
         if (t > f.t1) break;
-        const Pose truth = T_true.pose(t, &cur_true);
+        const std::size_t i = T_true.locate(t, &cur_true);
+        if (i != e_true.interval) detail::expandInterval(T_true, i, R_bs_true, M_true.a_b, false, &e_true);
         RawPulse raw;
         raw.laser_id = laser;
         double az = 2 * kPi * config.multibeam.rotation_hz * (t - f.t0);
@@ -554,9 +555,20 @@ class LineSimulator {
         const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
         const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
         const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
-        const Vec3 origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
-        const Vec3 dir = truth.R_mb * (R_bs_true * dir_s);
-        auto measured = [&](const Vec3& r_s) { return georeference(T_meas.pose(t, &cur_meas), R_bs_nom, M_nom.a_b, r_s); };
+        Vec3 origin, dir;
+        if (e_true.exact) {
+          const Pose truth = T_true.interpolateInInterval(i, t);
+          origin = truth.p_m + truth.R_mb * (R_bs_true * origin_s + M_true.a_b);
+          dir = truth.R_mb * (R_bs_true * dir_s);
+        } else {  // the interval's expansion, as the line scanner's loop (interval_expansion.hpp)
+          detail::rayExpanded(e_true, t, origin_s, dir_s, &origin, &dir);
+        }
+        auto measured = [&](const Vec3& r_s) {
+          const std::size_t jm = T_meas.locate(t, &cur_meas);
+          if (jm != e_meas.interval) detail::expandInterval(T_meas, jm, R_bs_nom, M_nom.a_b, false, &e_meas);
+          return e_meas.exact ? georeference(T_meas.interpolateInInterval(jm, t), R_bs_nom, M_nom.a_b, r_s)
+                              : detail::forwardExpanded(e_meas, t, r_s);
+        };
         emit(t, origin, dir,
              (static_cast<std::uint64_t>(li) << 40) + static_cast<std::uint64_t>(s) * 64u + static_cast<std::uint64_t>(laser), measured,
              raw, config.multibeam.max_range_m, spec.range_offset_m, nullptr);
