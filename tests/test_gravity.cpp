@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include "real_data.hpp"
+#include "support.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -311,6 +312,38 @@ TEST(PerPointPoses, ApplyWritesWhatCalibrateEvaluated) {
   EXPECT_NEAR(got.median_m, want.median_m, 0.0015);
   EXPECT_NEAR(got.p90_m, want.p90_m, 0.003);
   fs::remove_all(out);
+}
+
+// Where Car's discrepancy lies (issue 28): `evaluate` prints the breakdown by laser, place along
+// the pass, range and surface tilt, and the library gives each of the HDL-32E's lasers that the
+// overlap reaches its class — with every used point in one class of each grouping.
+TEST(PerPointPoses, EvaluatePrintsWhereTheDiscrepancyLies) {
+  REQUIRE_DATA("gravity/Car.las");
+  const Job job = readJob(exampleJob("car"));
+  const LoadedJob L = loadJob(job);
+  const ResultEvaluation ev = evaluateJob(job, L, job.mounting_used, true);
+  ASSERT_FALSE(ev.discrepancy_after.empty());
+  const DiscrepancyBreakdown& b = ev.breakdown_after;
+  EXPECT_GE(b.by_laser.size(), 16u);
+  EXPECT_LE(b.by_laser.size(), 32u);
+  EXPECT_EQ(b.by_place.size(), 10u);
+  EXPECT_EQ(b.by_range.size(), 5u);
+  std::size_t used = 0;
+  for (const PairDiscrepancy& p : ev.discrepancy_after) used += p.stats.used;
+  for (const auto* group : {&b.by_laser, &b.by_place, &b.by_range, &b.by_tilt}) {
+    std::size_t n = 0;
+    for (const DiscrepancyClass& k : *group) n += k.stats.used;
+    EXPECT_EQ(n, used);
+  }
+  const fs::path result = fs::temp_directory_path() / ("mountcal_breakdown_" + std::to_string(::getpid()) + ".json");
+  const Vec3 a = job.mounting_used.a_b, e = job.mounting_used.boresightDeg();
+  std::ofstream(result) << "{\"mounting\": {\"lever_arm_m\": [" << a.x() << ", " << a.y() << ", " << a.z() << "], \"boresight_deg\": ["
+                        << e.x() << ", " << e.y() << ", " << e.z() << "]}}";
+  const mountcal_tests::CommandRun r = mountcal_tests::runCli("evaluate " + exampleJob("car") + " --result " + result.string());
+  fs::remove(result);
+  EXPECT_EQ(r.code, 0) << r.err;
+  for (const char* s : {"where the discrepancy lies", "by laser:", "by place along the pass:", "by range:", "by surface tilt:"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s << "\n" << r.out;
 }
 
 // ARMO's LAZ originals (SPEC §5 laz/) calibrate and apply exactly as the LAS files: the same

@@ -41,14 +41,18 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
     ev.check_planes_after = evaluateCheckPlanes(check, planes, mounting);
   }
   if ((discrepancy || job.per_point_poses) && loaded.data.strips.size() >= 2) {
-    ev.discrepancy_before = passDiscrepancies(loaded.data, job.mounting_used);
+    DiscrepancyReport before = discrepancyReport(loaded.data, job.mounting_used), after;
     if (laser_elevation_rad.empty()) {
-      ev.discrepancy_after = passDiscrepancies(loaded.data, mounting);
+      after = discrepancyReport(loaded.data, mounting);
     } else {
       CalibrationData d = loaded.data;
       applyLaserElevation(&d, laser_elevation_rad);
-      ev.discrepancy_after = passDiscrepancies(d, mounting);
+      after = discrepancyReport(d, mounting);
     }
+    ev.discrepancy_before = std::move(before.pairs);
+    ev.breakdown_before = std::move(before.breakdown);
+    ev.discrepancy_after = std::move(after.pairs);
+    ev.breakdown_after = std::move(after.breakdown);
   }
   return ev;
 }
@@ -56,6 +60,28 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
 namespace {
 json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+/// "discrepancy_breakdown": {"by_laser": [{"class", "before", "after"}], "by_place", "by_range",
+/// "by_tilt"}; a class missing on one side has null there.
+template <typename Stats>
+json breakdownJson(const DiscrepancyBreakdown& before, const DiscrepancyBreakdown& after, Stats st) {
+  json out = json::object();
+  auto side = [&](const std::vector<DiscrepancyClass>& b, const std::vector<DiscrepancyClass>& a) {
+    json rows = json::array();
+    for (const DiscrepancyClass& c : a) {
+      json row = {{"class", c.label}, {"before", nullptr}, {"after", st(c.stats)}};
+      for (const DiscrepancyClass& x : b)
+        if (x.label == c.label) row["before"] = st(x.stats);
+      rows.push_back(row);
+    }
+    return rows;
+  };
+  out["by_laser"] = side(before.by_laser, after.by_laser);
+  out["by_place"] = side(before.by_place, after.by_place);
+  out["by_range"] = side(before.by_range, after.by_range);
+  out["by_tilt"] = side(before.by_tilt, after.by_tilt);
+  return out;
+}
 }  // namespace
 
 namespace {
@@ -206,7 +232,10 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
         if (b.query == a.query && b.reference == a.reference) d["before"] = st(b.stats);
       disc.push_back(d);
     }
-    if (!disc.empty()) e["discrepancy"] = disc;
+    if (!disc.empty()) {
+      e["discrepancy"] = disc;
+      e["discrepancy_breakdown"] = breakdownJson(ev->breakdown_before, ev->breakdown_after, st);
+    }
     j["evaluation"] = e;
   }
   return j.dump(2) + "\n";

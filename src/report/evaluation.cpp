@@ -3,7 +3,9 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <string>
 
 #include "mountcal/core/error.hpp"
 #include "geometry/kd_tree.hpp"
@@ -152,12 +154,28 @@ double gateSpacing(const std::vector<Vec3>& points, const DiscrepancyOptions& op
   return opts.from_spacing ? detail::planSpacing(points) : 0.0;
 }
 
-/// The used points' distances of `query` against `reference`, with the gates of `options` as
-/// given (already widened for the reference's spacing: DiscrepancyOptions::forSpacing).
-std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& options,
-                              std::size_t* queries) {
-  std::vector<double> out;
+/// A used query point: its distance to the reference's local plane, its index in the query
+/// strip and the plane's tilt (its normal from the vertical) [deg].
+struct Used {
+  double d;
+  std::size_t q;
+  double tilt_deg;
+};
+
+std::vector<double> distancesOf(const std::vector<Used>& used) {
+  std::vector<double> d(used.size());
+  for (std::size_t i = 0; i < used.size(); ++i) d[i] = used[i].d;
+  return d;
+}
+
+/// The query points examined (every `stride`-th) and used of `query` against `reference`, with
+/// the gates of `options` as given (already widened for the reference's spacing:
+/// DiscrepancyOptions::forSpacing).
+std::vector<Used> distances(const std::vector<Vec3>& query, const std::vector<Vec3>& reference, const DiscrepancyOptions& options,
+                            std::size_t* queries, std::size_t* stride_out = nullptr) {
+  std::vector<Used> out;
   *queries = 0;
+  if (stride_out) *stride_out = 0;
   if (query.empty() || reference.size() < static_cast<std::size_t>(options.neighbours)) return out;
   // Coordinates relative to the reference's first point: kilometre-size values never enter the tree.
   const Vec3 origin = reference.front();
@@ -165,6 +183,7 @@ std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<
   for (std::size_t i = 0; i < reference.size(); ++i) Eigen::Map<Vec3>{&ref[3 * i]} = reference[i] - origin;
   const detail::KdTree<double, 3> tree(ref);
   const std::size_t stride = (query.size() + options.max_queries - 1) / options.max_queries;
+  if (stride_out) *stride_out = stride;
   const int k = options.neighbours;
   std::vector<std::size_t> idx(static_cast<std::size_t>(k));
   std::vector<double> dist(static_cast<std::size_t>(k));
@@ -188,7 +207,8 @@ std::vector<double> distances(const std::vector<Vec3>& query, const std::vector<
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
     const Vec3 lam = eig.eigenvalues().cwiseMax(0.0);
     if (lam(0) > max_var || lam(2) > max_ext2 || lam(1) < min_ratio2 * lam(2)) continue;
-    out.push_back(std::abs(eig.eigenvectors().col(0).dot(x - c)));
+    const Vec3 n = eig.eigenvectors().col(0);
+    out.push_back({std::abs(n.dot(x - c)), q, rad2deg(std::acos(std::min(1.0, std::abs(n.z()))))});
   }
   return out;
 }
@@ -206,8 +226,8 @@ std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const Mo
   return x;
 }
 
-/// Every strip pair of `x`, the smaller strip (q) against the larger (r): f(q, r, distances,
-/// queries). Each strip's spacing is found once, not once per pair.
+/// Every strip pair of `x`, the smaller strip (q) against the larger (r): f(q, r, used points,
+/// queries, stride). Each strip's spacing is found once, not once per pair.
 template <typename F>
 void forEachPair(const std::vector<std::vector<Vec3>>& x, const DiscrepancyOptions& opts, F&& f) {
   std::vector<double> spacing(x.size());
@@ -216,12 +236,109 @@ void forEachPair(const std::vector<std::vector<Vec3>>& x, const DiscrepancyOptio
     for (std::size_t b = a + 1; b < x.size(); ++b) {
       const bool a_smaller = x[a].size() <= x[b].size();
       const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
-      std::size_t queries = 0;
-      std::vector<double> d = distances(x[q], x[r], opts.forSpacing(spacing[r]), &queries);
-      f(q, r, std::move(d), queries);
+      std::size_t queries = 0, stride = 0;
+      std::vector<Used> used = distances(x[q], x[r], opts.forSpacing(spacing[r]), &queries, &stride);
+      f(q, r, std::move(used), queries, stride);
     }
   }
 }
+
+/// The classes of DiscrepancyBreakdown from the pairs' examined and used points.
+class BreakdownBuilder {
+ public:
+  explicit BreakdownBuilder(const CalibrationData& data) : data_(data) {
+    for (const StripData& s : data.strips) {
+      const bool timed = s.time_s.size() == s.r_s.size() && !s.time_s.empty();
+      const auto [lo, hi] = timed ? std::minmax_element(s.time_s.begin(), s.time_s.end()) : std::make_pair(s.time_s.end(), s.time_s.end());
+      span_.push_back(timed && *hi > *lo ? std::make_pair(*lo, *hi) : std::make_pair(0.0, 0.0));
+    }
+  }
+
+  /// A pair whose query strip is `strip`: its examined points (every `stride`-th of `queries`) and its used ones.
+  void add(std::size_t strip, const std::vector<Used>& used, std::size_t queries, std::size_t stride) {
+    for (std::size_t k = 0; k < queries; ++k) examined_.push_back({strip, k * stride, 0.0, 0.0});
+    for (const Used& u : used) used_.push_back({strip, u.q, u.d, u.tilt_deg});
+  }
+
+  DiscrepancyBreakdown finish() const {
+    DiscrepancyBreakdown b;
+    // Range classes: bounded at the quintiles of the examined points' ranges.
+    std::vector<double> ranges;
+    for (const Point& p : examined_) ranges.push_back(range(p));
+    std::sort(ranges.begin(), ranges.end());
+    std::vector<double> edges;
+    for (int i = 1; i < 5 && !ranges.empty(); ++i) edges.push_back(ranges[ranges.size() * static_cast<std::size_t>(i) / 5]);
+    auto rangeClass = [&](const Point& p) {
+      return static_cast<int>(std::upper_bound(edges.begin(), edges.end(), range(p)) - edges.begin());
+    };
+    auto rangeLabel = [&](int c) {
+      const double lo = c == 0 ? ranges.front() : edges[static_cast<std::size_t>(c) - 1];
+      const double hi = c == static_cast<int>(edges.size()) ? ranges.back() : edges[static_cast<std::size_t>(c)];
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.1f-%.1f m", lo, hi);
+      return std::string(buf);
+    };
+    auto placeLabel = [](int c) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.1f-%.1f of the pass", 0.1 * c, 0.1 * (c + 1));
+      return std::string(buf);
+    };
+    auto tiltLabel = [](int c) { return std::to_string(15 * c) + "-" + std::to_string(15 * (c + 1)) + " deg"; };
+    auto laserOf = [&](const Point& p) -> int {
+      const StripData& s = data_.strips[p.strip];
+      return s.laser.size() == s.r_s.size() ? static_cast<int>(s.laser[p.index]) : -1;
+    };
+    b.by_laser = classes(laserOf, laserOf, [](int c) { return "laser " + std::to_string(c); });
+    b.by_place = classes([&](const Point& p) { return place(p); }, [&](const Point& p) { return place(p); }, placeLabel);
+    if (!ranges.empty()) b.by_range = classes(rangeClass, rangeClass, rangeLabel);
+    auto tiltClass = [](const Point& p) { return std::min(5, static_cast<int>(p.tilt_deg / 15.0)); };
+    b.by_tilt = classes([](const Point&) { return -1; }, tiltClass, tiltLabel, true);
+    return b;
+  }
+
+ private:
+  struct Point {
+    std::size_t strip, index;
+    double d, tilt_deg;
+  };
+
+  double range(const Point& p) const { return data_.strips[p.strip].r_s[p.index].norm(); }
+
+  /// Tenths of the strip's time span (of its record order when every time is the same).
+  int place(const Point& p) const {
+    const StripData& s = data_.strips[p.strip];
+    const auto [lo, hi] = span_[p.strip];
+    const double f = hi > lo ? (s.time_s[p.index] - lo) / (hi - lo) : static_cast<double>(p.index) / static_cast<double>(s.r_s.size());
+    return std::clamp(static_cast<int>(f * 10.0), 0, 9);
+  }
+
+  /// The classes (ids ≥ 0) that `examinedClass` gives the examined points and `usedClass` the
+  /// used ones, each with its statistics; `used_queries`: a class's queries are its used points.
+  template <typename E, typename U, typename L>
+  std::vector<DiscrepancyClass> classes(E examinedClass, U usedClass, L label, bool used_queries = false) const {
+    std::map<int, std::size_t> queries;
+    std::map<int, std::vector<double>> d;
+    if (!used_queries)
+      for (const Point& p : examined_)
+        if (const int c = examinedClass(p); c >= 0) ++queries[c];
+    for (const Point& p : used_) {
+      const int c = usedClass(p);
+      if (c < 0) continue;
+      d[c].push_back(p.d);
+      if (used_queries) ++queries[c];
+    }
+    std::vector<DiscrepancyClass> out;
+    for (const auto& [c, n] : queries) {
+      auto it = d.find(c);
+      out.push_back({label(c), statsOf(it == d.end() ? std::vector<double>{} : it->second, n)});
+    }
+    return out;
+  }
+
+  const CalibrationData& data_;
+  std::vector<std::pair<double, double>> span_;  // each strip's time span (0, 0: none)
+  std::vector<Point> examined_, used_;
+};
 
 }  // namespace
 
@@ -230,17 +347,26 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::size_t queries = 0;
-  std::vector<double> d = distances(query, reference, opts.forSpacing(gateSpacing(reference, opts)), &queries);
-  return statsOf(std::move(d), queries);
+  const std::vector<Used> used = distances(query, reference, opts.forSpacing(gateSpacing(reference, opts)), &queries);
+  return statsOf(distancesOf(used), queries);
 }
 
 std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
+  return discrepancyReport(data, m, opts).pairs;
+}
+
+DiscrepancyReport discrepancyReport(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
-  std::vector<PairDiscrepancy> out;
-  forEachPair(stripPoints(data, m), opts, [&](std::size_t q, std::size_t r, std::vector<double> d, std::size_t queries) {
-    if (!d.empty()) out.push_back({data.strips[q].id, data.strips[r].id, statsOf(std::move(d), queries)});
-  });
+  DiscrepancyReport out;
+  BreakdownBuilder breakdown(data);
+  forEachPair(stripPoints(data, m), opts,
+              [&](std::size_t q, std::size_t r, std::vector<Used> used, std::size_t queries, std::size_t stride) {
+                if (used.empty()) return;
+                breakdown.add(q, used, queries, stride);
+                out.pairs.push_back({data.strips[q].id, data.strips[r].id, statsOf(distancesOf(used), queries)});
+              });
+  out.breakdown = breakdown.finish();
   return out;
 }
 
@@ -249,8 +375,8 @@ DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingPa
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::vector<double> all;
   std::size_t total = 0;
-  forEachPair(stripPoints(data, m), opts, [&](std::size_t, std::size_t, std::vector<double> d, std::size_t queries) {
-    all.insert(all.end(), d.begin(), d.end());
+  forEachPair(stripPoints(data, m), opts, [&](std::size_t, std::size_t, std::vector<Used> used, std::size_t queries, std::size_t) {
+    for (const Used& u : used) all.push_back(u.d);
     total += queries;
   });
   return statsOf(std::move(all), total);

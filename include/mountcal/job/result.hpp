@@ -19,6 +19,8 @@ struct ResultEvaluation {
   std::vector<CheckPlaneResult> check_planes_before, check_planes_after;
   /// The pass-to-pass discrepancy of every overlapping strip pair (DiscrepancyOptions defaults).
   std::vector<PairDiscrepancy> discrepancy_before, discrepancy_after;
+  /// Where it lies: by laser, place along the pass, range and surface tilt (DiscrepancyBreakdown).
+  DiscrepancyBreakdown breakdown_before, breakdown_after;
 };
 
 /// Check points and check planes named by the job, at `mounting_used` and at `mounting`; with

@@ -86,6 +86,36 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
 std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& mounting,
                                                const DiscrepancyOptions& options = {});
 
+/// One class of a discrepancy breakdown: what it holds and the statistics of its points.
+struct DiscrepancyClass {
+  std::string label;  ///< e.g. "laser 7", "0.3-0.4 of the pass", "12.1-20.5 m", "15-30 deg"
+  DiscrepancyStats stats;
+};
+
+/// Where the pass-to-pass discrepancy lies (issue 28: the tail of the real data). The used points
+/// of every pair, classed by
+/// - `by_laser`: the laser that measured the query point (strips with laser ids; empty otherwise);
+/// - `by_place`: its place along its strip, in tenths of the strip's time span (of its record
+///   order when every point has the same time);
+/// - `by_range`: its range |r_s|, five classes bounded at the quintiles of the examined points'
+///   ranges — the same classes before and after a calibration;
+/// - `by_tilt`: the tilt of the reference surface (the local plane's normal from the vertical),
+///   in 15° classes.
+/// A class's `queries` counts its examined query points (for tilt, which needs a plane, its used
+/// points). Classes with no examined point are left out.
+struct DiscrepancyBreakdown {
+  std::vector<DiscrepancyClass> by_laser, by_place, by_range, by_tilt;
+};
+
+/// The pairs (as passDiscrepancies) and their breakdown, from one georeferencing of `data` at
+/// `mounting`. Throws InvalidInput for invalid options.
+struct DiscrepancyReport {
+  std::vector<PairDiscrepancy> pairs;
+  DiscrepancyBreakdown breakdown;
+};
+DiscrepancyReport discrepancyReport(const CalibrationData& data, const MountingParameters& mounting,
+                                    const DiscrepancyOptions& options = {});
+
 /// The statistics over every pair's used points together (a pair's points are weighted by count).
 DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingParameters& mounting, const DiscrepancyOptions& options = {});
 
