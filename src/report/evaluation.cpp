@@ -288,11 +288,11 @@ class BreakdownBuilder {
       const StripData& s = data_.strips[p.strip];
       return s.laser.size() == s.r_s.size() ? static_cast<int>(s.laser[p.index]) : -1;
     };
-    b.by_laser = classes(laserOf, laserOf, [](int c) { return "laser " + std::to_string(c); });
-    b.by_place = classes([&](const Point& p) { return place(p); }, [&](const Point& p) { return place(p); }, placeLabel);
-    if (!ranges.empty()) b.by_range = classes(rangeClass, rangeClass, rangeLabel);
+    b.by_laser = classes(laserOf, [](int c) { return "laser " + std::to_string(c); });
+    b.by_place = classes([&](const Point& p) { return place(p); }, placeLabel);
+    if (!ranges.empty()) b.by_range = classes(rangeClass, rangeLabel);
     auto tiltClass = [](const Point& p) { return std::min(5, static_cast<int>(p.tilt_deg / 15.0)); };
-    b.by_tilt = classes([](const Point&) { return -1; }, tiltClass, tiltLabel, true);
+    b.by_tilt = classes(tiltClass, tiltLabel, false);  // a tilt needs a plane: only used points have one
     return b;
   }
 
@@ -312,20 +312,20 @@ class BreakdownBuilder {
     return std::clamp(static_cast<int>(f * 10.0), 0, 9);
   }
 
-  /// The classes (ids ≥ 0) that `examinedClass` gives the examined points and `usedClass` the
-  /// used ones, each with its statistics; `used_queries`: a class's queries are its used points.
-  template <typename E, typename U, typename L>
-  std::vector<DiscrepancyClass> classes(E examinedClass, U usedClass, L label, bool used_queries = false) const {
+  /// The classes (ids ≥ 0) that `classOf` gives the points, each with its statistics; a class's
+  /// queries are its examined points, or its used ones when `examined` is false.
+  template <typename C, typename L>
+  std::vector<DiscrepancyClass> classes(C classOf, L label, bool examined = true) const {
     std::map<int, std::size_t> queries;
     std::map<int, std::vector<double>> d;
-    if (!used_queries)
+    if (examined)
       for (const Point& p : examined_)
-        if (const int c = examinedClass(p); c >= 0) ++queries[c];
+        if (const int c = classOf(p); c >= 0) ++queries[c];
     for (const Point& p : used_) {
-      const int c = usedClass(p);
+      const int c = classOf(p);
       if (c < 0) continue;
       d[c].push_back(p.d);
-      if (used_queries) ++queries[c];
+      if (!examined) ++queries[c];
     }
     std::vector<DiscrepancyClass> out;
     for (const auto& [c, n] : queries) {
@@ -351,21 +351,31 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
   return statsOf(distancesOf(used), queries);
 }
 
-std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
-  return discrepancyReport(data, m, opts).pairs;
-}
-
-DiscrepancyReport discrepancyReport(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
+namespace {
+/// Every pair with used points; their examined and used points also to `breakdown` when given.
+std::vector<PairDiscrepancy> pairsOf(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts,
+                                     BreakdownBuilder* breakdown) {
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
-  DiscrepancyReport out;
-  BreakdownBuilder breakdown(data);
+  std::vector<PairDiscrepancy> out;
   forEachPair(stripPoints(data, m), opts,
               [&](std::size_t q, std::size_t r, std::vector<Used> used, std::size_t queries, std::size_t stride) {
                 if (used.empty()) return;
-                breakdown.add(q, used, queries, stride);
-                out.pairs.push_back({data.strips[q].id, data.strips[r].id, statsOf(distancesOf(used), queries)});
+                if (breakdown) breakdown->add(q, used, queries, stride);
+                out.push_back({data.strips[q].id, data.strips[r].id, statsOf(distancesOf(used), queries)});
               });
+  return out;
+}
+}  // namespace
+
+std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
+  return pairsOf(data, m, opts, nullptr);
+}
+
+DiscrepancyReport discrepancyReport(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
+  DiscrepancyReport out;
+  BreakdownBuilder breakdown(data);
+  out.pairs = pairsOf(data, m, opts, &breakdown);
   out.breakdown = breakdown.finish();
   return out;
 }
