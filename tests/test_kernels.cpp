@@ -314,6 +314,66 @@ TEST(CorrectedCost, JacobiansEqualCentralDifferencesOfTheCorrectedResidual) {
   EXPECT_EQ(J[2], J2);
 }
 
+/// r = o (the strip offset block as the source sees it: with corrections, o + δ).
+class OffsetEcho final : public ceres::SizedCostFunction<3, 6, 3> {
+ public:
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    std::copy(p[1], p[1] + 3, r);
+    if (J && J[0]) std::fill(J[0], J[0] + 18, 0.0);
+    if (J && J[1]) {
+      std::fill(J[1], J[1] + 9, 0.0);
+      J[1][0] = J[1][4] = J[1][8] = 1.0;
+    }
+    return true;
+  }
+};
+
+TEST(PointShifts, AreTheShiftsTheCorrectedCostAppliesAndTheHandFormula) {
+  // A matching source matches where the adjustment puts its points (PointShifts): the strip
+  // offset, the corrections and the time offset at a point's time and u must be exactly what
+  // the wrapped cost passes to the source. Three epochs of strip "a" (span 100–140 s, so the
+  // one at 130 s has τ = 0.5), position degree 2, attitude degree 1, the time offset estimated.
+  AdjustmentProblem P({0, 0, 0, 0, 0, 0}, 0.02, LossType::kTrivial, 0.5, 1e-6);
+  const Vec3 v(60, 1, 0.5), w(0.001, -0.002, 0.01);
+  P.setMotion([&](const std::string&, double, Vec3* vel, Vec3* rate) {
+    *vel = v, *rate = w;
+    return true;
+  });
+  TrajectoryCorrections tc;
+  tc.position_degree = 2;
+  tc.attitude_degree = 1;
+  P.setCorrections(tc, 0.01);
+  const Vec3 u(10, -20, -100);
+  int probe = -1;
+  for (double t : {100.0, 140.0, 130.0}) {
+    probe = P.addResidualBlock(new OffsetEcho, 0.0, {P.mounting(), P.stripOffset("a")});
+    P.setEpoch(probe, "a", t, u);
+  }
+  P.commit();
+  ASSERT_EQ(P.stripCorrections().size(), 1u);
+  ASSERT_NE(P.timeOffsetBlock(), nullptr);
+  const double o[3] = {0.01, -0.02, 0.03}, c[9] = {0.01, 0.02, -0.03, 0.002, -0.001, 0.003, -1e-4, 5e-5, 2e-4};
+  std::copy(o, o + 3, P.stripOffset("a"));
+  std::copy(c, c + 9, P.stripCorrections()[0].values);
+  *P.timeOffsetBlock() = 0.004;
+  // By hand at τ = 0.5: o + c₁ τ + c₂ (3τ² − 1)/2 + (e₁ τ) × u + δt (v + ω × u).
+  const double tau = 0.5, p2 = 0.5 * (3 * tau * tau - 1);
+  const Vec3 hand = Vec3(o[0], o[1], o[2]) + Vec3(c[0], c[1], c[2]) * tau + Vec3(c[3], c[4], c[5]) * p2 +
+                    (Vec3(c[6], c[7], c[8]) * tau).cross(u) + 0.004 * (v + w.cross(u));
+  const PointShifts shifts = P.pointShifts();
+  const Vec3 at = shifts.strip("a").at(130.0, u);
+  const Eigen::VectorXd applied = P.residual(probe);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(at[k], hand[k], 1e-12) << k;
+    EXPECT_NEAR(at[k], applied[k], 1e-12) << k;
+  }
+  // Beyond the span τ is clamped, as in the cost; a strip the solve did not see moves by δt alone.
+  EXPECT_LT((shifts.strip("a").at(150.0, u) - shifts.strip("a").at(140.0, u)).norm(), 1e-12);
+  EXPECT_LT((shifts.strip("b").at(130.0, u) - 0.004 * (v + w.cross(u))).norm(), 1e-12);
+  EXPECT_TRUE(PointShifts().empty());
+  EXPECT_EQ(PointShifts().strip("a").at(130.0, u), Vec3::Zero());
+}
+
 }  // namespace
 }  // namespace mountcal
 

@@ -597,8 +597,9 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
   // speeds: lever x is off by decimetres; estimated, δt comes back and the mounting with it.
   // Measured 2026-11-27 (noise-free, the formal σ of the stated noise): vtpm δt 4.997 ± 1.05 ms,
   // planes 4.950 ± 1.11 ms, lever x within 0.002 m; considered only, lever x 0.25 and 0.42 m off.
-  // Not the matching methods yet: they match at the mounting alone, without δt (docs/model-and-
-  // methods.md; `correspondences` here: δt 4.84 ± 0.07 ms, heading 14σ off).
+  // `correspondences` matches where the adjustment puts the points (PointShifts): δt
+  // 5.000 ± 0.067 ms, worst parameter 0.12σ; matching at the mounting alone it was δt
+  // 4.84 ± 0.07 ms with heading 14σ off (measured 2026-11-27 with the shifts switched off).
   simulation::Scene scene;
   simulation::SurveyConfig c;
   simulation::makePreset("paper-calibration-field", 1, &c, &scene);
@@ -611,7 +612,7 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
   const CalibrationData d = withTrajectoryErrors(s, [&](const CalibrationData&, std::vector<TrajectorySample>* samples) {
     for (TrajectorySample& smp : *samples) smp.time_s += delta;
   });
-  for (const char* method : {"vtpm", "planes"}) {
+  for (const char* method : {"vtpm", "planes", "correspondences"}) {
     MountingCalibrator::Options o;
     o.methods = {method};
     o.estimate = {true, true, false, true, true, true};
@@ -626,7 +627,10 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
     EXPECT_NEAR(S.time_offset_s, delta, 0.0002) << method;
     EXPECT_LT(S.time_offset_sigma_s, 0.002) << method;
     EXPECT_LT(worstZ(S, s.config.true_mounting), 1.0) << method << "\n" << S.FullReport();
-    EXPECT_GT(std::abs(considered.mounting.a_b.x() - s.config.true_mounting.a_b.x()), 0.15) << method;
+    EXPECT_GT(std::abs(considered.mounting.a_b.x() - s.config.true_mounting.a_b.x()), 0.1) << method;
+    std::printf("%-16s dt %.4f +- %.4f ms, worst |error|/sigma %.2f; considered only: lever x %.3f m off\n", method, 1e3 * S.time_offset_s,
+                1e3 * S.time_offset_sigma_s, worstZ(S, s.config.true_mounting),
+                std::abs(considered.mounting.a_b.x() - s.config.true_mounting.a_b.x()));
     EXPECT_NE(S.FullReport().find("Time offset (estimated with the mounting)"), std::string::npos);
   }
 }

@@ -424,6 +424,54 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
   }
 }
 
+PointShifts AdjustmentProblem::pointShifts() const {
+  PointShifts s;
+  for (const auto& [id, o] : offsets_) s.strips_[id].offset_m = Vec3(o[0], o[1], o[2]);
+  if (!corrections_blocks_.empty()) {
+    s.position_degree_ = corrections_.position_degree;
+    s.attitude_degree_ = corrections_.attitude_degree;
+  }
+  for (const StripCorrection& c : corrections_blocks_) {
+    PointShifts::Terms& t = s.strips_[c.strip_id];
+    t.coefficients.assign(c.values, c.values + corrections_.size());
+    t.t_mid_s = c.t_mid_s;
+    t.half_span_s = c.half_span_s;
+  }
+  if (time_offset_block_ && motion_) {
+    s.time_offset_s_ = *time_offset_block_;
+    s.motion_ = motion_;
+  }
+  return s;
+}
+
+PointShifts::Strip PointShifts::strip(const std::string& strip_id) const {
+  Strip out;
+  out.all_ = this;
+  out.id_ = strip_id;
+  auto it = strips_.find(strip_id);
+  if (it != strips_.end()) out.terms_ = &it->second;
+  return out;
+}
+
+Vec3 PointShifts::Strip::at(double time_s, const Vec3& u_m) const {
+  Vec3 d = Vec3::Zero();
+  if (terms_) {
+    // As detail::CorrectedCost: δ = o + Σ c_k P_k(τ) + (Σ e_k P_k(τ)) × u
+    d = terms_->offset_m;
+    if (!terms_->coefficients.empty()) {
+      const double tau = terms_->half_span_s > 0 ? std::clamp((time_s - terms_->t_mid_s) / terms_->half_span_s, -1.0, 1.0) : 0.0;
+      const double* c = terms_->coefficients.data();
+      for (int k = 1; k <= all_->position_degree_; ++k, c += 3) d += detail::legendre(k, tau) * Vec3(c[0], c[1], c[2]);
+      Vec3 psi = Vec3::Zero();
+      for (int k = 1; k <= all_->attitude_degree_; ++k, c += 3) psi += detail::legendre(k, tau) * Vec3(c[0], c[1], c[2]);
+      d += psi.cross(u_m);
+    }
+  }
+  Vec3 v, w;
+  if (all_ && all_->time_offset_s_ != 0.0 && all_->motion_(id_, time_s, &v, &w)) d += all_->time_offset_s_ * (v + w.cross(u_m));
+  return d;
+}
+
 void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m, bool in_sigma) {
   Record& rec = records_.at(static_cast<std::size_t>(record));
   auto it = offsets_.find(strip_id);

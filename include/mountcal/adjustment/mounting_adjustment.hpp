@@ -259,6 +259,44 @@ struct AnalysisOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// Where the adjustment's trajectory model puts a strip's points beyond the mounting, as a solve
+/// estimated it: the strip offset o, the trajectory corrections δp(t) + δψ(t) × u
+/// (TrajectoryCorrections) and the time offset δt (v + ω × u). A matching source takes it in
+/// ObservationSource::solved() and matches at these positions the next time, so that what it pairs
+/// are the points the adjustment models (AdjustmentProblem::pointShifts()).
+class PointShifts {
+ public:
+  /// One strip's estimated terms.
+  struct Terms {
+    Vec3 offset_m = Vec3::Zero();
+    std::vector<double> coefficients;  ///< TrajectoryCorrections order; empty: none
+    double t_mid_s = 0.0, half_span_s = 0.0;
+  };
+  /// One strip's shift as a function of a point's time and u = x − p (IMU → point, mapping frame).
+  class Strip {
+   public:
+    /// The shift [m] of the strip's point seen at `time_s` with `u_m`; zero without terms.
+    Vec3 at(double time_s, const Vec3& u_m) const;
+
+   private:
+    friend class PointShifts;
+    const PointShifts* all_ = nullptr;
+    const Terms* terms_ = nullptr;
+    std::string id_;
+  };
+  /// The shift function of strip `strip_id` (zero for a strip the solve did not see).
+  Strip strip(const std::string& strip_id) const;
+  /// Nothing estimated: every shift is zero.
+  bool empty() const { return strips_.empty() && time_offset_s_ == 0.0; }
+
+ private:
+  friend class AdjustmentProblem;
+  std::map<std::string, Terms> strips_;
+  int position_degree_ = 0, attitude_degree_ = 0;
+  double time_offset_s_ = 0.0;
+  MotionFunction motion_;
+};
+
 /// What a method sees while it adds its observations. Everything added is owned here.
 class AdjustmentProblem {
  public:
@@ -322,6 +360,9 @@ class AdjustmentProblem {
   const std::vector<StripCorrection>& stripCorrections() const { return corrections_blocks_; }
   /// The estimated time offset's block [s] (null unless estimated and some epoch moves).
   double* timeOffsetBlock() { return time_offset_block_; }
+  /// The point shifts of the current estimates (strip offsets, corrections, time offset), for a
+  /// matching source's next matching (PointShifts).
+  PointShifts pointShifts() const;
 
   /// States when and where residual block `record` saw strip `strip_id` (whose offset block it
   /// holds): the pulse time [s] and u = x − p (IMU → point, mapping frame) [m]. The adjustment

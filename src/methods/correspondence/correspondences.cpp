@@ -293,7 +293,7 @@ class Matcher {
   /// gates distances at max(3 r, 2 × the a-priori misalignment) and applies no MAD rejection
   /// (the discrepancies are still systematic: the largest are the sloped surfaces that carry
   /// the horizontal information); later rounds gate at 3 r and reject beyond 3 σ_MAD.
-  CorrespondenceSet match(const std::array<double, 6>& m, bool first_round) {
+  CorrespondenceSet match(const std::array<double, 6>& m, bool first_round, const PointShifts& shifts) {
     const auto t0 = std::chrono::steady_clock::now();
     refs_.clear();
     CorrespondenceSet out;
@@ -308,7 +308,7 @@ class Matcher {
     // Each pair on its own thread: its points at m, then every sample (selection from the
     // candidate neighbourhoods, the plane fits and the gates). Slots merged in pair order.
     parallelFor(pairs_.size(), threads_,
-                [&](std::size_t pi) { gates[pi] = matchPair(pi, motion, first_round, &out.pairs[pi], &per_pair[pi]); });
+                [&](std::size_t pi) { gates[pi] = matchPair(pi, motion, shifts, first_round, &out.pairs[pi], &per_pair[pi]); });
     std::vector<Candidate> cand;
     for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
       out.points_searched += pairs_[pi].overlap_points;
@@ -332,8 +332,8 @@ class Matcher {
 
   /// The candidates of pair pi at the mounting of `motion`, with its statistics; returns the
   /// pair's distance gate [m].
-  double matchPair(std::size_t pi, const MountingMotion& motion, bool first_round, CorrespondencePairStats* stats,
-                   std::vector<Candidate>* candidates) {
+  double matchPair(std::size_t pi, const MountingMotion& motion, const PointShifts& shifts, bool first_round,
+                   CorrespondencePairStats* stats, std::vector<Candidate>* candidates) {
     CorrespondencePairStats& st = *stats;
     const PairCandidates& pr = pairs_[pi];
     st.strip_a = pr.strip_a;
@@ -345,14 +345,24 @@ class Matcher {
     const double search_r = std::max(r, gate_m);
     PointTree& tree = *trees_[pi];
     std::vector<std::size_t> found;
+    // Where the adjustment puts a point: at m, moved by the last solve's strip offset,
+    // corrections and time offset (u from the mounting used: a millimetre-scale difference).
+    const MountingParameters& used = data_.mounting_used;
+    const Mat3 R_bs_used = used.R_bs();
+    const PointShifts::Strip shift_a = shifts.strip(pr.strip_a), shift_b = shifts.strip(pr.strip_b);
+    const bool shifted = !shifts.empty();
+    auto at = [&](const PairPoint& q, const PointShifts::Strip& shift) {
+      Vec3 x = q.x0_m + motion.displacement(q.R_mb, q.r_s_m);
+      if (shifted) x += shift.at(q.time_s, q.R_mb * (R_bs_used * q.r_s_m + used.a_b));
+      return x;
+    };
     std::vector<Vec3> xb(pr.points_b.size());
-    for (std::size_t k = 0; k < xb.size(); ++k)
-      xb[k] = pr.points_b[k].x0_m + motion.displacement(pr.points_b[k].R_mb, pr.points_b[k].r_s_m);
+    for (std::size_t k = 0; k < xb.size(); ++k) xb[k] = at(pr.points_b[k], shift_b);
     const auto K = static_cast<std::size_t>(o_.max_neighbours);
     std::vector<std::uint32_t> nb;
     for (std::size_t k = 0; k < pr.samples_a.size(); ++k) {
       const PairPoint& qa = pr.samples_a[k];
-      const Vec3 p = qa.x0_m + motion.displacement(qa.R_mb, qa.r_s_m);
+      const Vec3 p = at(qa, shift_a);
       // B: its K points nearest p at m, within the search radius. The tree holds B at the
       // mounting used: the query moves back by the displacement of B's point nearest p, so
       // the neighbours found are those at m up to the displacement's variation across a
@@ -584,7 +594,7 @@ void PairCandidates::attitudesFrom(const Trajectory& trajectory) {
 CorrespondenceSet findCorrespondences(const CalibrationData& data, const std::array<double, 6>& mounting,
                                       const CorrespondenceOptions& options, bool first_round, int threads) {
   detail::Matcher matcher(data, options, threads);
-  return matcher.match(mounting, first_round);
+  return matcher.match(mounting, first_round, PointShifts{});
 }
 
 std::vector<std::pair<int, int>> candidateStripPairs(const CalibrationData& data, const CorrespondenceOptions& options) {
@@ -667,7 +677,9 @@ CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& da
 bool CorrespondenceObservations::settled() const { return !options_.dense || !coarse_; }
 
 void CorrespondenceObservations::solved(const AdjustmentProblem& problem) {
-  (void)problem;
+  // The next matching pairs the points where the adjustment now puts them: an estimated time
+  // offset or trajectory correction moves them by decimetres (5 ms at 60 m/s: 0.3 m).
+  shifts_ = problem.pointShifts();
   if (laser_block_) std::copy(laser_block_, laser_block_ + static_cast<long>(laser_dl_.size()), laser_dl_.begin());
 }
 
@@ -698,7 +710,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   constexpr int kMaxFineMatchings = 6;
   if (!coarse_) ++fine_rounds_;
   if (coarse_ || fine_rounds_ <= kMaxFineMatchings) {
-    dense_->place(mounting, laser_dl_);
+    dense_->place(mounting, laser_dl_, shifts_);
     set_ = dense_->match(coarse_, fine_gate_m_);
   }
   ++section_.rounds;
@@ -775,7 +787,7 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
   }
   if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
   detail::Matcher& matcher = *matcher_;
-  set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray());
+  set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray(), shifts_);
   ++section_.rounds;
   section_.search_time_s += set_.seconds;
   section_.points_searched += set_.points_searched;
@@ -889,7 +901,7 @@ void CorrespondenceObservations::fillSection(const AdjustmentProblem& problem, c
 void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, const std::array<double, 6>& /*m*/,
                                              const AdjustmentProblem& adjustment, const AnalysisOptions& /*analysis*/) {
   // Before: the same correspondences at the mounting used (no laser offsets, no strip offsets).
-  dense_->place(m0, {});
+  dense_->place(m0, {}, PointShifts{});
   std::vector<double> before;
   for (const Correspondence& c : set_.correspondences) {
     Vec3 cb = Vec3::Zero();

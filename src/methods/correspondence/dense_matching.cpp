@@ -82,7 +82,7 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
   }
 }
 
-void DenseMatcher::place(const std::array<double, 6>& m, const std::vector<double>& dl) {
+void DenseMatcher::place(const std::array<double, 6>& m, const std::vector<double>& dl, const PointShifts& shifts) {
   const MountingParameters& used = data_.mounting_used;
   const Mat3 R_bs = R_zyx(Vec3(m[3], m[4], m[5])) * used.R_nom;
   const Vec3 a(m[0], m[1], m[2]);
@@ -92,10 +92,14 @@ void DenseMatcher::place(const std::array<double, 6>& m, const std::vector<doubl
     const StripData& st = data_.strips[s];
     x_[s].resize(st.r_s.size());
     const bool turn = !dl.empty() && !st.laser.empty();
+    const PointShifts::Strip shift = shifts.strip(st.id);
+    const bool shifted = !shifts.empty();
     for (std::size_t i : keep_[s]) {
       // elevateLaserVector with the laser's cos δ, sin δ computed once
       const Vec3 r = turn ? Vec3(c[st.laser[i]] * st.r_s[i] + sn[st.laser[i]] * elevationTangent(st.r_s[i])) : st.r_s[i];
-      x_[s][i] = p_m_[s][i] + R_mb_[s][i] * (R_bs * r + a);  // SPEC §2 eq. (1)
+      const Vec3 u = R_mb_[s][i] * (R_bs * r + a);
+      x_[s][i] = p_m_[s][i] + u;  // SPEC §2 eq. (1)
+      if (shifted) x_[s][i] += shift.at(st.time_s[i], u);
     }
   }
 }

@@ -28,8 +28,9 @@ class DenseMatcher {
   /// lengths, or laser ids on some strips only.
   DenseMatcher(const CalibrationData& data, const CorrespondenceOptions& options);
 
-  /// The positions of every point at mounting m (MountingIndex order) and laser offsets dl.
-  void place(const std::array<double, 6>& m, const std::vector<double>& dl);
+  /// The positions of every point at mounting m (MountingIndex order) and laser offsets dl,
+  /// moved by the last solve's strip offsets, corrections and time offset.
+  void place(const std::array<double, 6>& m, const std::vector<double>& dl, const PointShifts& shifts);
   const Vec3& x(int s, std::size_t i) const { return x_[static_cast<std::size_t>(s)][i]; }
   const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][i]; }
   const Vec3& p_m(int s, std::size_t i) const { return p_m_[static_cast<std::size_t>(s)][i]; }

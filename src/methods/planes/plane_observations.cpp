@@ -141,13 +141,13 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
   const int min_pts = 6;
   std::map<std::pair<std::int64_t, std::int64_t>, std::vector<CellPlane>> per_cell;
   for (int s = 0; s < static_cast<int>(clouds.size()); ++s) {
-    for (const auto& [key, idx] : clouds[s].grid->cells()) {
+    for (const auto& cell : clouds[s].grid->cells()) {
+      const auto& idx = cell.second;  // a named reference: a lambda may not capture a structured binding before C++20
       if (static_cast<int>(idx.size()) < min_pts) continue;
       const detail::PlaneFit f = detail::fitPlane(idx.size(), [&](std::size_t k) { return clouds[s].x0[idx[k]]; });
       if (f.sigma_m > opts.max_roughness_m) continue;
       const Vec3& c = f.centroid;
       per_cell[{clouds[s].grid->cellIndex(c.x()), clouds[s].grid->cellIndex(c.y())}].push_back({s, f});
-      (void)key;
     }
   }
   for (auto& [k, planes] : per_cell) {

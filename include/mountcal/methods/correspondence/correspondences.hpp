@@ -241,6 +241,7 @@ class CorrespondenceObservations final : public ObservationSource {
   std::unique_ptr<detail::DenseMatcher> dense_;
   double* laser_block_ = nullptr;  // this round's per-laser elevation block (dense mode)
   std::vector<double> laser_dl_;   // its values, carried from solve to solve [rad]
+  PointShifts shifts_;             // the last solve's strip offsets, corrections and time offset
   bool coarse_ = true;
   std::array<double, 6> last_{};
   double fine_gate_m_ = 0.0;
