@@ -6,7 +6,16 @@ set -euo pipefail
 
 MOUNTCAL_DEPS=(build-essential cmake pkg-config libeigen3-dev libceres-dev libflann-dev liblz4-dev
   libopenmesh-dev libproj-dev proj-data nlohmann-json3-dev libcli11-dev
-  libgtest-dev libgmock-dev libbenchmark-dev zlib1g-dev)
+  libgtest-dev libgmock-dev libbenchmark-dev zlib1g-dev ninja-build)
+
+# The CMake generator arguments for a build directory: none when it is configured already (it
+# keeps its generator), else Ninja — it compiles a target's sources while the libraries it links
+# are still being built, where Make waits for them, so two cores stay busy.
+mountcal_generator() {  # BUILD_DIR
+  if [ ! -f "$1/CMakeCache.txt" ] && command -v ninja >/dev/null; then
+    echo "-GNinja"
+  fi
+}
 
 mountcal_ensure_deps() {
   local missing=() p

@@ -17,7 +17,8 @@ jobs="$(nproc)"
 # The job parser validates settings through the calibrator's options: it is instrumented, the rest
 # of the library comes from the release build (scripts/test.sh builds it; built here if missing).
 if [ ! -f "$root/build/src/libmountcal.a" ]; then
-  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
+  mapfile -t generator < <(mountcal_generator "$root/build")
+  cmake -S "$root" -B "$root/build" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release > /dev/null
   cmake --build "$root/build" --target mountcal -j "$jobs" > /dev/null
 fi
 # Every instrumented source compiled once, on every core, then each target linked from its objects.

@@ -22,13 +22,18 @@ if [ "${1:-}" = "--sanitize" ]; then
   # compiled once per batch of sources, not once per source (the Release build stays one object
   # per source, so that a source missing an include still fails somewhere).
   # Benchmarks and examples are not run here, so not built.
+  # Compiled by clang (Debian's clang 14, which the fuzzers use too): it builds the instrumented
+  # library and tests in 27 % less CPU time than GCC (695 against 950 CPU-seconds, 2026-11-27);
+  # the suite then runs 7 % longer (1297 against 1217 s). The Release build stays GCC's.
+  mountcal_ensure_deps clang libclang-rt-14-dev
   build="$root/build-asan"; kind=sanitize
-  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DMOUNTCAL_SANITIZE=ON
+  args=(-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DMOUNTCAL_SANITIZE=ON
         -DCMAKE_UNITY_BUILD=ON -DMOUNTCAL_BUILD_BENCHMARKS=OFF -DMOUNTCAL_BUILD_EXAMPLES=OFF "-DMOUNTCAL_CCACHE=${MOUNTCAL_CCACHE:-ON}")
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 fi
 jobs="$(nproc)"
-cmake -S "$root" -B "$build" "${args[@]}" >/dev/null
+mapfile -t generator < <(mountcal_generator "$build")
+cmake -S "$root" -B "$build" "${generator[@]}" "${args[@]}" >/dev/null
 cmake --build "$build" -j "$jobs"
 cd "$build"
 # The tests' run times of an earlier suite (tests/costs/), so that CTest starts the longest first
