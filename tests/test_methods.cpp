@@ -565,6 +565,39 @@ MountingCalibrator::Summary denseCalibration(const PerLaserSurvey& s, double las
 // except laser 5, 0.3° below its entry: by laser, laser 5's median discrepancy stands far above every
 // other's; each grouping holds every used point once, and the range classes about a fifth of the
 // examined points each (quintile bounds).
+TEST(DiscrepancyBreakdown, BeforeAndAfterAreMatchedByClassLabel) {
+  // The console, the result file and the report show the classes after a calibration, each
+  // with its figures before: matched by label, in the after side's order; a class that had no
+  // points before has none (NaN, null in the result file).
+  auto cls = [](const char* label, double median) {
+    DiscrepancyClass c;
+    c.label = label;
+    c.stats.queries = c.stats.used = 10;
+    c.stats.median_m = median;
+    return c;
+  };
+  DiscrepancyBreakdown before, after;
+  before.by_laser = {cls("laser 3", 0.3), cls("laser 1", 0.1)};
+  after.by_laser = {cls("laser 1", 0.01), cls("laser 2", 0.02), cls("laser 3", 0.03)};
+  after.by_tilt = {cls("0-15 deg", 0.005)};
+  const std::vector<DiscrepancyGroupChange> g = compareBreakdowns(before, after);
+  ASSERT_EQ(g.size(), 4u);
+  EXPECT_EQ(g[0].key, "by_laser");
+  EXPECT_EQ(g[1].title, "place along the pass");
+  EXPECT_EQ(g[3].key, "by_tilt");
+  ASSERT_EQ(g[0].classes.size(), 3u);
+  EXPECT_EQ(g[0].classes[0].label, "laser 1");
+  EXPECT_TRUE(g[0].classes[0].in_before);
+  EXPECT_EQ(g[0].classes[0].before.median_m, 0.1);
+  EXPECT_EQ(g[0].classes[0].after.median_m, 0.01);
+  EXPECT_FALSE(g[0].classes[1].in_before);
+  EXPECT_TRUE(std::isnan(g[0].classes[1].before.median_m));
+  EXPECT_EQ(g[0].classes[2].before.median_m, 0.3);
+  EXPECT_TRUE(g[1].classes.empty());
+  ASSERT_EQ(g[3].classes.size(), 1u);
+  EXPECT_FALSE(g[3].classes[0].in_before);
+}
+
 TEST(DiscrepancyBreakdown, SinglesOutTheLaserWhoseTableEntryIsWrong) {
   SurveyConfig c;
   Scene scene;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -167,26 +168,33 @@ TEST(Planner, TheVerticalLeverArmNeedsGroundControl) {
   std::printf("%s", a.text().c_str());
 }
 
-// The predicted σ against the scatter of calibrations of the same plan with independent noise:
-// the RMS error over the seeds within 30 % of the predicted σ for every determined parameter.
-TEST(Planner, PredictedSigmaMatchesTheScatterOfRepeatedCalibrations) {
+/// The plan of the scatter tests: two heights and a fifth line, two surveyed targets as control,
+/// ties on flat ground only — on a roof the plan pick error moves the tie along the slope, which
+/// the tie observations do not model yet (measured: roll σ understated by 1.37× with the roofs).
+json scatterPlan() {
   auto lines = kTwoHeights;
   lines.push_back({"5", 0, -400, 0, 400, 500});
   json j = village(lines, false);
   j["gcps"] = {"t1", "t3"};
-  // Ties on flat ground only: on a roof the plan pick error moves the tie along the slope, which
-  // the tie observations do not model yet (measured: roll σ understated by 1.37× with the roofs).
   j["ground"]["roofs"] = json::array();
   j["ground"]["targets"].push_back({{"id", "t5"}, {"centre", {-60, 40}}, {"size_m", 2}});
   j["ground"]["targets"].push_back({{"id", "t6"}, {"centre", {60, 50}}, {"size_m", 2}});
   j["ground"]["targets"].push_back({{"id", "t7"}, {"centre", {70, -45}}, {"size_m", 2}});
+  return j;
+}
+
+/// Calibrates `seeds` simulated flights of the plan, each with its own noise (and the navigation
+/// drift `drift` adds to the simulator: sums of sinusoids of random periods, unlike the
+/// calibrator's Gauss–Markov model), and compares the RMS error of every determined parameter
+/// with the plan's predicted σ: within 30 %.
+void expectPredictionMatchesScatter(const json& j, int seeds, const std::function<void(simulation::NoiseModel*)>& drift) {
   const Plan plan = load(j);
   const Prediction p = predict(plan);
-  const int seeds = mountcal_tests::seedsFor(32, 2);
   std::array<double, 6> sum2{};
   for (int seed = 1; seed <= seeds; ++seed) {
     simulation::SurveyConfig c = plan.surveyConfig();
     c.seed = static_cast<std::uint64_t>(seed);
+    drift(&c.noise);
     c.true_mounting = c.nominal_mounting;
     c.nominal_mounting.a_b += Vec3(0.05, -0.04, 0.0);  // the calibration starts away from the truth
     c.nominal_mounting.boresight += Vec3(0.05, -0.05, 0.1) * (kPi / 180);
@@ -206,7 +214,7 @@ TEST(Planner, PredictedSigmaMatchesTheScatterOfRepeatedCalibrations) {
     const auto e = S.mounting.toArray(), t = c.true_mounting.toArray();
     for (int k = 0; k < 6; ++k) sum2[k] += (e[k] - t[k]) * (e[k] - t[k]);
   }
-  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the RMS error over 32 calibrations against the predicted σ");
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the RMS error over 32 or more calibrations against the predicted σ");
   for (int k = 0; k < 6; ++k) {
     if (!p.determined[k]) continue;
     const double rms = std::sqrt(sum2[k] / seeds);
@@ -215,6 +223,28 @@ TEST(Planner, PredictedSigmaMatchesTheScatterOfRepeatedCalibrations) {
     EXPECT_GT(rms / p.sigma[k], 0.7) << mountingParameterNames()[k];
     EXPECT_LT(rms / p.sigma[k], 1.3) << mountingParameterNames()[k];
   }
+}
+
+// The predicted σ against the scatter of calibrations of the same plan with independent noise:
+// the RMS error over the seeds within 30 % of the predicted σ for every determined parameter.
+TEST(Planner, PredictedSigmaMatchesTheScatterOfRepeatedCalibrations) {
+  expectPredictionMatchesScatter(scatterPlan(), mountcal_tests::seedsFor(32, 2), [](simulation::NoiseModel*) {});
+}
+
+// Issue 26: the same under navigation drift within each strip — the plan states it (its "noise":
+// a survey-grade GNSS/INS, position 2 cm, attitude 0.002°, heading 0.004°) and predicts with the
+// trajectory errors in time; the flights are simulated with drift of periods 10–100 s (position)
+// and 1–30 s (attitude), a form the calibrator does not model. 96 flights: the drift makes the
+// errors heavy-tailed, and 32 were not enough to tell (measured 2026-11-27: RMS error / predicted
+// σ 0.64–0.86 over seeds 1–32, 0.78–0.93 over 1–64, 0.88–1.00 over 1–96 — the prediction slightly
+// conservative).
+TEST(Planner, PredictedSigmaMatchesTheScatterUnderNavigationDrift) {
+  json j = scatterPlan();
+  j["noise"] = {{"drift_position_sigma_m", 0.02}, {"drift_attitude_sigma_deg", 0.002}};
+  expectPredictionMatchesScatter(j, mountcal_tests::seedsFor(96, 2), [](simulation::NoiseModel* n) {
+    n->drift_position_sigma_m = 0.02;
+    n->drift_attitude_sigma_rad = deg2rad(0.002);
+  });
 }
 
 TEST(Planner, PlanFileErrorsNameTheFileAndTheField) {

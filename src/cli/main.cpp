@@ -215,17 +215,12 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
 }
 
 /// One group of the discrepancy breakdown (DiscrepancyBreakdown), before and after, by class.
-void printBreakdown(const char* title, const std::vector<mountcal::DiscrepancyClass>& before,
-                    const std::vector<mountcal::DiscrepancyClass>& after) {
-  if (after.empty()) return;
-  std::printf("  by %s:\n    %-24s %8s %8s   median before/after [m]   P90 before/after [m]\n", title, "class", "points", "used");
-  for (const mountcal::DiscrepancyClass& a : after) {
-    mountcal::DiscrepancyStats b;
-    for (const mountcal::DiscrepancyClass& x : before)
-      if (x.label == a.label) b = x.stats;
-    std::printf("    %-24s %8zu %8zu   %8.4f %8.4f         %8.4f %8.4f\n", a.label.c_str(), a.stats.queries, a.stats.used, b.median_m,
-                a.stats.median_m, b.p90_m, a.stats.p90_m);
-  }
+void printBreakdown(const mountcal::DiscrepancyGroupChange& g) {
+  if (g.classes.empty()) return;
+  std::printf("  by %s:\n    %-24s %8s %8s   median before/after [m]   P90 before/after [m]\n", g.title.c_str(), "class", "points", "used");
+  for (const mountcal::DiscrepancyClassChange& c : g.classes)
+    std::printf("    %-24s %8zu %8zu   %8.4f %8.4f         %8.4f %8.4f\n", c.label.c_str(), c.after.queries, c.after.used,
+                c.before.median_m, c.after.median_m, c.before.p90_m, c.after.p90_m);
 }
 
 int runEvaluate(const std::string& job_path, const std::string& result_path, const std::string& report,
@@ -275,10 +270,8 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
                   a.stats.queries, a.stats.used, b.median_m, a.stats.median_m, b.rms_m, a.stats.rms_m, b.p90_m, a.stats.p90_m);
     }
     std::printf("where the discrepancy lies (the used points of every pair; tilt: the reference surface's normal from the vertical):\n");
-    printBreakdown("laser", ev.breakdown_before.by_laser, ev.breakdown_after.by_laser);
-    printBreakdown("place along the pass", ev.breakdown_before.by_place, ev.breakdown_after.by_place);
-    printBreakdown("range", ev.breakdown_before.by_range, ev.breakdown_after.by_range);
-    printBreakdown("surface tilt", ev.breakdown_before.by_tilt, ev.breakdown_after.by_tilt);
+    for (const mountcal::DiscrepancyGroupChange& g : mountcal::compareBreakdowns(ev.breakdown_before, ev.breakdown_after))
+      printBreakdown(g);
   }
   if (ev.has_check_points) {
     const auto &b = ev.check_points_before, &a = ev.check_points_after;

@@ -62,24 +62,16 @@ json numOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json vec(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 /// "discrepancy_breakdown": {"by_laser": [{"class", "before", "after"}], "by_place", "by_range",
-/// "by_tilt"}; a class missing on one side has null there.
+/// "by_tilt"}; a class missing before has null there.
 template <typename Stats>
 json breakdownJson(const DiscrepancyBreakdown& before, const DiscrepancyBreakdown& after, Stats st) {
   json out = json::object();
-  auto side = [&](const std::vector<DiscrepancyClass>& b, const std::vector<DiscrepancyClass>& a) {
+  for (const DiscrepancyGroupChange& g : compareBreakdowns(before, after)) {
     json rows = json::array();
-    for (const DiscrepancyClass& c : a) {
-      json row = {{"class", c.label}, {"before", nullptr}, {"after", st(c.stats)}};
-      for (const DiscrepancyClass& x : b)
-        if (x.label == c.label) row["before"] = st(x.stats);
-      rows.push_back(row);
-    }
-    return rows;
-  };
-  out["by_laser"] = side(before.by_laser, after.by_laser);
-  out["by_place"] = side(before.by_place, after.by_place);
-  out["by_range"] = side(before.by_range, after.by_range);
-  out["by_tilt"] = side(before.by_tilt, after.by_tilt);
+    for (const DiscrepancyClassChange& c : g.classes)
+      rows.push_back({{"class", c.label}, {"before", c.in_before ? st(c.before) : json(nullptr)}, {"after", st(c.after)}});
+    out[g.key] = rows;
+  }
   return out;
 }
 }  // namespace

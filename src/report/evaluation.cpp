@@ -392,4 +392,32 @@ DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingPa
   return statsOf(std::move(all), total);
 }
 
+std::vector<DiscrepancyGroupChange> compareBreakdowns(const DiscrepancyBreakdown& before, const DiscrepancyBreakdown& after) {
+  struct Group {
+    const char* key;
+    const char* title;
+    std::vector<DiscrepancyClass> DiscrepancyBreakdown::*classes;
+  };
+  const Group groups[] = {{"by_laser", "laser", &DiscrepancyBreakdown::by_laser},
+                          {"by_place", "place along the pass", &DiscrepancyBreakdown::by_place},
+                          {"by_range", "range", &DiscrepancyBreakdown::by_range},
+                          {"by_tilt", "surface tilt", &DiscrepancyBreakdown::by_tilt}};
+  std::vector<DiscrepancyGroupChange> out;
+  for (const Group& grp : groups) {
+    DiscrepancyGroupChange group;
+    group.key = grp.key;
+    group.title = grp.title;
+    for (const DiscrepancyClass& a : after.*grp.classes) {
+      DiscrepancyClassChange c;
+      c.label = a.label;
+      c.after = a.stats;
+      for (const DiscrepancyClass& b : before.*grp.classes)
+        if (b.label == a.label) c.in_before = true, c.before = b.stats;
+      group.classes.push_back(std::move(c));
+    }
+    out.push_back(std::move(group));
+  }
+  return out;
+}
+
 }  // namespace mountcal

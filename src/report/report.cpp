@@ -26,24 +26,16 @@ std::string f(double v, const char* fmt = "%.4f") {
 void breakdownHtml(const DiscrepancyBreakdown& before, const DiscrepancyBreakdown& after, std::ostringstream& h) {
   h << "<h3>Where the discrepancy lies</h3><p>The used points of every pair, classed by the laser that measured them, their "
        "place along their pass, their range and the tilt of the reference surface (its normal from the vertical); |distance| [m].</p>";
-  auto table = [&](const char* title, const std::vector<DiscrepancyClass>& b, const std::vector<DiscrepancyClass>& a) {
-    if (a.empty()) return;
-    h << "<table><tr><th>by " << title << "</th><th>points</th><th>used</th><th>median before</th><th>median after</th>"
+  for (const DiscrepancyGroupChange& g : compareBreakdowns(before, after)) {
+    if (g.classes.empty()) continue;
+    h << "<table><tr><th>by " << esc(g.title) << "</th><th>points</th><th>used</th><th>median before</th><th>median after</th>"
       << "<th>P90 before</th><th>P90 after</th></tr>";
-    for (const DiscrepancyClass& c : a) {
-      DiscrepancyStats x;
-      for (const DiscrepancyClass& y : b)
-        if (y.label == c.label) x = y.stats;
-      h << "<tr><td class=l>" << esc(c.label) << "</td><td>" << c.stats.queries << "</td><td>" << c.stats.used << "</td><td>"
-        << f(x.median_m) << "</td><td>" << f(c.stats.median_m) << "</td><td>" << f(x.p90_m) << "</td><td>" << f(c.stats.p90_m)
+    for (const DiscrepancyClassChange& c : g.classes)
+      h << "<tr><td class=l>" << esc(c.label) << "</td><td>" << c.after.queries << "</td><td>" << c.after.used << "</td><td>"
+        << f(c.before.median_m) << "</td><td>" << f(c.after.median_m) << "</td><td>" << f(c.before.p90_m) << "</td><td>" << f(c.after.p90_m)
         << "</td></tr>";
-    }
     h << "</table>";
-  };
-  table("laser", before.by_laser, after.by_laser);
-  table("place along the pass", before.by_place, after.by_place);
-  table("range", before.by_range, after.by_range);
-  table("surface tilt", before.by_tilt, after.by_tilt);
+  }
 }
 }  // namespace
 

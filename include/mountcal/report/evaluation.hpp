@@ -107,6 +107,24 @@ struct DiscrepancyBreakdown {
   std::vector<DiscrepancyClass> by_laser, by_place, by_range, by_tilt;
 };
 
+/// One class of a group, before and after a calibration.
+struct DiscrepancyClassChange {
+  std::string label;
+  bool in_before = false;   ///< the class had points before (its classes are those after)
+  DiscrepancyStats before;  ///< default (NaN) when !in_before
+  DiscrepancyStats after;
+};
+/// One group of the breakdown before and after: the classes after, in order, each with its figures
+/// before (matched by label).
+struct DiscrepancyGroupChange {
+  std::string key;    ///< "by_laser", "by_place", "by_range", "by_tilt" (the result file's keys)
+  std::string title;  ///< "laser", "place along the pass", "range", "surface tilt"
+  std::vector<DiscrepancyClassChange> classes;
+};
+/// The four groups of two breakdowns side by side (what the console, the result file and the
+/// report show as "where the discrepancy lies").
+std::vector<DiscrepancyGroupChange> compareBreakdowns(const DiscrepancyBreakdown& before, const DiscrepancyBreakdown& after);
+
 /// The pairs (as passDiscrepancies) and their breakdown, from one georeferencing of `data` at
 /// `mounting`. Throws InvalidInput for invalid options.
 struct DiscrepancyReport {
