@@ -195,6 +195,18 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     if (k.name == "vtpm") {
       EXPECT_NE(html.find("class=\"histogram\""), std::string::npos);
     }
+    // The error curves at this survey's ranges (issue 28: a drone's 30 m, not an aircraft's
+    // 500–2000 m): every range drawn lies within the data's ranges.
+    double r_lo = 1e300, r_hi = 0;
+    for (const StripData& st : k.data.strips)
+      for (const Vec3& r : st.r_s) r_lo = std::min(r_lo, r.norm()), r_hi = std::max(r_hi, r.norm());
+    int drawn = 0;
+    for (std::size_t at = html.find("ρ = "); at != std::string::npos; at = html.find("ρ = ", at + 1), ++drawn) {
+      const double range = std::stod(html.substr(at + std::string("ρ = ").size(), 12));
+      EXPECT_GE(range, 0.9 * r_lo) << range;
+      EXPECT_LE(range, 1.1 * r_hi) << range;
+    }
+    EXPECT_GE(drawn, 3);  // each of the three plots names at least one range
     EXPECT_EQ(html.find("<script"), std::string::npos);
     EXPECT_EQ(html.find("src=\"http"), std::string::npos);
     EXPECT_EQ(html.find("href=\"http"), std::string::npos);

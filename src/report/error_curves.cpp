@@ -72,7 +72,7 @@ std::string errorCurveSvg(const std::vector<ErrorCurveSample>& samples, int axis
   }
   for (auto& [range, xy] : by_range) {
     char name[64];
-    std::snprintf(name, sizeof name, "ρ = %.0f m", range);
+    std::snprintf(name, sizeof name, "ρ = %.4g m", range);
     plot.addSeries(name, std::move(xy.first), std::move(xy.second));
   }
   return plot.render();

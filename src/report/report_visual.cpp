@@ -650,23 +650,47 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
   return v.str();
 }
 
-/// The error a line scanner's points would carry without the boresight change (Figs 1–3).
+/// The ranges at which the error curves are drawn: the 10th, 50th and 90th percentiles of the
+/// data's ranges |r_s| (rounded to two significant digits, distinct), so that a UAV's 30 m passes
+/// are not shown at an aircraft's 500–2000 m; those four when the data have no ranges.
+std::vector<double> curveRanges(const CalibrationData& data) {
+  std::vector<double> r;
+  std::size_t total = 0;
+  for (const StripData& s : data.strips) total += s.r_s.size();
+  const std::size_t step = 1 + total / 20000;
+  std::size_t k = 0;
+  for (const StripData& s : data.strips)
+    for (const Vec3& v : s.r_s)
+      if (k++ % step == 0 && std::isfinite(v.norm()) && v.norm() > 0) r.push_back(v.norm());
+  if (r.size() < 10) return {500, 1000, 1500, 2000};
+  std::sort(r.begin(), r.end());
+  std::vector<double> out;
+  for (double q : {0.1, 0.5, 0.9}) {
+    const double x = r[static_cast<std::size_t>(q * static_cast<double>(r.size() - 1))];
+    const double unit = std::pow(10.0, std::floor(std::log10(x)) - 1);  // two significant digits
+    const double rounded = std::max(unit, std::round(x / unit) * unit);
+    if (out.empty() || rounded > out.back()) out.push_back(rounded);
+  }
+  return out;
+}
+
+/// The error a line scanner's points would carry without the boresight change (Figs 1–3), at
+/// the data's ranges.
 std::string errorCurvesSection(const CalibrationData& data, const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
-  {
-    std::vector<double> angles, ranges{500, 1000, 1500, 2000};
-    for (int a = -30; a <= 30; ++a) angles.push_back(deg2rad(a));
-    const Vec3 b = summary.mounting.boresight - data.mounting_used.boresight;
-    const auto curves = boresightErrorCurves(b, angles, ranges);
-    v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
-         "points would carry if the boresight change found here ("
-      << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, "
-      << detail::formatNumber(rad2deg(b.z()), "%+.4f") << "°) were ignored, against scan angle, per range.</p><div>";
-    const char* ax[3] = {"along track (x)", "across track (y)", "vertical (z)"};
-    for (int a = 0; a < 3; ++a) v << errorCurveSvg(curves, a, std::string("error ") + ax[a]);
-    v << "</div>";
-  }
-
+  std::vector<double> angles;
+  const std::vector<double> ranges = curveRanges(data);
+  for (int a = -30; a <= 30; ++a) angles.push_back(deg2rad(a));
+  const Vec3 b = summary.mounting.boresight - data.mounting_used.boresight;
+  const auto curves = boresightErrorCurves(b, angles, ranges);
+  v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
+       "points would carry if the boresight change found here ("
+    << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, "
+    << detail::formatNumber(rad2deg(b.z()), "%+.4f") << "°) were ignored, against scan angle, at this survey's ranges (the 10th, "
+    << "50th and 90th percentiles of its ranges).</p><div>";
+  const char* ax[3] = {"along track (x)", "across track (y)", "vertical (z)"};
+  for (int a = 0; a < 3; ++a) v << errorCurveSvg(curves, a, std::string("error ") + ax[a]);
+  v << "</div>";
   return v.str();
 }
 
