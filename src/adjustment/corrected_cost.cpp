@@ -18,6 +18,38 @@ double legendre(int k, double tau) {
   }
 }
 
+double spanTau(double time_s, double t_mid_s, double half_span_s) {
+  return half_span_s > 0 ? std::clamp((time_s - t_mid_s) / half_span_s, -1.0, 1.0) : 0.0;
+}
+
+void correctionBasis(int position_degree, int attitude_degree, double tau, const Vec3& u_m, double* B) {
+  const int dp = std::max(position_degree, 0), n = 3 * dp + 3 * std::max(attitude_degree, 0);
+  std::fill(B, B + 3 * n, 0.0);
+  for (int k = 1; k <= dp; ++k) {
+    const double w = legendre(k, tau);
+    for (int a = 0; a < 3; ++a) B[a * n + 3 * (k - 1) + a] = w;
+  }
+  // δψ × u = −[u]× δψ
+  const Vec3& u = u_m;
+  const double ux[3][3] = {{0, u.z(), -u.y()}, {-u.z(), 0, u.x()}, {u.y(), -u.x(), 0}};
+  for (int k = 1; k <= attitude_degree; ++k) {
+    const double w = legendre(k, tau);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) B[a * n + 3 * dp + 3 * (k - 1) + b] = w * ux[a][b];
+  }
+}
+
+Vec3 correctionShift(int position_degree, int attitude_degree, double tau, const Vec3& u_m, const double* c) {
+  constexpr int kMaxSize = 18;  // degrees up to 3 (TrajectoryCorrections)
+  const int n = 3 * std::max(position_degree, 0) + 3 * std::max(attitude_degree, 0);
+  std::array<double, 3 * kMaxSize> B{};
+  correctionBasis(position_degree, attitude_degree, tau, u_m, B.data());
+  Vec3 d = Vec3::Zero();
+  for (int a = 0; a < 3; ++a)
+    for (int j = 0; j < n; ++j) d[a] += B[static_cast<std::size_t>(a * n + j)] * c[j];
+  return d;
+}
+
 CorrectedCost::CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionTerm> terms, int position_degree, int attitude_degree,
                              int correction_blocks, bool time_block)
     : inner_(inner),
@@ -34,22 +66,6 @@ CorrectedCost::CorrectedCost(ceres::CostFunction* inner, std::vector<CorrectionT
   if (time_) mutable_parameter_block_sizes()->push_back(1);
 }
 
-void CorrectedCost::basis(const CorrectionTerm& term, double* B) const {
-  std::fill(B, B + 3 * size_, 0.0);
-  for (int k = 1; k <= dp_; ++k) {
-    const double w = legendre(k, term.tau);
-    for (int a = 0; a < 3; ++a) B[a * size_ + 3 * (k - 1) + a] = w;
-  }
-  // δψ × u = −[u]× δψ
-  const Vec3& u = term.u_m;
-  const double ux[3][3] = {{0, u.z(), -u.y()}, {-u.z(), 0, u.x()}, {u.y(), -u.x(), 0}};
-  for (int k = 1; k <= da_; ++k) {
-    const double w = legendre(k, term.tau);
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) B[a * size_ + 3 * dp_ + 3 * (k - 1) + b] = w * ux[a][b];
-  }
-}
-
 bool CorrectedCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const int nr = num_residuals();
   const std::size_t nt = terms_.size();
@@ -63,7 +79,7 @@ bool CorrectedCost::Evaluate(double const* const* parameters, double* residuals,
     Vec3 x(o[0], o[1], o[2]);
     if (term.correction_block >= 0) {
       double* Bt = B.data() + t * 3 * static_cast<std::size_t>(size_);
-      basis(term, Bt);
+      correctionBasis(dp_, da_, term.tau, term.u_m, Bt);
       const double* c = parameters[term.correction_block];
       for (int a = 0; a < 3; ++a)
         for (int j = 0; j < size_; ++j) x[a] += Bt[a * size_ + j] * c[j];

@@ -17,6 +17,17 @@ namespace mountcal::detail {
 /// Legendre polynomial P_k(τ), k ≤ 3.
 double legendre(int k, double tau);
 
+/// An epoch's place τ ∈ [−1, 1] on a strip's span (centre, half width [s]); 0 on a span of one
+/// instant. Epochs outside the span are clamped to its ends.
+double spanTau(double time_s, double t_mid_s, double half_span_s);
+
+/// The 3 × n basis (row-major, n = 3 d_p + 3 d_a) of a correction's point shift at τ and u:
+/// δ = B c with c in TrajectoryCorrections order, i.e. Σ c_k P_k(τ) + (Σ e_k P_k(τ)) × u.
+void correctionBasis(int position_degree, int attitude_degree, double tau, const Vec3& u_m, double* B);
+
+/// The point shift δ = B c of correctionBasis for the coefficients `c`.
+Vec3 correctionShift(int position_degree, int attitude_degree, double tau, const Vec3& u_m, const double* c);
+
 /// Where one strip's offset block enters the source's cost and how the point moves there.
 struct CorrectionTerm {
   int offset_block = 0;            ///< index of the strip's offset among the source's blocks
@@ -37,8 +48,6 @@ class CorrectedCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
-  /// 3 × size basis: ∂δ/∂(coefficients) at a term.
-  void basis(const CorrectionTerm& term, double* B) const;
   std::unique_ptr<ceres::CostFunction> inner_;
   std::vector<CorrectionTerm> terms_;
   int dp_, da_, n_inner_, n_corr_, size_;

@@ -409,7 +409,7 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
       auto it = index.find(e.offset);
       if (it != index.end()) {
         const StripCorrection& sc = corrections_blocks_[it->second];
-        term.tau = sc.half_span_s > 0 ? std::clamp((e.time_s - sc.t_mid_s) / sc.half_span_s, -1.0, 1.0) : 0.0;
+        term.tau = detail::spanTau(e.time_s, sc.t_mid_s, sc.half_span_s);
         term.correction_block = static_cast<int>(rec.blocks.size() + extra.size());
         extra.push_back(sc.values);
       }
@@ -456,16 +456,11 @@ PointShifts::Strip PointShifts::strip(const std::string& strip_id) const {
 Vec3 PointShifts::Strip::at(double time_s, const Vec3& u_m) const {
   Vec3 d = Vec3::Zero();
   if (terms_) {
-    // As detail::CorrectedCost: δ = o + Σ c_k P_k(τ) + (Σ e_k P_k(τ)) × u
+    // The offset plus the correction, as detail::CorrectedCost passes them to the source.
     d = terms_->offset_m;
-    if (!terms_->coefficients.empty()) {
-      const double tau = terms_->half_span_s > 0 ? std::clamp((time_s - terms_->t_mid_s) / terms_->half_span_s, -1.0, 1.0) : 0.0;
-      const double* c = terms_->coefficients.data();
-      for (int k = 1; k <= all_->position_degree_; ++k, c += 3) d += detail::legendre(k, tau) * Vec3(c[0], c[1], c[2]);
-      Vec3 psi = Vec3::Zero();
-      for (int k = 1; k <= all_->attitude_degree_; ++k, c += 3) psi += detail::legendre(k, tau) * Vec3(c[0], c[1], c[2]);
-      d += psi.cross(u_m);
-    }
+    if (!terms_->coefficients.empty())
+      d += detail::correctionShift(all_->position_degree_, all_->attitude_degree_,
+                                   detail::spanTau(time_s, terms_->t_mid_s, terms_->half_span_s), u_m, terms_->coefficients.data());
   }
   Vec3 v, w;
   if (all_ && all_->time_offset_s_ != 0.0 && all_->motion_(id_, time_s, &v, &w)) d += all_->time_offset_s_ * (v + w.cross(u_m));

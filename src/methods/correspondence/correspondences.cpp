@@ -71,6 +71,11 @@ struct StripRef {
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
 };
 
+/// u = x − p of a pair point at the mounting used (IMU → point, mapping frame) [m].
+Vec3 pairImuToPoint(const PairPoint& q, const MountingParameters& used, const Mat3& R_bs_used) {
+  return q.R_mb * (R_bs_used * q.r_s_m + used.a_b);
+}
+
 StripRef stripRef(const CalibrationData& data, const StripData& st) {
   if (st.r_s.size() != st.time_s.size() || (!st.x_m.empty() && st.x_m.size() != st.time_s.size())) {
     throw InvalidInput("strip '" + st.id + "': time, r_s and x_m must have the same length");
@@ -353,7 +358,7 @@ class Matcher {
     const bool shifted = !shifts.empty();
     auto at = [&](const PairPoint& q, const PointShifts::Strip& shift) {
       Vec3 x = q.x0_m + motion.displacement(q.R_mb, q.r_s_m);
-      if (shifted) x += shift.at(q.time_s, q.R_mb * (R_bs_used * q.r_s_m + used.a_b));
+      if (shifted) x += shift.at(q.time_s, pairImuToPoint(q, used, R_bs_used));
       return x;
     };
     std::vector<Vec3> xb(pr.points_b.size());
@@ -834,9 +839,9 @@ void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting
     Vec3 ub = Vec3::Zero();
     for (std::uint32_t j : ref.b) {
       tb += pr.points_b[j].time_s;
-      ub += pr.points_b[j].R_mb * (R_bs_used * pr.points_b[j].r_s_m + used.a_b);
+      ub += detail::pairImuToPoint(pr.points_b[j], used, R_bs_used);
     }
-    problem->setEpoch(blocks_.back(), id_a, qa.time_s, qa.R_mb * (R_bs_used * qa.r_s_m + used.a_b));
+    problem->setEpoch(blocks_.back(), id_a, qa.time_s, detail::pairImuToPoint(qa, used, R_bs_used));
     problem->setEpoch(blocks_.back(), id_b, tb / kb, ub / kb);
   }
 }
