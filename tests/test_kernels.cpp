@@ -395,3 +395,26 @@ TEST(Kernels, PlanGridBoxIsBoundedByTheOccupiedCells) {
   EXPECT_TRUE(g.box(x, 5, 5, 0, 0).empty());
   EXPECT_TRUE(g.box(x, std::nan(""), 0, 5, 5).empty());
 }
+
+// The share of a Gauss–Markov error that stays in the residuals when the strip's terms absorb
+// polynomials in time, against hand derivations: two epochs of equal weight whose mean is
+// absorbed keep (1 − ρ)/2 each; three equally spaced epochs with a line absorbed keep the part
+// along v = (1, −2, 1)/√6, i.e. (vᵀρv) v_i² with vᵀρv = (6 − 8ρ₁ + 2ρ₂)/6; nothing absorbed keeps 1.
+TEST(ResidualShare, IsWhatTheAbsorbedPolynomialsLeaveByHand) {
+  const double tau = 30.0;
+  const double rho = std::exp(-10.0 / tau);
+  const Eigen::VectorXd two = mountcal::detail::residualShare({0.0, 10.0}, {1.0, 1.0}, tau, {0});
+  EXPECT_NEAR(two(0), (1 - rho) / 2, 1e-12);
+  EXPECT_NEAR(two(1), (1 - rho) / 2, 1e-12);
+  const double r1 = std::exp(-5.0 / tau), r2 = std::exp(-10.0 / tau), vrv = (6 - 8 * r1 + 2 * r2) / 6;
+  const Eigen::VectorXd three = mountcal::detail::residualShare({0.0, 5.0, 10.0}, {1.0, 1.0, 1.0}, tau, {0, 1});
+  EXPECT_NEAR(three(0), vrv / 6, 1e-12);
+  EXPECT_NEAR(three(1), 4 * vrv / 6, 1e-12);
+  EXPECT_NEAR(three(2), vrv / 6, 1e-12);
+  const Eigen::VectorXd none = mountcal::detail::residualShare({0.0, 5.0, 10.0}, {1.0, 1.0, 1.0}, tau, {});
+  EXPECT_NEAR(none(0), 1.0, 0.0);
+  EXPECT_NEAR(none(2), 1.0, 0.0);
+  // Epochs many τ apart are independent: the mean of two takes half of each one's variance.
+  const Eigen::VectorXd far = mountcal::detail::residualShare({0.0, 300.0}, {1.0, 1.0}, tau, {0});
+  EXPECT_NEAR(far(0), 0.5 * (1 - std::exp(-10.0)), 1e-12);
+}

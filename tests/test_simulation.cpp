@@ -283,33 +283,35 @@ TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {
 namespace mountcal::simulation {
 namespace {
 
-// Issue 26: navigation drift of realistic spectra, in a form unlike the calibrator's models.
-TEST(SimulationNoise, NavigationDriftHasItsRmsAndItsPeriods) {
+/// Measured − true trajectory in x, sampled at the trajectory's rate over every line of the
+/// crossing field (both share their sample times) with only navigation drift of `form`: the
+/// sample RMS, and the RMS of the 1 s difference over the RMS.
+struct DriftStatistics {
+  double rms = 0.0, one_second_change = 0.0;
+};
+DriftStatistics driftStatistics(NoiseModel::DriftForm form) {
   Scene scene;
   SurveyConfig c;
   makePreset("paper-calibration-field", 4, &c, &scene);
   c.noise = NoiseModel::none();
   c.noise.drift_position_sigma_m = 0.02;
   c.noise.drift_attitude_sigma_rad = deg2rad(0.002);
+  c.noise.drift_form = form;
   c.roi_radius_m = 1.0;
   const SimulatedSurvey s = simulate(c, scene);
-  // Measured − true trajectory, sampled at the trajectory's rate over every line (both share
-  // their sample times).
   const auto& measured = s.measured_trajectory->samples();
   const auto& truth = s.true_trajectory->samples();
-  ASSERT_EQ(measured.size(), truth.size());
+  EXPECT_EQ(measured.size(), truth.size());
   std::vector<double> dx, times;
   for (std::size_t i = 0; i < measured.size(); ++i) {
     dx.push_back(measured[i].p_m.x() - truth[i].p_m.x());
     times.push_back(measured[i].time_s);
   }
-  ASSERT_GT(dx.size(), 1000u);
+  EXPECT_GT(dx.size(), 1000u);
   double ss = 0;
   for (double v : dx) ss += v * v;
-  const double rms = std::sqrt(ss / static_cast<double>(dx.size()));
-  EXPECT_GT(rms, 0.02 * 0.5);  // eight sinusoids per line: the sample RMS scatters about σ
-  EXPECT_LT(rms, 0.02 * 1.6);
-  // Smooth over a second (periods ≥ 10 s): successive samples 1 s apart nearly equal.
+  DriftStatistics out;
+  out.rms = std::sqrt(ss / static_cast<double>(dx.size()));
   const std::size_t lag = static_cast<std::size_t>(std::lround(c.trajectory_rate_hz));
   double diff2 = 0;
   std::size_t n = 0;
@@ -318,10 +320,31 @@ TEST(SimulationNoise, NavigationDriftHasItsRmsAndItsPeriods) {
     diff2 += (dx[i] - dx[i - lag]) * (dx[i] - dx[i - lag]);
     ++n;
   }
-  ASSERT_GT(n, 100u);
-  // For a sinusoid of period P, RMS of the 1 s difference / RMS = 2 sin(π/P) ≤ 0.63 at P = 10 s.
-  EXPECT_LT(std::sqrt(diff2 / static_cast<double>(n)) / rms, 0.63);
-  EXPECT_GT(std::sqrt(diff2 / static_cast<double>(n)) / rms, 0.06);  // ≥ 2 sin(π/100): not constant
+  EXPECT_GT(n, 100u);
+  out.one_second_change = std::sqrt(diff2 / static_cast<double>(n)) / out.rms;
+  return out;
+}
+
+// Issue 26: navigation drift of realistic spectra, in a form unlike the calibrator's models.
+TEST(SimulationNoise, NavigationDriftHasItsRmsAndItsPeriods) {
+  const DriftStatistics d = driftStatistics(NoiseModel::DriftForm::kBandLimited);
+  EXPECT_GT(d.rms, 0.02 * 0.5);  // eight sinusoids per line: the sample RMS scatters about σ
+  EXPECT_LT(d.rms, 0.02 * 1.6);
+  // Smooth over a second (periods ≥ 10 s): for a sinusoid of period P, RMS of the 1 s
+  // difference / RMS = 2 sin(π/P) ≤ 0.63 at P = 10 s, ≥ 2 sin(π/100) = 0.06: not constant.
+  EXPECT_LT(d.one_second_change, 0.63);
+  EXPECT_GT(d.one_second_change, 0.06);
+}
+
+// The Gauss–Markov form (issue 26's words): correlation times 10–100 s drawn per line and axis.
+// For a first-order process of correlation time τ the 1 s difference has RMS √(2(1 − e^(−1/τ)))
+// times the process's: 0.14 (τ = 100 s) to 0.44 (τ = 10 s).
+TEST(SimulationNoise, GaussMarkovDriftHasItsRmsAndCorrelationTimes) {
+  const DriftStatistics d = driftStatistics(NoiseModel::DriftForm::kGaussMarkov);
+  EXPECT_GT(d.rms, 0.02 * 0.5);  // a few lines of a few correlation times: the sample RMS scatters
+  EXPECT_LT(d.rms, 0.02 * 1.6);
+  EXPECT_GT(d.one_second_change, 0.14 * 0.8);
+  EXPECT_LT(d.one_second_change, 0.44 * 1.2);
 }
 
 TEST(SimulationNoise, WithoutDriftTheSurveyIsUnchanged) {
@@ -366,5 +389,29 @@ TEST(Scenario, LaserErrorsAreDrawnForAMultiBeamPresetAndRefusedForALineScanner) 
   }
   std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"elevation_sigma_deg": 5}})";
   EXPECT_THROW(loadScenario(path, &c, &scene), FileError);  // 5°: not an error of a laser table
+  std::remove(path.c_str());
+}
+
+// The drift's form from a scenario: named, as a field of the noise object, and refused with the
+// file and the field when it is neither form.
+TEST(Scenario, DriftFormIsReadByNameAndFieldAndAnUnknownOneRefused) {
+  const std::string path = testing::TempDir() + "mountcal_scenario_drift.json";
+  SurveyConfig c;
+  Scene scene;
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "noise": "navigation_drift_gauss_markov"})";
+  loadScenario(path, &c, &scene);
+  EXPECT_EQ(c.noise.drift_form, NoiseModel::DriftForm::kGaussMarkov);
+  EXPECT_EQ(c.noise.drift_position_sigma_m, 0.02);
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "noise": {"drift_position_sigma_m": 0.03, "drift_form": "gauss_markov"}})";
+  loadScenario(path, &c, &scene);
+  EXPECT_EQ(c.noise.drift_form, NoiseModel::DriftForm::kGaussMarkov);
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "noise": {"drift_form": "pink"}})";
+  try {
+    loadScenario(path, &c, &scene);
+    FAIL() << "an unknown drift form";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("drift_form"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
   std::remove(path.c_str());
 }

@@ -1,7 +1,10 @@
 #include "adjustment/corrected_cost.hpp"
 
+#include <Eigen/QR>
+
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace mountcal::detail {
 
@@ -127,6 +130,26 @@ bool CorrectedCost::Evaluate(double const* const* parameters, double* residuals,
     }
   }
   return true;
+}
+
+Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
+                              const std::vector<int>& degrees) {
+  const Eigen::Index n = static_cast<Eigen::Index>(times.size());
+  if (degrees.empty() || n == 0) return Eigen::VectorXd::Ones(n);
+  const double t0 = times.front(), span = std::max(times.back() - times.front(), 1e-9);
+  Eigen::MatrixXd B(n, static_cast<Eigen::Index>(degrees.size())), rho(n, n);
+  Eigen::VectorXd w(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double x = 2.0 * (times[static_cast<std::size_t>(i)] - t0) / span - 1.0;
+    for (std::size_t d = 0; d < degrees.size(); ++d) B(i, static_cast<Eigen::Index>(d)) = std::pow(x, degrees[d]);
+    w(i) = weights[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < n; ++j)
+      rho(i, j) = std::exp(-std::abs(times[static_cast<std::size_t>(i)] - times[static_cast<std::size_t>(j)]) / tau);
+  }
+  const Eigen::MatrixXd BtW = B.transpose() * w.asDiagonal();
+  const Eigen::MatrixXd P = B * (BtW * B).completeOrthogonalDecomposition().pseudoInverse() * BtW;
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Identity(n, n) - P;
+  return (R * rho * R.transpose()).diagonal().cwiseMax(0.0);
 }
 
 }  // namespace mountcal::detail

@@ -28,6 +28,14 @@ void correctionBasis(int position_degree, int attitude_degree, double tau, const
 /// The point shift δ = B c of correctionBasis for the coefficients `c`.
 Vec3 correctionShift(int position_degree, int attitude_degree, double tau, const Vec3& u_m, const double* c);
 
+/// The share of a Gauss–Markov error (correlation exp(−|Δt|/τ), unit variance) at each of one
+/// strip's epochs that stays in their residuals when the strip's estimated terms absorb a
+/// polynomial in time of the listed degrees (the strip offset: degree 0; trajectory corrections:
+/// 1, 2, …): the diagonal of (I − P) ρ (I − P)ᵀ, P the least-squares projection (weights
+/// `weights`) onto those polynomials. `times` ascending; no degrees: every share is 1.
+Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
+                              const std::vector<int>& degrees);
+
 /// Where one strip's offset block enters the source's cost and how the point moves there.
 struct CorrectionTerm {
   int offset_block = 0;            ///< index of the strip's offset among the source's blocks

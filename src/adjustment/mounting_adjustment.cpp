@@ -625,26 +625,44 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Ei
 /// Jacobian with respect to the strip's position (the offset block) or attitude (the offset's
 /// times −[u]×). Epochs are binned at τ/20 (correlation > 0.95 within a bin); bins further apart
 /// than 10 τ (correlation < 5e-5) are skipped. Position and attitude separately; attitude only
-/// when `attitude` (not already estimated as PulseNoise's random effect). An epoch whose own
-/// variance is in its block's estimated σ (Epoch::in_sigma) adds its correlations only.
-Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude) {
+/// when `attitude` (not already estimated as PulseNoise's random effect).
+///
+/// An epoch whose own variance is in its block's estimated σ (Epoch::in_sigma) holds there only
+/// the part of its trajectory error that the strip's estimated terms do not absorb (the offset,
+/// the corrections' polynomials: residualShare); that part is returned as `self`, to be taken
+/// off M (the correlations stay).
+struct TrajectoryTerm {
+  Mat6 M = Mat6::Zero();     ///< every epoch's error, own variances included
+  Mat6 self = Mat6::Zero();  ///< Σ share · h C hᵀ of the in_sigma epochs
+};
+
+TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude) {
   Mat6 N_red;
   Vec6 diag;
   Eigen::MatrixXd X;
   Columns cols;
   reducedNormalMatrix(problem, &N_red, &diag, &X, &cols);
   using Mat63 = Eigen::Matrix<double, 6, 3>;
+  struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ and its count
+    Mat6 hch = Mat6::Zero();
+    double count = 0;
+  };
   struct Group {
     double tau, bin;
     Vec3 var;
     std::map<const double*, std::map<long long, Mat63>> H;  // strip offset → bin → H
-    Mat6 self = Mat6::Zero();                               // Σ h C hᵀ of the epochs whose own variance is in their σ
+    std::map<const double*, std::map<long long, Own>> own;  // strip offset → bin → in_sigma epochs
+    std::vector<int> absorbed;                              // polynomial degrees the strip's terms absorb
   };
   const double t = deg2rad(acc.roll_pitch_sigma_deg), k = deg2rad(acc.heading_sigma_deg), p = acc.position_sigma_m;
-  Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}};
-  Group att{acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, Vec3(t * t, t * t, k * k), {}};
+  Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}, {}, {}};
+  Group att{acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, Vec3(t * t, t * t, k * k), {}, {}, {}};
   const bool use_pos = p > 0, use_att = attitude && (t > 0 || k > 0);
-  if (!use_pos && !use_att) return Mat6::Zero();
+  TrajectoryTerm out;
+  if (!use_pos && !use_att) return out;
+  const TrajectoryCorrections& corr = problem.corrections();
+  for (int d = 0; d <= corr.position_degree; ++d) pos.absorbed.push_back(d);
+  for (int d = 1; d <= corr.attitude_degree; ++d) att.absorbed.push_back(d);
   const double* m = problem.mounting();
   for (const auto& rec : problem.records()) {
     if (rec.epochs.empty()) continue;
@@ -661,35 +679,69 @@ Mat6 trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& a
     for (const auto& e : rec.epochs) {
       const Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
       const Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
-      if (use_pos) {
-        pos.H[e.offset].try_emplace(std::llround(e.time_s / pos.bin), Mat63::Zero()).first->second += hp;
-        if (e.in_sigma) pos.self += hp * pos.var.asDiagonal() * hp.transpose();
-      }
-      if (use_att) {
-        att.H[e.offset].try_emplace(std::llround(e.time_s / att.bin), Mat63::Zero()).first->second += ha;
-        if (e.in_sigma) att.self += ha * att.var.asDiagonal() * ha.transpose();
+      for (auto [g, h, on] : {std::tuple<Group*, const Mat63*, bool>{&pos, &hp, use_pos}, {&att, &ha, use_att}}) {
+        if (!on) continue;
+        const long long bin = std::llround(e.time_s / g->bin);
+        g->H[e.offset].try_emplace(bin, Mat63::Zero()).first->second += *h;
+        if (!e.in_sigma) continue;
+        Own& o = g->own[e.offset][bin];
+        o.hch += *h * g->var.asDiagonal() * h->transpose();
+        o.count += 1;
       }
     }
   }
-  Mat6 M = Mat6::Zero();
-  for (const Group* g : {&pos, &att}) {
+  for (Group* g : {&pos, &att}) {
     const Eigen::DiagonalMatrix<double, 3> C(g->var);
-    M -= g->self;  // what the estimated σ already hold
+    for (const auto& [strip, bins] : g->own) {
+      // A strip offset held constant absorbs nothing (nor do corrections without it).
+      const bool estimated = cols.col.count(strip) > 0;
+      std::vector<double> times, weights;
+      for (const auto& [b, o] : bins) {
+        times.push_back(static_cast<double>(b) * g->bin);
+        weights.push_back(o.count);
+      }
+      const Eigen::VectorXd share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{});
+      Eigen::Index i = 0;
+      for (const auto& [b, o] : bins) out.self += share(i++) * o.hch;
+    }
     for (const auto& [strip, bins] : g->H) {
       (void)strip;
       const std::vector<std::pair<long long, Mat63>> v(bins.begin(), bins.end());
       for (std::size_t i = 0; i < v.size(); ++i) {
-        M += v[i].second * C * v[i].second.transpose();
+        out.M += v[i].second * C * v[i].second.transpose();
         for (std::size_t j = i + 1; j < v.size(); ++j) {
           const double dt = static_cast<double>(v[j].first - v[i].first) * g->bin;
           if (dt > 10.0 * g->tau) break;
           const Mat6 term = std::exp(-dt / g->tau) * v[i].second * C * v[j].second.transpose();
-          M += term + term.transpose();
+          out.M += term + term.transpose();
         }
       }
     }
   }
-  return 0.5 * (M + M.transpose());
+  out.M = 0.5 * (out.M + out.M.transpose());
+  out.self = 0.5 * (out.self + out.self.transpose());
+  return out;
+}
+
+/// What the estimated σ hold cannot exceed what they state: `self` scaled down, when needed,
+/// so that self ≤ 0.9 N (N the reduced normal matrix of the estimated parameters) — the white
+/// part left in every estimated σ at least a tenth of its variance.
+Mat6 boundedSelf(const Mat6& self, const Mat6& N, const std::array<bool, 6>& est) {
+  std::vector<int> idx;
+  for (int j = 0; j < 6; ++j)
+    if (est[static_cast<std::size_t>(j)]) idx.push_back(j);
+  const Eigen::Index n = static_cast<Eigen::Index>(idx.size());
+  if (n == 0) return self;
+  Eigen::MatrixXd S(n, n), A(n, n);
+  for (Eigen::Index a = 0; a < n; ++a)
+    for (Eigen::Index b = 0; b < n; ++b) {
+      S(a, b) = self(idx[static_cast<std::size_t>(a)], idx[static_cast<std::size_t>(b)]);
+      A(a, b) = N(idx[static_cast<std::size_t>(a)], idx[static_cast<std::size_t>(b)]);
+    }
+  Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> ges(S, A);
+  if (ges.info() != Eigen::Success) return self;
+  const double lambda = ges.eigenvalues().maxCoeff();
+  return lambda > 0.9 ? Mat6(self * (0.9 / lambda)) : self;
 }
 
 /// The time offset δt beside the mounting: SPEC §2 eq. (1) at t + δt gives ∂x/∂δt = v + ω × u
@@ -1200,9 +1252,9 @@ class Estimation {
     S_.sigma_model = "formal";
     if (n_est > 0 && o_.trajectory.any()) {
       // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
-      const Mat6 M = trajectoryErrorTerm(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
+      const TrajectoryTerm term = trajectoryErrorTerm(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
       const Mat6 Pinv = inverseOnEstimated(N_red, est);
-      const Mat6 extra = Pinv * M * Pinv;
+      const Mat6 extra = Pinv * (term.M - boundedSelf(term.self, N_red, est)) * Pinv;
       if (extra.allFinite() && extra.norm() > 0) {
         for (int a = 0; a < 6; ++a)
           for (int b = 0; b < 6; ++b)

@@ -32,8 +32,9 @@ NoiseModel NoiseModel::realistic() {
   return n;
 }
 
-NoiseModel NoiseModel::withNavigationDrift() {
+NoiseModel NoiseModel::withNavigationDrift(DriftForm form) {
   NoiseModel n = realistic();
+  n.drift_form = form;
   n.drift_position_sigma_m = 0.02;
   n.drift_attitude_sigma_rad = deg2rad(0.002);
   return n;
@@ -149,18 +150,46 @@ struct BandLimitedDrift {
   }
 };
 
-/// The drift of the six navigation axes (position x, y, z; roll, pitch, heading) of one line;
-/// all zero (and no random number drawn) when the model has none.
-std::array<BandLimitedDrift, 6> lineDrift(const NoiseModel& noise, detail::Rng& rng) {
-  std::array<BandLimitedDrift, 6> d;
+/// One axis of NoiseModel's navigation drift in its Gauss–Markov form: τ log-uniform in
+/// [τ_min, τ_max], started from the stationary distribution, stepped with the trajectory.
+struct MarkovDrift {
+  double sigma = 0.0, tau = 1.0, value = 0.0;
+  MarkovDrift() = default;
+  MarkovDrift(double s, double tau_min, double tau_max, detail::Rng& rng)
+      : sigma(s), tau(tau_min * std::pow(tau_max / tau_min, rng.uniform())), value(s * rng.normal()) {}
+  double step(double dt, detail::Rng& rng) { return value = gaussMarkov(value, dt, tau, sigma, rng); }
+};
+
+/// The drift of the six navigation axes (position x, y, z; roll, pitch, heading) of one line,
+/// in either form; all zero (and no random number drawn) when the model has none.
+struct LineDrift {
+  std::array<BandLimitedDrift, 6> band{};
+  std::array<MarkovDrift, 6> markov{};
+  bool gauss_markov = false;
+  /// The six values at time t, `dt` after the previous call (the Gauss–Markov form steps).
+  std::array<double, 6> at(double t, double dt, detail::Rng& rng) {
+    std::array<double, 6> v{};
+    for (std::size_t a = 0; a < 6; ++a) v[a] = gauss_markov ? (markov[a].sigma > 0 ? markov[a].step(dt, rng) : 0.0) : band[a](t);
+    return v;
+  }
+};
+
+LineDrift lineDrift(const NoiseModel& noise, detail::Rng& rng) {
+  LineDrift d;
+  d.gauss_markov = noise.drift_form == NoiseModel::DriftForm::kGaussMarkov;
+  auto make = [&](std::size_t a, double sigma, double p_min, double p_max) {
+    if (d.gauss_markov)
+      d.markov[a] = MarkovDrift(sigma, p_min, p_max, rng);
+    else
+      d.band[a] = BandLimitedDrift(sigma, p_min, p_max, rng);
+  };
   if (noise.drift_position_sigma_m > 0)
-    for (int a = 0; a < 3; ++a)
-      d[static_cast<std::size_t>(a)] =
-          BandLimitedDrift(noise.drift_position_sigma_m, noise.drift_position_period_min_s, noise.drift_position_period_max_s, rng);
+    for (std::size_t a = 0; a < 3; ++a)
+      make(a, noise.drift_position_sigma_m, noise.drift_position_period_min_s, noise.drift_position_period_max_s);
   if (noise.drift_attitude_sigma_rad > 0)
-    for (int a = 0; a < 3; ++a)
-      d[static_cast<std::size_t>(3 + a)] = BandLimitedDrift((a == 2 ? 2.0 : 1.0) * noise.drift_attitude_sigma_rad,
-                                                            noise.drift_attitude_period_min_s, noise.drift_attitude_period_max_s, rng);
+    for (std::size_t a = 0; a < 3; ++a)
+      make(3 + a, (a == 2 ? 2.0 : 1.0) * noise.drift_attitude_sigma_rad, noise.drift_attitude_period_min_s,
+           noise.drift_attitude_period_max_s);
   return d;
 }
 
@@ -185,7 +214,7 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
     const LineFrame f = lineFrame(line, t_line);
     frames->push_back(f);
     const double pr = phase(rng), pp = phase(rng), ph = phase(rng), pz = phase(rng);
-    const std::array<BandLimitedDrift, 6> drift = lineDrift(noise, rng);
+    LineDrift drift = lineDrift(noise, rng);
     const long n0 = -static_cast<long>(std::ceil(lead_s / dt));
     const long n1 = static_cast<long>(std::ceil((f.t1 - f.t0 + lead_s) / dt));
     for (long k = n0; k <= n1; ++k) {
@@ -203,11 +232,12 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
         gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, rng);
         att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s, (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
       }
+      const std::array<double, 6> d = drift.at(t, dt, rng);
       TrajectorySample m = s;
-      m.p_m += gnss_err + Vec3(drift[0](t), drift[1](t), drift[2](t));
-      m.roll += att_err[0] + drift[3](t);
-      m.pitch += att_err[1] + drift[4](t);
-      m.heading += att_err[2] + drift[5](t);
+      m.p_m += gnss_err + Vec3(d[0], d[1], d[2]);
+      m.roll += att_err[0] + d[3];
+      m.pitch += att_err[1] + d[4];
+      m.heading += att_err[2] + d[5];
       measured.push_back(m);
     }
     t_line = f.t1 + config.line_gap_s;

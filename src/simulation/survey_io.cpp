@@ -23,8 +23,10 @@ void readNoise(const std::string& path, const detail::Fields& top, NoiseModel* m
       *model = NoiseModel::realistic();
     else if (n == "navigation_drift")
       *model = NoiseModel::withNavigationDrift();
+    else if (n == "navigation_drift_gauss_markov")
+      *model = NoiseModel::withNavigationDrift(NoiseModel::DriftForm::kGaussMarkov);
     else
-      top.fail("noise", "expected \"none\", \"realistic\", \"navigation_drift\" or an object");
+      top.fail("noise", "expected \"none\", \"realistic\", \"navigation_drift\", \"navigation_drift_gauss_markov\" or an object");
     return;
   }
   if (!n.is_object()) top.fail("noise", "expected a string or an object");
@@ -45,7 +47,13 @@ void readNoise(const std::string& path, const detail::Fields& top, NoiseModel* m
   std::set<std::string> known;
   for (const auto& f : metres) known.insert(f.first);
   for (const auto& f : degrees) known.insert(f.first);
+  known.insert("drift_form");
   const detail::Fields nf(path, n, "noise", known);
+  const std::string form = nf.str("drift_form", "band_limited");
+  if (form == "gauss_markov")
+    m.drift_form = NoiseModel::DriftForm::kGaussMarkov;
+  else if (form != "band_limited")
+    nf.fail("drift_form", "expected \"band_limited\" or \"gauss_markov\"");
   for (const auto& [k, v] : metres) *v = nf.num(k, *v, 0.0, 1e4);
   for (const auto& [k, v] : degrees) *v = deg2rad(nf.num(k, rad2deg(*v), 0.0, 1e4));
   if (!(m.drift_position_period_min_s > 0 && m.drift_position_period_min_s <= m.drift_position_period_max_s) ||

@@ -114,6 +114,12 @@ struct PulseNoise {
 /// (u = x − p, IMU → point, mapping frame), so J_c is the residual's Jacobian with respect to
 /// the strip's offset, times (I, −[u]×).
 ///
+/// A kind whose σ is estimated from its residuals (variance components: ties, features) holds
+/// in that σ the part of each observation's own trajectory error that its strip's estimated
+/// terms (offset, corrections) do not absorb — for a Gauss–Markov error the share left by
+/// removing those polynomials in time (detail::residualShare); only that part is taken off, and
+/// never more than nine tenths of what the estimated σ state.
+///
 /// Thousands of point-to-plane distances that share one trajectory error are not independent
 /// observations: without this term their σ are too small by the square root of how many share
 /// it. The defaults are a post-processed survey-grade GNSS/INS (Applanix POS AV / NovAtel SPAN
@@ -170,7 +176,12 @@ struct StochasticOptions {
   /// Trajectory errors that stay nearly constant over a strip (GNSS, PPK) are modelled as
   /// one 3-D offset per strip, a random effect with this prior standard deviation per axis
   /// [m]. They are estimated with the mounting, so its covariance carries their uncertainty.
-  /// 0 switches them off (strips then trusted exactly).
+  /// 0 switches them off (strips then trusted exactly). With TrajectoryAccuracy on, state here
+  /// the strip's bias *beyond* the drift stated there (the GNSS solution's offset from line to
+  /// line): the drift's own strip-constant part is in TrajectoryAccuracy's term already, and
+  /// stating it in both counts it twice — σ too large wherever few observations fix a strip's
+  /// offset (the features method on the UAV preset: RMS of error/σ 0.35–0.56 with 2 cm here,
+  /// 0.71–1.09 with the survey's 5 mm; docs/sigma-honesty.md).
   double strip_offset_sigma_m = 0.02;
   LossType loss = LossType::kTrivial;
   double loss_scale_m = 0.5;  ///< where the robust loss starts to bend [m]
@@ -358,6 +369,8 @@ class AdjustmentProblem {
     double t_mid_s = 0.0, half_span_s = 0.0;
   };
   const std::vector<StripCorrection>& stripCorrections() const { return corrections_blocks_; }
+  /// The trajectory corrections set by setCorrections (degrees 0: none beyond the strip offset).
+  const TrajectoryCorrections& corrections() const { return corrections_; }
   /// The estimated time offset's block [s] (null unless estimated and some epoch moves).
   double* timeOffsetBlock() { return time_offset_block_; }
   /// The point shifts of the current estimates (strip offsets, corrections, time offset), for a

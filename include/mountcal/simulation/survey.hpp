@@ -102,11 +102,19 @@ struct NoiseModel {
   double drift_attitude_sigma_rad = 0.0;       ///< roll and pitch [rad]
   double drift_attitude_period_min_s = 1.0;    ///< [s]
   double drift_attitude_period_max_s = 30.0;   ///< [s]
+  /// The drift's form. kBandLimited: the sinusoids above. kGaussMarkov: per line and axis a
+  /// first-order Gauss–Markov process (started stationary) whose correlation time is drawn
+  /// log-uniformly from [period_min_s, period_max_s] — issue 26's "Gauss–Markov drift with
+  /// 10–100 s correlation"; unlike the sinusoids it has the long-period (strip-constant) part
+  /// of a real GNSS/INS error, and its correlation time differs from line to line and from
+  /// the calibrator's single stated τ. Scenario key `"drift_form"`.
+  enum class DriftForm { kBandLimited, kGaussMarkov };
+  DriftForm drift_form = DriftForm::kBandLimited;
 
   static NoiseModel none() { return {}; }
   /// realistic() plus survey-grade navigation drift: position 2 cm RMS (periods 10–100 s),
   /// attitude 0.002° roll/pitch and 0.004° heading RMS (periods 1–30 s) — issue 26's spectra.
-  static NoiseModel withNavigationDrift();
+  static NoiseModel withNavigationDrift(DriftForm form = DriftForm::kBandLimited);
   /// A post-processed airborne survey: 2 cm range, 0.001° scan-angle encoder, 1.5 cm
   /// strip-to-strip GNSS (PPK, Gauss–Markov 100 s), 0.001° roll/pitch and 0.002° heading
   /// noise (Gauss–Markov 0.1 s), 5 cm tie picking.
