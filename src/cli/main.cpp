@@ -22,6 +22,8 @@
 #include "mountcal/io/las_crs.hpp"
 #include "mountcal/io/sbet.hpp"
 #include "mountcal/io/atomic_file.hpp"
+#include "mountcal/io/geotiff.hpp"
+#include "mountcal/report/swath_qc.hpp"
 #include "mountcal/job.hpp"
 #include "mountcal/core/mounting_forms.hpp"
 #include "mountcal/plan/planner.hpp"
@@ -608,6 +610,99 @@ Command addApply(CLI::App& app) {
   return {c, [a] { return withNotices(runApply(a->job, a->result, a->out, a->format, a->strips, a->threads)); }};
 }
 
+/// A strip id as a file-name part: letters, digits, '-' and '_' kept, anything else '_'.
+std::string fileNamePart(const std::string& id) {
+  std::string out;
+  for (char c : id) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_') ? c : '_';
+  return out.empty() ? std::string("_") : out;
+}
+
+int runQc(const std::string& job_path, const std::string& result_path, const std::string& out, double cell) {
+  using namespace mountcal;
+  namespace fs = std::filesystem;
+  Job job = readJobNoting(job_path);
+  if (!fs::is_directory(out)) {
+    std::fprintf(stderr, "mountcal qc: %s: the output folder does not exist\n", out.c_str());
+    return 2;
+  }
+  std::vector<std::string> inputs = jobInputPaths(job);
+  if (!result_path.empty()) inputs.push_back(result_path);
+  const LoadedJob loaded = loadJob(job);
+  const MountingParameters before = loaded.data.mounting_used;
+  const MountingParameters after = result_path.empty() ? before : readResultMounting(result_path, job.mounting_used.R_nom);
+  SwathQcOptions o;
+  o.cell_size_m = cell;
+  std::vector<std::string> ids;
+  for (const StripData& st : loaded.data.strips) ids.push_back(st.id);
+  std::vector<std::vector<Vec3>> xb = georeferencedStrips(loaded.data, before), xa = georeferencedStrips(loaded.data, after);
+  if (!loaded.frame.isLocal())  // the rasters in the job's CRS
+    for (auto* x : {&xb, &xa})
+      for (auto& strip : *x)
+        for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
+  const SwathQcResult qc = swathQcOfPoints(ids, xb, xa, o);
+  if (qc.pairs.empty()) {
+    std::fprintf(stderr, "mountcal qc: %s: no two strips share a smooth open cell of %.3g m\n", job_path.c_str(), qc.cell_size_m);
+    return 1;
+  }
+  // Every output is written under a temporary name, then all are placed together.
+  std::vector<std::pair<std::string, std::string>> placed;
+  auto target = [&](const std::string& name) {
+    const std::string path = (fs::path(out) / name).string();
+    for (const std::string& in : inputs)
+      if (io::samePath(in, path)) throw FileError(path, "output", "would overwrite an input of the job");
+    return path;
+  };
+  try {
+    for (const PairQc& p : qc.pairs) {
+      const std::string stem = "dz_" + fileNamePart(p.a) + "_" + fileNamePart(p.b);
+      if (p.raster_before.nx > 0)
+        placed.push_back({io::writeGeoTiff(target(stem + "_before.tif"), p.raster_before, job.crs, false), target(stem + "_before.tif")});
+      if (p.raster_after.nx > 0)
+        placed.push_back({io::writeGeoTiff(target(stem + "_after.tif"), p.raster_after, job.crs, false), target(stem + "_after.tif")});
+    }
+    for (const auto& [name, text] :
+         {std::pair<std::string, std::string>{"qc.json", swathQcJson(qc)},
+          {"qc.html", swathQcHtml(qc, "mountcal swath QC — " + job_path + (result_path.empty() ? "" : " with " + result_path))}}) {
+      const std::string path = target(name), tmp = path + ".tmp-mountcal";
+      io::writeFileAtomically(tmp, text);
+      placed.push_back({tmp, path});
+    }
+  } catch (...) {
+    for (const auto& pt : placed) std::remove(pt.first.c_str());
+    throw;
+  }
+  io::placeFilesAtomically(placed);
+  std::printf("swath QC, cells of %.3g m (smooth: slope <= %.0f deg, roughness <= %.3f m, >= %d points per strip):\n", qc.cell_size_m,
+              o.max_slope_deg, o.max_roughness_m, o.min_points);
+  std::printf("  %-24s %8s %10s %10s %10s\n", "pair", "cells", "RMSDz [m]", "mean [m]", "max|dZ| [m]");
+  auto row = [](const std::string& what, const DzStats& st) {
+    std::printf("  %-24s %8zu %10.4f %+10.4f %10.4f\n", what.c_str(), st.cells, st.rmsdz_m, st.mean_dz_m, st.max_abs_dz_m);
+  };
+  row("all, before", qc.overall_before);
+  row("all, after", qc.overall_after);
+  for (const PairQc& p : qc.pairs) row(p.a + "-" + p.b + ", after", p.after);
+  for (const StripQc& st : qc.strips)
+    std::printf("  strip %-10s intraswath precision %.4f m, within-cell range (P95) %.4f m over %zu cells\n", st.id.c_str(),
+                st.intraswath_precision_m, st.intraswath_max_m, st.smooth_cells);
+  for (const LevelVerdict& v : qc.verdicts) std::printf("  %-10s %s\n", v.level.name.c_str(), v.pass() ? "pass" : "fail");
+  std::printf("wrote %s/qc.json, qc.html and %zu GeoTIFF rasters\n", out.c_str(), placed.size() - 2);
+  return 0;
+}
+
+Command addQc(CLI::App& app) {
+  struct Args {
+    std::string job, result, out;
+    double cell = 0;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("qc", "Swath-to-swath quality control (interswath dZ, intraswath precision, USGS quality levels)");
+  c->add_option("job", a->job, "Job JSON file")->required();
+  c->add_option("--result", a->result, "Result JSON file: QC before (the job's mounting) and after (the result's)");
+  c->add_option("--out", a->out, "Folder for qc.json, qc.html and the dZ GeoTIFFs (must exist)")->required();
+  c->add_option("--cell", a->cell, "Raster cell [m] (default: from the point spacing)")->check(CLI::Range(0.0, 1000.0));
+  return {c, [a] { return withNotices(runQc(a->job, a->result, a->out, a->cell)); }};
+}
+
 Command addEvaluate(CLI::App& app) {
   struct Args {
     std::string job, result, report;
@@ -690,7 +785,8 @@ bool knownSubcommand(const CLI::App& app, int argc, char** argv) {
 int main(int argc, char** argv) {
   CLI::App app{"mountcal " MOUNTCAL_VERSION_STRING " — LiDAR mounting (lever arm and boresight) calibration from overlapping strips"};
   app.require_subcommand(1);
-  std::vector<Command> commands = {addMethods(app), addMounting(app), addSimulate(app), addCalibrate(app), addApply(app), addEvaluate(app)};
+  std::vector<Command> commands = {addMethods(app), addMounting(app), addSimulate(app), addCalibrate(app),
+                                   addApply(app),   addEvaluate(app), addQc(app)};
   for (Command& c : addFileCommands(app)) commands.push_back(std::move(c));
   for (Command& c : addBlockCommands(app)) commands.push_back(std::move(c));
   commands.push_back(addPlan(app));

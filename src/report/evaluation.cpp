@@ -214,6 +214,11 @@ std::vector<Used> distances(const std::vector<Vec3>& query, const std::vector<Ve
 }
 
 std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const MountingParameters& m) {
+  return georeferencedStrips(data, m);
+}
+}  // namespace
+
+std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& m) {
   data.requirePoses();
   std::vector<std::vector<Vec3>> x(data.strips.size());
   const Mat3 R_bs = m.R_bs();
@@ -225,6 +230,8 @@ std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const Mo
   }
   return x;
 }
+
+namespace {
 
 /// Every strip pair of `x`, the smaller strip (q) against the larger (r): f(q, r, used points,
 /// queries, stride). Each strip's spacing is found once, not once per pair.

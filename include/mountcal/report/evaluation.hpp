@@ -80,6 +80,9 @@ struct PairDiscrepancy {
 DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const std::vector<Vec3>& reference,
                                          const DiscrepancyOptions& options = {});
 
+/// Every strip's points georeferenced with `mounting` (per-point poses or the trajectory).
+std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& mounting);
+
 /// Every strip pair of `data` georeferenced with `mounting` (per-point poses or the
 /// trajectory); pairs whose smaller strip has no point within reach of the larger are left out.
 /// Throws InvalidInput for invalid options.

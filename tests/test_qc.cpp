@@ -1,0 +1,165 @@
+// Swath-to-swath quality control (issue 29): the statistics against values computed by hand from
+// synthetic strips, the smooth-open gates, the GeoTIFF read back through GDAL, and the command.
+#include <gtest/gtest.h>
+
+#include <gdal_priv.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mountcal/io/geotiff.hpp"
+#include "mountcal/report/swath_qc.hpp"
+#include "support.hpp"
+
+namespace mountcal {
+namespace {
+using mountcal_tests::CommandRun;
+using mountcal_tests::runCli;
+
+/// Points on a 0.5 m grid over [x0, x1] × [y0, y1] at heights z(x, y).
+template <typename Z>
+std::vector<Vec3> gridStrip(double x0, double x1, double y0, double y1, Z z) {
+  std::vector<Vec3> out;
+  for (double x = x0; x <= x1 + 1e-9; x += 0.5)
+    for (double y = y0; y <= y1 + 1e-9; y += 0.5) out.emplace_back(x, y, z(x, y));
+  return out;
+}
+
+// Two flat strips overlapping on [50, 100] × [0, 100], the second 5 cm higher and tilted by
+// 1 mm/m in x: on 5 m cells every overlap cell's dZ is −(0.05 + 0.001 x_c), x_c = 52.5 … 97.5 —
+// 10 columns × 20 rows (the cells on the strips' last row and column hold one line of points and
+// are not covered). RMSDz, mean and largest |dZ| by hand from those 200 values.
+TEST(SwathQc, FlatStripsWithAKnownOffsetAndTiltGiveTheHandStatistics) {
+  const std::vector<Vec3> a = gridStrip(0, 100, 0, 100, [](double, double) { return 0.0; });
+  const std::vector<Vec3> b = gridStrip(50, 150, 0, 100, [](double x, double) { return 0.05 + 0.001 * x; });
+  SwathQcOptions o;
+  o.cell_size_m = 5.0;
+  const SwathQcResult qc = swathQcOfPoints({"a", "b"}, {a, b}, {a, b}, o);
+  ASSERT_EQ(qc.pairs.size(), 1u);
+  double ss = 0, sum = 0;
+  for (int k = 0; k < 10; ++k) {
+    const double dz = -(0.05 + 0.001 * (52.5 + 5 * k));
+    ss += 20 * dz * dz;
+    sum += 20 * dz;
+  }
+  const DzStats& s = qc.pairs[0].after;
+  EXPECT_EQ(s.cells, 200u);
+  EXPECT_NEAR(s.rmsdz_m, std::sqrt(ss / 200), 1e-9);
+  EXPECT_NEAR(s.mean_dz_m, sum / 200, 1e-9);
+  EXPECT_NEAR(s.max_abs_dz_m, 0.05 + 0.001 * 97.5, 1e-9);
+  // Shares beyond 0.04, 0.08 and 0.16 m: all 200, the columns with 0.05 + 0.001 x_c > 0.08 (x_c ≥ 32.5: all), none.
+  ASSERT_EQ(s.share_over.size(), 3u);
+  EXPECT_DOUBLE_EQ(s.share_over[0], 1.0);
+  EXPECT_DOUBLE_EQ(s.share_over[1], 1.0);
+  EXPECT_DOUBLE_EQ(s.share_over[2], 0.0);
+  // Flat and noise-free: every strip's precision is 0 and the raster is 10 × 20 of those values.
+  EXPECT_NEAR(qc.strips[0].intraswath_precision_m, 0.0, 1e-9);
+  EXPECT_EQ(qc.pairs[0].raster_after.nx, 10);
+  EXPECT_EQ(qc.pairs[0].raster_after.ny, 20);
+  EXPECT_NEAR(qc.pairs[0].raster_after.x0_m, 50.0, 1e-12);
+  EXPECT_NEAR(qc.pairs[0].raster_after.y1_m, 100.0, 1e-12);
+  EXPECT_NEAR(qc.pairs[0].raster_after.dz_m[0], -(0.05 + 0.001 * 52.5), 1e-6);  // north-west cell
+  // A level that passes these figures and one that does not.
+  for (const LevelVerdict& v : qc.verdicts) EXPECT_EQ(v.rmsdz_pass, s.rmsdz_m <= v.level.interswath_rmsdz_m) << v.level.name;
+}
+
+// The gates: of a field with four kinds of ground — flat, a 20° slope, a rough patch (±15 cm,
+// vegetation-like) and a 3 m step (a roof's edge) — only the flat cells are compared, whatever
+// the two strips' offset there.
+TEST(SwathQc, CellsOnSlopesRoughGroundAndEdgesAreNotCompared) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.15, 0.15);
+  auto ground = [&](double x, double y) {
+    if (x < 25) return 0.0;                            // flat: 5 columns of 5 m cells
+    if (x < 50) return std::tan(20 * M_PI / 180) * x;  // slope
+    if (x < 75) return u(rng);                         // rough
+    return y < 52.5 ? 0.0 : 3.0;                       // a step through the cells of row 10
+  };
+  const std::vector<Vec3> a = gridStrip(0, 99.5, 0, 99.5, ground);
+  std::vector<Vec3> b = gridStrip(0, 99.5, 0, 99.5, ground);
+  for (Vec3& p : b) p.z() += 0.02;
+  SwathQcOptions o;
+  o.cell_size_m = 5.0;
+  const SwathQcResult qc = swathQcOfPoints({"a", "b"}, {a, b}, {a, b}, o);
+  ASSERT_EQ(qc.pairs.size(), 1u);
+  // Flat: x < 25 (5 columns × 20 rows); the step's columns x ≥ 75 away from row 10 are flat too
+  // (5 columns × 19 rows). Not the slope, not the rough patch, not the step's row.
+  EXPECT_EQ(qc.pairs[0].after.cells, 100u + 95u);
+  EXPECT_NEAR(qc.pairs[0].after.rmsdz_m, 0.02, 1e-9);
+}
+
+// The raster read back through GDAL: origin, cell size, CRS, values and no-data.
+TEST(SwathQc, GeoTiffReadBackHasTheGeoreferencingAndValues) {
+  DzRaster r;
+  r.x0_m = 500000;
+  r.y1_m = 4000100;
+  r.cell_m = 2.5;
+  r.nx = 3;
+  r.ny = 2;
+  r.dz_m = {0.01f, -0.02f, std::nanf(""), 0.04f, 0.05f, -0.06f};
+  const std::string path = (std::filesystem::temp_directory_path() / ("mountcal_qc_" + std::to_string(::getpid()) + ".tif")).string();
+  io::writeGeoTiff(path, r, "EPSG:32633");
+  GDALAllRegister();
+  GDALDataset* ds = static_cast<GDALDataset*>(GDALOpen(path.c_str(), GA_ReadOnly));
+  ASSERT_NE(ds, nullptr);
+  double t[6];
+  ASSERT_EQ(ds->GetGeoTransform(t), CE_None);
+  EXPECT_DOUBLE_EQ(t[0], 500000);
+  EXPECT_DOUBLE_EQ(t[1], 2.5);
+  EXPECT_DOUBLE_EQ(t[3], 4000100);
+  EXPECT_DOUBLE_EQ(t[5], -2.5);
+  EXPECT_EQ(ds->GetRasterXSize(), 3);
+  EXPECT_EQ(ds->GetRasterYSize(), 2);
+  const OGRSpatialReference* srs = ds->GetSpatialRef();
+  ASSERT_NE(srs, nullptr);
+  EXPECT_STREQ(srs->GetAuthorityCode(nullptr), "32633");
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  int has = 0;
+  EXPECT_DOUBLE_EQ(band->GetNoDataValue(&has), io::kGeoTiffNoData);
+  EXPECT_TRUE(has);
+  std::vector<float> v(6);
+  ASSERT_EQ(band->RasterIO(GF_Read, 0, 0, 3, 2, v.data(), 3, 2, GDT_Float32, 0, 0), CE_None);
+  EXPECT_FLOAT_EQ(v[0], 0.01f);
+  EXPECT_FLOAT_EQ(v[1], -0.02f);
+  EXPECT_FLOAT_EQ(v[2], static_cast<float>(io::kGeoTiffNoData));
+  EXPECT_FLOAT_EQ(v[5], -0.06f);
+  GDALClose(ds);
+  std::filesystem::remove(path);
+}
+
+// The command on the simulated crossing field before and after calibration: qc.json with the
+// pairs' before and after, RMSDz falling by an order of magnitude (the mounting error is 0.1–0.2°),
+// the rasters and the report written; a missing output folder is exit 2 with one line.
+TEST(SwathQc, CommandWritesTheFilesAndTheCalibrationLowersRmsdz) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("mountcal_qc_cli_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "out");
+  ASSERT_EQ(runCli("simulate --preset paper-calibration-field --seed 2 --out " + (dir / "f").string()).code, 0);
+  ASSERT_EQ(runCli("calibrate --quiet " + (dir / "f" / "job.json").string()).code, 0);
+  const CommandRun r = runCli("qc " + (dir / "f" / "job.json").string() + " --result " + (dir / "f" / "result.json").string() + " --out " +
+                              (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(dir / "out" / "qc.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_FALSE(j["pairs"].empty());
+  const double before = j["summary"]["before"]["rmsdz_m"], after = j["summary"]["rmsdz_m"];
+  EXPECT_LT(after, 0.1 * before) << r.out;
+  EXPECT_LT(after, 0.03);
+  EXPECT_EQ(j["strips"].size(), 4u);
+  EXPECT_EQ(j["summary"]["classes"].size(), 4u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "qc.html"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "dz_1_2_after.tif"));
+  const CommandRun bad = runCli("qc " + (dir / "f" / "job.json").string() + " --out " + (dir / "missing").string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("missing"), std::string::npos) << bad.err;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mountcal
