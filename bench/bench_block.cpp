@@ -166,6 +166,37 @@ void BM_BlockPairCandidates(benchmark::State& state) {
 }
 BENCHMARK(BM_BlockPairCandidates)->Unit(benchmark::kMillisecond)->Iterations(1);
 
+// Swath QC (issue 29) of the block, before and after one mounting (both georeferenced, every
+// pair's dZ): its time against BM_BlockCalibrate's on the same block in the same run (the issue:
+// under the calibration's time), and its growth with the points (4 … 32 strips: linear).
+void BM_BlockSwathQc(benchmark::State& state) {
+  const int strips = static_cast<int>(state.range(0));
+  const CalibrationData& d = blockData(strips);
+  std::size_t points = 0;
+  for (const auto& s : d.strips) points += s.time_s.size();
+  SwathQcResult qc;
+  for (auto _ : state) {
+    qc = swathQc(d, d.mounting_used, d.mounting_used);
+    benchmark::DoNotOptimize(qc.overall_after.rmsdz_m);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * static_cast<std::int64_t>(points));
+  state.counters["strips"] = strips;
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["pairs"] = static_cast<double>(qc.pairs.size());
+  state.counters["cells"] = static_cast<double>(qc.overall_after.cells);
+  state.counters["cell_m"] = qc.cell_size_m;
+}
+BENCHMARK(BM_BlockSwathQc)
+    ->Arg(4)
+    ->Arg(8)
+    ->Arg(12)
+    ->Arg(16)
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true);
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -7,6 +7,7 @@
 #include "mountcal/core/error.hpp"
 #include "mountcal/report/error_curves.hpp"
 #include "mountcal/report/evaluation.hpp"
+#include "mountcal/report/swath_qc.hpp"
 #include "mountcal/core/geodesy.hpp"
 #include "mountcal/core/georeference_model.hpp"
 #include "mountcal/io/atomic_file.hpp"

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <sstream>
+#include <map>
 #include <unordered_map>
 
 #include <nlohmann/json.hpp>
@@ -90,7 +91,9 @@ struct CellPlane {
 };
 
 using CellKey = std::int64_t;
-CellKey key(std::int64_t ix, std::int64_t iy) { return (ix << 32) ^ (iy & 0xffffffff); }
+CellKey key(std::int64_t ix, std::int64_t iy) {
+  return static_cast<CellKey>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffu));
+}
 
 struct Grid {
   double cell = 1, x0 = 0, y0 = 0;  ///< cell (i, j) spans [x0 + i·cell, …) × [y0 + j·cell, …)
@@ -179,15 +182,32 @@ StripQc intraswath(const std::string& id, const std::vector<Vec3>& x, const Stri
   return q;
 }
 
-/// dZ of two strips' smooth cells, into a raster over the pair's common extent.
-std::vector<double> pairDz(const StripCells& a, const StripCells& b, const Grid& g, DzRaster* raster) {
-  std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, double>> cells;
-  for (const auto& [k, ea] : a) {
-    if (!ea.second.smooth) continue;
-    const auto it = b.find(k);
-    if (it == b.end() || !it->second.second.smooth) continue;
-    cells.push_back({ea.first, ea.second.z - it->second.second.z});
-  }
+using CellIndex = std::pair<std::int64_t, std::int64_t>;
+using PairCells = std::map<std::pair<std::size_t, std::size_t>, std::vector<std::pair<CellIndex, double>>>;
+
+/// Every strip pair's common smooth cells with dZ = z_A − z_B (A the earlier strip): one pass
+/// over the cells, so the work grows with the cells and the overlaps, not with pairs × cells.
+PairCells pairCells(const std::vector<StripCells>& strips) {
+  std::unordered_map<CellKey, std::vector<std::pair<std::size_t, const std::pair<CellIndex, CellPlane>*>>> at;
+  for (std::size_t s = 0; s < strips.size(); ++s)
+    for (const auto& [k, e] : strips[s])
+      if (e.second.smooth) at[k].push_back({s, &e});
+  PairCells out;
+  for (const auto& [k, list] : at)
+    for (std::size_t u = 0; u < list.size(); ++u)
+      for (std::size_t v = u + 1; v < list.size(); ++v) {
+        const auto& [sa, ea] = list[u];
+        const auto& [sb, eb] = list[v];
+        const bool ordered = sa < sb;
+        const double dz = ordered ? ea->second.z - eb->second.z : eb->second.z - ea->second.z;
+        out[{std::min(sa, sb), std::max(sa, sb)}].push_back({ea->first, dz});
+      }
+  for (auto& [pair, cells] : out) std::sort(cells.begin(), cells.end());  // independent of the hash order
+  return out;
+}
+
+/// One pair's dZ values, and its raster over the pair's common extent.
+std::vector<double> pairDz(const std::vector<std::pair<CellIndex, double>>& cells, const Grid& g, DzRaster* raster) {
   std::vector<double> dz;
   *raster = DzRaster{};
   raster->cell_m = g.cell;
@@ -244,13 +264,17 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
     out.strips.push_back(intraswath(ids[s], xa[s], ca.back(), g, sub));
   }
   std::vector<double> all_b, all_a;
+  const PairCells pb = pairCells(cb), pa = pairCells(ca);
+  static const std::vector<std::pair<CellIndex, double>> kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
     for (std::size_t b = a + 1; b < xb.size(); ++b) {
+      const auto ib = pb.find({a, b}), ia = pa.find({a, b});
+      if (ib == pb.end() && ia == pa.end()) continue;
       PairQc p;
       p.a = ids[a];
       p.b = ids[b];
-      const std::vector<double> db = pairDz(cb[a], cb[b], g, &p.raster_before), da = pairDz(ca[a], ca[b], g, &p.raster_after);
-      if (db.empty() && da.empty()) continue;
+      const std::vector<double> db = pairDz(ib == pb.end() ? kNone : ib->second, g, &p.raster_before),
+                                da = pairDz(ia == pa.end() ? kNone : ia->second, g, &p.raster_after);
       p.before = dzStats(db, options.thresholds_m);
       p.after = dzStats(da, options.thresholds_m);
       all_b.insert(all_b.end(), db.begin(), db.end());
