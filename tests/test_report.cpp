@@ -190,7 +190,7 @@ TEST(Report, EachMethodsReportHoldsEverySectionAndRendersInHeadlessChromium) {
     EXPECT_LT(html.size(), 5u << 20);
     for (const char* section :
          {"Warnings", "class=\"heatmap\"", "class=\"mapview\"", "Elevation profiles", "class=\"profile\"", "Intensity overlay",
-          "class=\"overlay-before\"", "class=\"overlay-after\"", "Figs 1–3", "boresight_heading"})
+          "class=\"overlay-before\"", "class=\"overlay-after\"", "Figs 1–3", "boresight_heading", "Swath QC"})
       EXPECT_NE(html.find(section), std::string::npos) << section;
     if (k.name == "vtpm") {
       EXPECT_NE(html.find("class=\"histogram\""), std::string::npos);

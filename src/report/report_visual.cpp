@@ -11,8 +11,10 @@
 #include <unordered_map>
 
 #include "methods/common/strip_geometry.hpp"
+#include "mountcal/core/error.hpp"
 #include "mountcal/report/error_curves.hpp"
 #include "mountcal/report/report.hpp"
+#include "mountcal/report/swath_qc.hpp"
 #include "mountcal/report/svg_plot.hpp"
 #include "report/html_text.hpp"
 
@@ -713,10 +715,18 @@ std::string visualReport(const MountingCalibrator::Summary& summary, const Calib
   v << profilesSection(data, summary, drawn, options, &profiles);
   v << overlaySection(data, summary, drawn, profiles, options);
   v << errorCurvesSection(data, summary);
+  if (options.swath_qc && drawn.drawable()) {
+    // The swath QC (docs/swath-qc.md) at the job's mounting and the result's.
+    try {
+      v << swathQcSection(swathQc(data, summary.mounting_used, summary.mounting));
+    } catch (const InvalidInput& e) {
+      v << "<h2>Swath QC</h2><p>Not measured: " << detail::htmlEscape(e.what()) << "</p>";
+    }
+  }
   std::string html = htmlReport(summary, ev, options.title);
   const std::string style =
       ".warn{background:#fff4e0;border-left:4px solid #e69500;padding:6px 10px}svg,img{max-width:100%}img{image-rendering:pixelated}"
-      "@media print{body{margin:0}h2{page-break-after:avoid}}";
+      "@media print{body{margin:0}h2{page-break-after:avoid}}.pass{color:#1a9850}.fail{color:#d73027}";
   const std::size_t st = html.find("</style>");
   if (st != std::string::npos) html.insert(st, style);
   // After the mounting table (the first table of the document).

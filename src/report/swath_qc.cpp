@@ -182,6 +182,30 @@ StripQc intraswath(const std::string& id, const std::vector<Vec3>& x, const Stri
   return q;
 }
 
+/// Which points of a strip lie in each cell (indices into the strip).
+using CellMembers = std::unordered_map<CellKey, std::vector<std::uint32_t>>;
+
+CellMembers cellMembers(const std::vector<Vec3>& x, const Grid& g) {
+  CellMembers m;
+  for (std::size_t i = 0; i < x.size(); ++i) m[key(g.ix(x[i].x()), g.iy(x[i].y()))].push_back(static_cast<std::uint32_t>(i));
+  return m;
+}
+
+/// Point to tangent plane of a pair on the cells both strips occupy (query: the smaller strip):
+/// the work follows the overlap, not the strips' whole size.
+DiscrepancyStats overlapPointToPlane(const std::vector<Vec3>& xq, const CellMembers& mq, const std::vector<Vec3>& xr, const CellMembers& mr,
+                                     const DiscrepancyOptions& d) {
+  std::vector<Vec3> q, r;
+  for (const auto& [k, idx] : mq) {
+    const auto it = mr.find(k);
+    if (it == mr.end()) continue;
+    for (std::uint32_t i : idx) q.push_back(xq[i]);
+    for (std::uint32_t i : it->second) r.push_back(xr[i]);
+  }
+  if (q.empty() || r.size() < 3) return DiscrepancyStats{};
+  return pointToPlaneDiscrepancy(q, r, d);
+}
+
 using CellIndex = std::pair<std::int64_t, std::int64_t>;
 using PairCells = std::map<std::pair<std::size_t, std::size_t>, std::vector<std::pair<CellIndex, double>>>;
 
@@ -265,6 +289,12 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
   }
   std::vector<double> all_b, all_a;
   const PairCells pb = pairCells(cb), pa = pairCells(ca);
+  std::vector<CellMembers> mb, ma;
+  if (options.point_to_plane)
+    for (std::size_t s = 0; s < xb.size(); ++s) {
+      mb.push_back(cellMembers(xb[s], g));
+      ma.push_back(cellMembers(xa[s], g));
+    }
   static const std::vector<std::pair<CellIndex, double>> kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
     for (std::size_t b = a + 1; b < xb.size(); ++b) {
@@ -277,6 +307,14 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
                                 da = pairDz(ia == pa.end() ? kNone : ia->second, g, &p.raster_after);
       p.before = dzStats(db, options.thresholds_m);
       p.after = dzStats(da, options.thresholds_m);
+      if (options.point_to_plane) {
+        DiscrepancyOptions d;
+        d.max_queries = options.point_to_plane_queries;
+        const bool a_smaller = xa[a].size() <= xa[b].size();
+        const std::size_t q = a_smaller ? a : b, r = a_smaller ? b : a;
+        p.point_to_plane_before = overlapPointToPlane(xb[q], mb[q], xb[r], mb[r], d);
+        p.point_to_plane_after = overlapPointToPlane(xa[q], ma[q], xa[r], ma[r], d);
+      }
       all_b.insert(all_b.end(), db.begin(), db.end());
       all_a.insert(all_a.end(), da.begin(), da.end());
       out.pairs.push_back(std::move(p));
@@ -322,6 +360,11 @@ std::string swathQcJson(const SwathQcResult& qc) {
     pj["b"] = p.b;
     pj["before"] = statsJson(p.before, thresholds);
     pj["after"] = statsJson(p.after, thresholds);
+    auto ptp = [](const DiscrepancyStats& d) {
+      return nlohmann::json{
+          {"queries", d.queries}, {"used", d.used}, {"median_m", num(d.median_m)}, {"rms_m", num(d.rms_m)}, {"p90_m", num(d.p90_m)}};
+    };
+    pj["point_to_plane"] = {{"before", ptp(p.point_to_plane_before)}, {"after", ptp(p.point_to_plane_after)}};
     j["pairs"].push_back(pj);
   }
   j["strips"] = nlohmann::json::array();
@@ -348,11 +391,11 @@ std::string swathQcJson(const SwathQcResult& qc) {
 }
 
 namespace {
-/// One dZ raster as an SVG map (at most 200 cells a side: coarser blocks take their largest |dZ|),
+/// One dZ raster as an SVG map (at most 100 cells a side: coarser blocks take their largest |dZ|),
 /// coloured by the thresholds' classes.
 std::string rasterSvg(const DzRaster& r, const std::vector<double>& t) {
   if (r.nx == 0 || r.ny == 0) return "<p>no common smooth cells</p>";
-  const int step = std::max(1, std::max(r.nx, r.ny) / 200 + (std::max(r.nx, r.ny) % 200 ? 1 : 0));
+  const int step = std::max(1, (std::max(r.nx, r.ny) + 99) / 100);
   const int w = (r.nx + step - 1) / step, h = (r.ny + step - 1) / step;
   const int px = std::max(1, 400 / std::max(w, h));
   static const char* colours[] = {"#1a9850", "#fee08b", "#fc8d59", "#d73027"};
@@ -391,8 +434,15 @@ std::string swathQcHtml(const SwathQcResult& qc, const std::string& title) {
   o << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << detail::htmlEscape(title)
     << "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px "
        "6px;text-align:right}td:first-child{text-align:left}.pass{color:#1a9850}.fail{color:#d73027}</style></head><body><h1>"
-    << detail::htmlEscape(title) << "</h1>";
-  o << "<p>Cells of " << detail::formatNumber(qc.cell_size_m, "%.3g")
+    << detail::htmlEscape(title) << "</h1>" << swathQcSection(qc, 2) << "</body></html>\n";
+  return o.str();
+}
+
+std::string swathQcSection(const SwathQcResult& qc, int level) {
+  const std::string h = "h" + std::to_string(level), h2 = "h" + std::to_string(level + 1);
+  std::ostringstream o;
+  if (qc.pairs.empty()) return "<" + h + ">Swath QC</" + h + "><p>No two strips share a smooth open cell.</p>";
+  o << "<" << h << ">Swath QC</" << h << "><p>Cells of " << detail::formatNumber(qc.cell_size_m, "%.3g")
     << " m; dZ where both strips are smooth and open (docs/swath-qc.md). Verdict at the mounting "
        "after:</p><table><tr><th>level</th><th>intraswath "
        "≤</th><th>RMSDz ≤</th><th>max |dZ| ≤</th><th>verdict</th></tr>";
@@ -401,26 +451,50 @@ std::string swathQcHtml(const SwathQcResult& qc, const std::string& title) {
       << " m</td><td>" << detail::formatNumber(v.level.interswath_rmsdz_m, "%.2f") << " m</td><td>"
       << detail::formatNumber(v.level.interswath_max_m, "%.2f") << " m</td><td class=\"" << (v.pass() ? "pass\">pass" : "fail\">fail")
       << "</td></tr>";
-  o << "</table><h2>Interswath</h2><table><tr><th></th><th>cells</th><th>RMSDz [m]</th><th>mean [m]</th><th>max |dZ| [m]</th>";
+  o << "</table><" << h2 << ">Interswath</" << h2
+    << "><table><tr><th></th><th>cells</th><th>RMSDz [m]</th><th>mean [m]</th><th>max |dZ| [m]</th>";
   for (double t : qc.thresholds_m) o << "<th>|dZ| &gt; " << detail::formatNumber(t, "%.2f") << " m</th>";
   o << "</tr>" << statsRow("all pairs, before", qc.overall_before) << statsRow("all pairs, after", qc.overall_after);
   for (const PairQc& p : qc.pairs)
     o << statsRow(p.a + " – " + p.b + ", before", p.before) << statsRow(p.a + " – " + p.b + ", after", p.after);
-  o << "</table><h2>Intraswath (at the mounting after)</h2><table><tr><th>strip</th><th>smooth cells</th><th>precision (RMS) "
+  o << "</table><" << h2 << ">Point to tangent plane (ASPRS 2018, 3-D)</" << h2
+    << "><p>Each point of the smaller strip of a pair against the local plane of the larger's 10 nearest points (docs/swath-qc.md).</p>"
+       "<table><tr><th>pair</th><th>points used</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS "
+       "after "
+       "[m]</th><th>P90 after [m]</th></tr>";
+  for (const PairQc& p : qc.pairs)
+    o << "<tr><td>" << detail::htmlEscape(p.a + " – " + p.b) << "</td><td>" << p.point_to_plane_after.used << "</td><td>"
+      << detail::formatNumber(p.point_to_plane_before.median_m, "%.4f") << "</td><td>"
+      << detail::formatNumber(p.point_to_plane_after.median_m, "%.4f") << "</td><td>"
+      << detail::formatNumber(p.point_to_plane_before.rms_m, "%.4f") << "</td><td>"
+      << detail::formatNumber(p.point_to_plane_after.rms_m, "%.4f") << "</td><td>"
+      << detail::formatNumber(p.point_to_plane_after.p90_m, "%.4f") << "</td></tr>";
+  o << "</table><" << h2 << ">Intraswath (at the mounting after)</" << h2
+    << "><table><tr><th>strip</th><th>smooth cells</th><th>precision (RMS) "
        "[m]</th><th>largest "
        "within-cell range (P95) [m]</th></tr>";
   for (const StripQc& s : qc.strips)
     o << "<tr><td>" << detail::htmlEscape(s.id) << "</td><td>" << s.smooth_cells << "</td><td>"
       << detail::formatNumber(s.intraswath_precision_m, "%.4f") << "</td><td>" << detail::formatNumber(s.intraswath_max_m, "%.4f")
       << "</td></tr>";
-  o << "</table><h2>dZ maps</h2><p>Colours by |dZ|: green ≤ " << (qc.thresholds_m.empty() ? 0.0 : qc.thresholds_m[0]) << " m";
+  o << "</table><" << h2 << ">dZ maps</" << h2 << "><p>Colours by |dZ|: green ≤ " << (qc.thresholds_m.empty() ? 0.0 : qc.thresholds_m[0])
+    << " m";
   for (std::size_t k = 1; k < qc.thresholds_m.size() && k < 3; ++k)
     o << ", " << (k == 1 ? "yellow" : "orange") << " ≤ " << qc.thresholds_m[k] << " m";
   o << ", red beyond; north up.</p>";
-  for (const PairQc& p : qc.pairs)
-    o << "<h3>" << detail::htmlEscape(p.a + " – " + p.b) << "</h3><table><tr><th>before</th><th>after</th></tr><tr><td>"
-      << rasterSvg(p.raster_before, qc.thresholds_m) << "</td><td>" << rasterSvg(p.raster_after, qc.thresholds_m) << "</td></tr></table>";
-  o << "</body></html>\n";
+  // The maps of the pairs with most cells (at most 8: a block has hundreds of pairs; every
+  // pair's raster is in its GeoTIFF).
+  std::vector<const PairQc*> drawn;
+  for (const PairQc& p : qc.pairs) drawn.push_back(&p);
+  std::stable_sort(drawn.begin(), drawn.end(), [](const PairQc* x, const PairQc* y) { return x->after.cells > y->after.cells; });
+  if (drawn.size() > 8) {
+    o << "<p>The " << 8 << " pairs with most common cells of " << drawn.size() << "; every pair's raster is in its GeoTIFF.</p>";
+    drawn.resize(8);
+  }
+  for (const PairQc* pp : drawn)
+    o << "<h" << level + 2 << ">" << detail::htmlEscape(pp->a + " – " + pp->b) << "</h" << level + 2
+      << "><table><tr><th>before</th><th>after</th></tr><tr><td>" << rasterSvg(pp->raster_before, qc.thresholds_m) << "</td><td>"
+      << rasterSvg(pp->raster_after, qc.thresholds_m) << "</td></tr></table>";
   return o.str();
 }
 

@@ -31,6 +31,7 @@ struct ReportOptions {
   int overlay_px = 180;                     ///< its pixels per side
   int map_px = 720;                         ///< width of the plan-view map
   std::size_t max_points_per_panel = 6000;  ///< larger point sets are thinned evenly for drawing
+  bool swath_qc = true;                     ///< the swath QC section (docs/swath-qc.md), job's mounting against the result's
 };
 
 /// The visual report of a calibration: htmlReport's tables plus the correlation heat map, a

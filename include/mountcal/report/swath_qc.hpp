@@ -19,6 +19,7 @@
 
 #include "mountcal/core/mounting.hpp"
 #include "mountcal/data.hpp"
+#include "mountcal/report/evaluation.hpp"
 
 namespace mountcal {
 
@@ -50,6 +51,12 @@ struct SwathQcOptions {
   /// Shares of cells with |dZ| beyond each of these are reported [m].
   std::vector<double> thresholds_m = {0.04, 0.08, 0.16};
   std::vector<QualityLevel> levels = usgsQualityLevels();
+  /// The ASPRS 2018 guidelines' first 3-D measure beside dZ: each point of a pair's smaller strip
+  /// against the tangent plane of the larger (pointToPlaneDiscrepancy, its gates from the
+  /// spacing), at most `point_to_plane_queries` points per pair; it sees horizontal
+  /// misalignment on sloped and vertical surfaces, which dZ on flat ground cannot.
+  bool point_to_plane = true;
+  std::size_t point_to_plane_queries = 20000;
   /// The cell size used when cell_size_m is 0: the sparsest strip's mean plan spacing s, a cell
   /// holding 2·min_points points at it, s·√(2·min_points), rounded up to 1-2-5 steps.
   double cellSizeFor(double spacing_m) const;
@@ -73,6 +80,8 @@ struct DzStats {
 struct PairQc {
   std::string a, b;
   DzStats before, after;
+  /// Point to tangent plane (SwathQcOptions::point_to_plane), before and after; empty stats when off.
+  DiscrepancyStats point_to_plane_before, point_to_plane_after;
   DzRaster raster_before, raster_after;
 };
 
@@ -116,5 +125,7 @@ DzStats dzStats(const std::vector<double>& dz, const std::vector<double>& thresh
 std::string swathQcJson(const SwathQcResult& qc);
 /// `qc.html`: the tables and each pair's dZ map before and after, in the levels' classes.
 std::string swathQcHtml(const SwathQcResult& qc, const std::string& title);
+/// The same as a section of another page (the calibration report), headed at <h`level`>.
+std::string swathQcSection(const SwathQcResult& qc, int level = 2);
 
 }  // namespace mountcal
