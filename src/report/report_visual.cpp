@@ -718,7 +718,9 @@ std::string visualReport(const MountingCalibrator::Summary& summary, const Calib
   if (options.swath_qc && drawn.drawable()) {
     // The swath QC (docs/swath-qc.md) at the job's mounting and the result's.
     try {
-      v << swathQcSection(swathQc(data, summary.mounting_used, summary.mounting));
+      SwathQcOptions qo;
+      qo.point_to_plane = false;  // the dZ measures only: the report stays quick (`mountcal qc` has all)
+      v << swathQcSection(swathQc(data, summary.mounting_used, summary.mounting, qo));
     } catch (const InvalidInput& e) {
       v << "<h2>Swath QC</h2><p>Not measured: " << detail::htmlEscape(e.what()) << "</p>";
     }

@@ -457,19 +457,24 @@ std::string swathQcSection(const SwathQcResult& qc, int level) {
   o << "</tr>" << statsRow("all pairs, before", qc.overall_before) << statsRow("all pairs, after", qc.overall_after);
   for (const PairQc& p : qc.pairs)
     o << statsRow(p.a + " – " + p.b + ", before", p.before) << statsRow(p.a + " – " + p.b + ", after", p.after);
-  o << "</table><" << h2 << ">Point to tangent plane (ASPRS 2018, 3-D)</" << h2
-    << "><p>Each point of the smaller strip of a pair against the local plane of the larger's 10 nearest points (docs/swath-qc.md).</p>"
-       "<table><tr><th>pair</th><th>points used</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS "
-       "after "
-       "[m]</th><th>P90 after [m]</th></tr>";
+  o << "</table>";
+  const bool ptp = std::any_of(qc.pairs.begin(), qc.pairs.end(), [](const PairQc& p) { return p.point_to_plane_after.queries > 0; });
+  if (ptp)
+    o << "<" << h2 << ">Point to tangent plane (ASPRS 2018, 3-D)</" << h2
+      << "><p>Each point of the smaller strip of a pair against the local plane of the larger's 10 nearest points (docs/swath-qc.md).</p>"
+         "<table><tr><th>pair</th><th>points used</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS "
+         "after "
+         "[m]</th><th>P90 after [m]</th></tr>";
   for (const PairQc& p : qc.pairs)
-    o << "<tr><td>" << detail::htmlEscape(p.a + " – " + p.b) << "</td><td>" << p.point_to_plane_after.used << "</td><td>"
-      << detail::formatNumber(p.point_to_plane_before.median_m, "%.4f") << "</td><td>"
-      << detail::formatNumber(p.point_to_plane_after.median_m, "%.4f") << "</td><td>"
-      << detail::formatNumber(p.point_to_plane_before.rms_m, "%.4f") << "</td><td>"
-      << detail::formatNumber(p.point_to_plane_after.rms_m, "%.4f") << "</td><td>"
-      << detail::formatNumber(p.point_to_plane_after.p90_m, "%.4f") << "</td></tr>";
-  o << "</table><" << h2 << ">Intraswath (at the mounting after)</" << h2
+    if (ptp)
+      o << "<tr><td>" << detail::htmlEscape(p.a + " – " + p.b) << "</td><td>" << p.point_to_plane_after.used << "</td><td>"
+        << detail::formatNumber(p.point_to_plane_before.median_m, "%.4f") << "</td><td>"
+        << detail::formatNumber(p.point_to_plane_after.median_m, "%.4f") << "</td><td>"
+        << detail::formatNumber(p.point_to_plane_before.rms_m, "%.4f") << "</td><td>"
+        << detail::formatNumber(p.point_to_plane_after.rms_m, "%.4f") << "</td><td>"
+        << detail::formatNumber(p.point_to_plane_after.p90_m, "%.4f") << "</td></tr>";
+  if (ptp) o << "</table>";
+  o << "<" << h2 << ">Intraswath (at the mounting after)</" << h2
     << "><table><tr><th>strip</th><th>smooth cells</th><th>precision (RMS) "
        "[m]</th><th>largest "
        "within-cell range (P95) [m]</th></tr>";
