@@ -213,9 +213,6 @@ std::vector<Used> distances(const std::vector<Vec3>& query, const std::vector<Ve
   return out;
 }
 
-std::vector<std::vector<Vec3>> stripPoints(const CalibrationData& data, const MountingParameters& m) {
-  return georeferencedStrips(data, m);
-}
 }  // namespace
 
 std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& m) {
@@ -365,7 +362,7 @@ std::vector<PairDiscrepancy> pairsOf(const CalibrationData& data, const Mounting
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::vector<PairDiscrepancy> out;
-  forEachPair(stripPoints(data, m), opts,
+  forEachPair(georeferencedStrips(data, m), opts,
               [&](std::size_t q, std::size_t r, std::vector<Used> used, std::size_t queries, std::size_t stride) {
                 if (used.empty()) return;
                 if (breakdown) breakdown->add(q, used, queries, stride);
@@ -392,7 +389,7 @@ DiscrepancyStats pooledDiscrepancy(const CalibrationData& data, const MountingPa
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::vector<double> all;
   std::size_t total = 0;
-  forEachPair(stripPoints(data, m), opts, [&](std::size_t, std::size_t, std::vector<Used> used, std::size_t queries, std::size_t) {
+  forEachPair(georeferencedStrips(data, m), opts, [&](std::size_t, std::size_t, std::vector<Used> used, std::size_t queries, std::size_t) {
     for (const Used& u : used) all.push_back(u.d);
     total += queries;
   });

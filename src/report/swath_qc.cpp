@@ -5,14 +5,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <sstream>
 #include <map>
+#include <sstream>
 #include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
 #include "geometry/point_geometry.hpp"
 #include "mountcal/core/error.hpp"
+#include "mountcal/core/rotation.hpp"
 #include "mountcal/report/evaluation.hpp"
 #include "report/html_text.hpp"
 
@@ -86,11 +87,12 @@ struct CellSums {
 
 /// A strip's plane in one cell: height at the centre, slope, roughness; smooth by the gates.
 struct CellPlane {
-  double z = NAN, b = 0, c = 0, z0 = 0, roughness = NAN;
+  double z = NAN, b = 0, c = 0, roughness = NAN;
   bool smooth = false;
 };
 
 using CellKey = std::int64_t;
+using CellIndex = std::pair<std::int64_t, std::int64_t>;
 CellKey key(std::int64_t ix, std::int64_t iy) {
   return static_cast<CellKey>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffu));
 }
@@ -115,7 +117,6 @@ CellPlane fitPlane(const CellSums& s, double cell, const SwathQcOptions& o) {
   const Eigen::Vector3d beta = ldlt.solve(r);
   const double ssr = std::max(s.zz - beta.dot(r), 0.0);
   p.z = s.z0 + beta(0);
-  p.z0 = s.z0;
   p.b = beta(1);
   p.c = beta(2);
   p.roughness = std::sqrt(ssr / std::max(s.n - 3, 1.0));
@@ -125,19 +126,26 @@ CellPlane fitPlane(const CellSums& s, double cell, const SwathQcOptions& o) {
   const double sx = std::sqrt(std::max(s.xx / s.n - (s.x / s.n) * (s.x / s.n), 0.0)),
                sy = std::sqrt(std::max(s.yy / s.n - (s.y / s.n) * (s.y / s.n), 0.0));
   const bool covered = sx >= 0.2 * cell && sy >= 0.2 * cell;
-  p.smooth = covered && slope <= o.max_slope_deg * M_PI / 180.0 && p.roughness <= o.max_roughness_m;
+  p.smooth = covered && slope <= deg2rad(o.max_slope_deg) && p.roughness <= o.max_roughness_m;
   return p;
 }
 
-using StripCells = std::unordered_map<CellKey, std::pair<std::pair<std::int64_t, std::int64_t>, CellPlane>>;
+using StripCells = std::unordered_map<CellKey, std::pair<CellIndex, CellPlane>>;
+/// Which points of a strip lie in each cell (indices into the strip).
+using CellMembers = std::unordered_map<CellKey, std::vector<std::uint32_t>>;
 
-StripCells stripCells(const std::vector<Vec3>& x, const Grid& g, const SwathQcOptions& o) {
-  std::unordered_map<CellKey, std::pair<std::pair<std::int64_t, std::int64_t>, CellSums>> sums;
-  for (const Vec3& p : x) {
+/// Every cell's plane of one strip; with `members`, also which of its points each cell holds
+/// (in the same pass over the points).
+StripCells stripCells(const std::vector<Vec3>& x, const Grid& g, const SwathQcOptions& o, CellMembers* members = nullptr) {
+  std::unordered_map<CellKey, std::pair<CellIndex, CellSums>> sums;
+  for (std::size_t n = 0; n < x.size(); ++n) {
+    const Vec3& p = x[n];
     const std::int64_t i = g.ix(p.x()), j = g.iy(p.y());
-    auto& e = sums[key(i, j)];
+    const CellKey k = key(i, j);
+    auto& e = sums[k];
     e.first = {i, j};
     e.second.add(p.x() - g.cx(i), p.y() - g.cy(j), p.z());
+    if (members) (*members)[k].push_back(static_cast<std::uint32_t>(n));
   }
   StripCells out;
   out.reserve(sums.size());
@@ -151,44 +159,34 @@ StripCells stripCells(const std::vector<Vec3>& x, const Grid& g, const SwathQcOp
 StripQc intraswath(const std::string& id, const std::vector<Vec3>& x, const StripCells& cells, const Grid& g, double sub) {
   StripQc q;
   q.id = id;
-  std::unordered_map<CellKey, std::pair<double, double>> range;  // sub-cell → min, max residual
-  std::unordered_map<CellKey, int> count;
-  std::unordered_map<CellKey, bool> used;
+  struct Range {
+    double lo = 1e300, hi = -1e300;
+    int count = 0;
+  };
+  std::unordered_map<CellKey, Range> range;  // sub-cell → residuals' extremes
   double ss = 0, n = 0;
   for (const Vec3& p : x) {
     const std::int64_t i = g.ix(p.x()), j = g.iy(p.y());
     const auto it = cells.find(key(i, j));
     if (it == cells.end() || !it->second.second.smooth) continue;
-    used[key(i, j)] = true;
     const CellPlane& c = it->second.second;
     const double r = p.z() - (c.z + c.b * (p.x() - g.cx(i)) + c.c * (p.y() - g.cy(j)));
     ss += r * r;
     n += 1;
-    const CellKey k = key(static_cast<std::int64_t>(std::floor(p.x() / sub)), static_cast<std::int64_t>(std::floor(p.y() / sub)));
-    auto [rit, fresh] = range.try_emplace(k, r, r);
-    if (!fresh) rit->second = {std::min(rit->second.first, r), std::max(rit->second.second, r)};
-    ++count[k];
+    Range& e = range[key(static_cast<std::int64_t>(std::floor(p.x() / sub)), static_cast<std::int64_t>(std::floor(p.y() / sub)))];
+    e.lo = std::min(e.lo, r), e.hi = std::max(e.hi, r), ++e.count;
   }
-  q.smooth_cells = used.size();
+  for (const auto& [k, e] : cells) q.smooth_cells += e.second.smooth;  // a smooth cell holds points
   if (n > 0) q.intraswath_precision_m = std::sqrt(ss / n);
   std::vector<double> spans;
-  for (const auto& [k, mm] : range)
-    if (count[k] >= 2) spans.push_back(mm.second - mm.first);
+  for (const auto& [k, e] : range)
+    if (e.count >= 2) spans.push_back(e.hi - e.lo);
   if (!spans.empty()) {
     std::sort(spans.begin(), spans.end());
     q.intraswath_max_m =
         spans[std::min(spans.size() - 1, static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(spans.size()))) - 1)];
   }
   return q;
-}
-
-/// Which points of a strip lie in each cell (indices into the strip).
-using CellMembers = std::unordered_map<CellKey, std::vector<std::uint32_t>>;
-
-CellMembers cellMembers(const std::vector<Vec3>& x, const Grid& g) {
-  CellMembers m;
-  for (std::size_t i = 0; i < x.size(); ++i) m[key(g.ix(x[i].x()), g.iy(x[i].y()))].push_back(static_cast<std::uint32_t>(i));
-  return m;
 }
 
 /// Point to tangent plane of a pair on the cells both strips occupy (query: the smaller strip):
@@ -206,7 +204,6 @@ DiscrepancyStats overlapPointToPlane(const std::vector<Vec3>& xq, const CellMemb
   return pointToPlaneDiscrepancy(q, r, d);
 }
 
-using CellIndex = std::pair<std::int64_t, std::int64_t>;
 using PairCells = std::map<std::pair<std::size_t, std::size_t>, std::vector<std::pair<CellIndex, double>>>;
 
 /// Every strip pair's common smooth cells with dZ = z_A − z_B (A the earlier strip): one pass
@@ -281,20 +278,15 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
   out.cell_size_m = g.cell;
   out.thresholds_m = options.thresholds_m;
   std::vector<StripCells> cb, ca;
+  std::vector<CellMembers> mb(options.point_to_plane ? xb.size() : 0), ma(mb.size());  // for the point-to-plane measure
   for (std::size_t s = 0; s < xb.size(); ++s) {
-    cb.push_back(stripCells(xb[s], g, options));
-    ca.push_back(stripCells(xa[s], g, options));
+    cb.push_back(stripCells(xb[s], g, options, options.point_to_plane ? &mb[s] : nullptr));
+    ca.push_back(stripCells(xa[s], g, options, options.point_to_plane ? &ma[s] : nullptr));
     const double sub = options.intraswath_cell_m > 0 ? options.intraswath_cell_m : 2.0 * std::max(detail::planSpacing(xa[s]), 1e-3);
     out.strips.push_back(intraswath(ids[s], xa[s], ca.back(), g, sub));
   }
   std::vector<double> all_b, all_a;
   const PairCells pb = pairCells(cb), pa = pairCells(ca);
-  std::vector<CellMembers> mb, ma;
-  if (options.point_to_plane)
-    for (std::size_t s = 0; s < xb.size(); ++s) {
-      mb.push_back(cellMembers(xb[s], g));
-      ma.push_back(cellMembers(xa[s], g));
-    }
   static const std::vector<std::pair<CellIndex, double>> kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
     for (std::size_t b = a + 1; b < xb.size(); ++b) {
