@@ -23,7 +23,7 @@ if [ ! -f "$root/build/src/libmountcal.a" ]; then
 fi
 # Every instrumented source compiled once, on every core, then each target linked from its objects.
 sources=(tests/fuzz/fuzz_las.cpp tests/fuzz/fuzz_laz.cpp tests/fuzz/fuzz_sbet.cpp tests/fuzz/fuzz_csv.cpp
-         tests/fuzz/fuzz_job.cpp tests/fuzz/fuzz_pairs.cpp src/io/las.cpp src/io/las_crs.cpp src/io/laz.cpp src/io/laz_coder.cpp
+         tests/fuzz/fuzz_job.cpp tests/fuzz/fuzz_pairs.cpp src/report/swath_qc.cpp src/io/las.cpp src/io/las_crs.cpp src/io/laz.cpp src/io/laz_coder.cpp
          src/io/laz_items.cpp src/io/sbet.cpp src/io/csv.cpp src/io/atomic_file.cpp src/core/geodesy.cpp
          src/core/trajectory.cpp src/core/sensor_model.cpp src/core/error.cpp src/job/schema.cpp
          src/methods/correspondence/pair_file.cpp)
@@ -38,7 +38,7 @@ clang++ "${flags[@]}" -o "$out/fuzz_las" $(o tests/fuzz/fuzz_las.cpp src/io/las.
 clang++ "${flags[@]}" -o "$out/fuzz_laz" $(o tests/fuzz/fuzz_laz.cpp) "${laz[@]}"
 clang++ "${flags[@]}" -o "$out/fuzz_sbet" $(o tests/fuzz/fuzz_sbet.cpp) "${nav[@]}"
 clang++ "${flags[@]}" -o "$out/fuzz_csv" $(o tests/fuzz/fuzz_csv.cpp src/core/sensor_model.cpp) "${nav[@]}"
-clang++ "${flags[@]}" -o "$out/fuzz_job" $(o tests/fuzz/fuzz_job.cpp src/job/schema.cpp) "${release[@]}"
+clang++ "${flags[@]}" -o "$out/fuzz_job" $(o tests/fuzz/fuzz_job.cpp src/job/schema.cpp src/report/swath_qc.cpp) "${release[@]}"
 # The correspondence pair file reader, instrumented; the options' checks from the release library.
 clang++ "${flags[@]}" -o "$out/fuzz_pairs" $(o tests/fuzz/fuzz_pairs.cpp src/methods/correspondence/pair_file.cpp) "${release[@]}"
 # Its seed: a small pair file written here byte by byte (README "Correspondence pair files").
@@ -88,6 +88,8 @@ printf '\x07time,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,heading_deg\n1,34,-118,1
 # Job seeds: SPEC §4's example and the committed gravity jobs (geodetic frame, pose fields, LAZ).
 printf '{"frame":{"type":"local"},"trajectory":{"path":"trajectory.csv","format":"csv","time_offset_s":0.0},"sensor":{"type":"line","nominal_rotation_deg":[0,0,0]},"mounting_used":{"lever_arm_m":[0,0,0],"boresight_deg":[0,0,0]},"strips":[{"id":"1","path":"strip1.las"},{"id":"2","path":"strip2.las"}],"ties":"ties.csv","method":"vtpm","estimate":{"lever_arm":[true,true,false],"boresight":[true,true,true]},"vtpm":{"radius_m":1.0,"ransac_threshold_m":0.05},"solver":{"max_iterations":100,"loss":"trivial"},"output":{"result":"result.json","report":"report.html"}}\n' > "$out/corpus_job/spec"
 cp -f "$root"/examples/gravity/*.json "$out/corpus_job/"
+# A swath QC file (docs/swath-qc.md: qc.json) of one pair, for the QC reader in the same target.
+printf '{"cell_size_m":5,"plane_cell_size_m":2.5,"pairs":[{"a":"1","b":"2","before":{"cells":3,"rmsdz_m":0.2,"mean_dz_m":0.1,"max_abs_dz_m":0.3,"share_over":[{"threshold_m":0.04,"share":1}]},"after":{"cells":4,"rmsdz_m":0.01,"mean_dz_m":0,"max_abs_dz_m":0.02,"share_over":[{"threshold_m":0.04,"share":0}]},"point_to_plane":{"before":{"queries":9,"used":8,"median_m":0.1,"rms_m":0.2,"p90_m":0.3},"after":{"queries":9,"used":8,"median_m":0.01,"rms_m":0.02,"p90_m":0.03}},"sloped_planes":{"before":{"cells":0,"rms_m":null,"mean_m":null,"max_abs_m":null},"after":{"cells":2,"rms_m":0.01,"mean_m":0,"max_abs_m":0.01}}}],"strips":[{"id":"1","smooth_cells":5,"intraswath_precision_m":0.02,"intraswath_max_m":0.07}],"summary":{"share_over":[{"threshold_m":0.04,"share":0}]}}\n' > "$out/corpus_job/qc"
 # One fuzzer per core at a time; each one's statistics (or its failure) printed when it ends.
 fuzz() {
   "$out/fuzz_$1" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -print_final_stats=1 \

@@ -279,6 +279,36 @@ TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
   const std::vector<double> serial = mounting(dir / "serial.json"), workflow = mounting(dir / "wf" / "result.json");
   ASSERT_EQ(serial.size(), 6u);
   for (int j = 0; j < 6; ++j) EXPECT_NEAR(workflow[j], serial[j], 1e-9) << "parameter " << j;
+  // The swath QC rules (one job per pair on the block's cell, one summary) equal one `mountcal qc`
+  // of the whole block: the same pairs, cells and figures.
+  fs::create_directories(dir / "qc_whole");
+  r = sh(cli() + " qc " + job + " --result " + (dir / "wf" / "result.json").string() + " --out " + (dir / "qc_whole").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  {
+    const nlohmann::json whole = nlohmann::json::parse(slurp(dir / "qc_whole" / "qc.json"));
+    const nlohmann::json parts = nlohmann::json::parse(slurp(dir / "wf" / "qc" / "qc.json"));
+    ASSERT_EQ(parts["pairs"].size(), whole["pairs"].size());
+    EXPECT_GE(whole["pairs"].size(), 4u);
+    for (std::size_t k = 0; k < whole["pairs"].size(); ++k) {
+      const nlohmann::json &p = parts["pairs"][k], &w = whole["pairs"][k];
+      EXPECT_EQ(p["a"], w["a"]);
+      EXPECT_EQ(p["b"], w["b"]);
+      EXPECT_EQ(p["after"]["cells"], w["after"]["cells"]);
+      EXPECT_EQ(p["after"]["rmsdz_m"], w["after"]["rmsdz_m"]);
+      EXPECT_EQ(p["point_to_plane"]["after"]["median_m"], w["point_to_plane"]["after"]["median_m"]);
+    }
+    for (const char* state : {"before", "after"}) {
+      const nlohmann::json& ws = std::string(state) == "after" ? whole["summary"] : whole["summary"]["before"];
+      const nlohmann::json& ps = std::string(state) == "after" ? parts["summary"] : parts["summary"]["before"];
+      EXPECT_EQ(ps["cells"], ws["cells"]) << state;
+      EXPECT_NEAR(ps["rmsdz_m"].get<double>(), ws["rmsdz_m"].get<double>(), 1e-12) << state;
+      EXPECT_EQ(ps["max_abs_dz_m"], ws["max_abs_dz_m"]) << state;
+    }
+    ASSERT_EQ(parts["summary"]["classes"].size(), whole["summary"]["classes"].size());
+    for (std::size_t k = 0; k < whole["summary"]["classes"].size(); ++k)
+      EXPECT_EQ(parts["summary"]["classes"][k]["pass"], whole["summary"]["classes"][k]["pass"]) << k;
+    EXPECT_TRUE(fs::exists(dir / "wf" / "qc" / "qc.html"));
+  }
   // Four strips applied, one job each, equal to applying the serial result to the whole job.
   int strips = 0;
   for (const auto& e : fs::directory_iterator(dir / "wf" / "strips")) strips += e.path().extension() == ".las";

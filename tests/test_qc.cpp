@@ -69,6 +69,52 @@ TEST(SwathQc, FlatStripsWithAKnownOffsetAndTiltGiveTheHandStatistics) {
   for (const LevelVerdict& v : qc.verdicts) EXPECT_EQ(v.rmsdz_pass, s.rmsdz_m <= v.level.interswath_rmsdz_m) << v.level.name;
 }
 
+// The verdict table: an ASPRS X-cm class is 0.6 / 0.8 / 1.6 × X; its 10-cm and 5-cm classes are
+// the USGS QL2 and QL0 limits written in the specification's own table (3/4/8 cm, 6/8/16 cm).
+TEST(SwathQc, AsprsClassesMatchTheUsgsLevelsOfTheirAccuracy) {
+  const QualityLevel ten = asprsVerticalClass(0.10), five = asprsVerticalClass(0.05);
+  const std::vector<QualityLevel> usgs = usgsQualityLevels();
+  ASSERT_EQ(usgs.size(), 4u);
+  EXPECT_EQ(ten.name, "ASPRS 10-cm");
+  EXPECT_NEAR(ten.intraswath_max_m, usgs[2].intraswath_max_m, 1e-12);
+  EXPECT_NEAR(ten.interswath_rmsdz_m, usgs[2].interswath_rmsdz_m, 1e-12);
+  EXPECT_NEAR(ten.interswath_max_m, usgs[2].interswath_max_m, 1e-12);
+  EXPECT_NEAR(five.intraswath_max_m, 0.03, 1e-12);
+  EXPECT_NEAR(five.interswath_rmsdz_m, 0.04, 1e-12);
+  EXPECT_NEAR(five.interswath_max_m, 0.08, 1e-12);
+  EXPECT_EQ(defaultQualityLevels().size(), 11u);
+}
+
+// The ASPRS 2018 roof-plane measure: two strips of a 30° roof, the second shifted 10 cm in x
+// (horizontally: z_B(x) = tan 30° · (x − 0.1)). No cell is smooth (too steep for dZ); every
+// covered cell is planar in both, and B's centroid lies h·sin θ = 0.1 · sin 30° = 0.05 m from A's
+// plane along its normal (A above B: +0.05, the sign of dZ = A − B). A hand derivation: the
+// vertical gap h·tan θ times cos θ.
+TEST(SwathQc, SlopedPlanesShowAHorizontalShiftAsItsSineOfTheSlope) {
+  const double t = std::tan(30 * M_PI / 180);
+  const std::vector<Vec3> a = gridStrip(0, 100, 0, 100, [&](double x, double) { return t * x; });
+  const std::vector<Vec3> b = gridStrip(0, 100, 0, 100, [&](double x, double) { return t * (x - 0.1); });
+  SwathQcOptions o;
+  o.cell_size_m = 5.0;
+  o.plane_cell_m = 5.0;
+  o.point_to_plane = false;
+  const SwathQcResult qc = swathQcOfPoints({"a", "b"}, {a, a}, {a, b}, o);
+  ASSERT_EQ(qc.pairs.size(), 1u);
+  EXPECT_EQ(qc.pairs[0].after.cells, 0u);                  // dZ: no smooth cell on a 30° roof
+  EXPECT_EQ(qc.pairs[0].sloped_planes_after.cells, 400u);  // 20 × 20 covered cells
+  EXPECT_NEAR(qc.pairs[0].sloped_planes_after.mean_dz_m, 0.05, 1e-9);
+  EXPECT_NEAR(qc.pairs[0].sloped_planes_after.rmsdz_m, 0.05, 1e-9);
+  EXPECT_NEAR(qc.pairs[0].sloped_planes_after.max_abs_dz_m, 0.05, 1e-9);
+  EXPECT_NEAR(qc.pairs[0].sloped_planes_before.rmsdz_m, 0.0, 1e-9);  // before: the same strip twice
+  EXPECT_NEAR(qc.sloped_planes_after.rmsdz_m, 0.05, 1e-9);
+  // Steeper than max_plane_slope_deg: not a roof plane (a wall is not a height field).
+  o.max_plane_slope_deg = 25;
+  EXPECT_EQ(swathQcOfPoints({"a", "b"}, {a, a}, {a, b}, o).pairs.size(), 0u);
+  const std::string json = swathQcJson(qc);
+  EXPECT_NE(json.find("\"sloped_planes\""), std::string::npos);
+  EXPECT_NE(swathQcSection(qc).find("Sloped planes"), std::string::npos);
+}
+
 // The gates: of a field with four kinds of ground — flat, a 20° slope, a rough patch (±15 cm,
 // vegetation-like) and a 3 m step (a roof's edge) — only the flat cells are compared, whatever
 // the two strips' offset there.
@@ -152,12 +198,27 @@ TEST(SwathQc, CommandWritesTheFilesAndTheCalibrationLowersRmsdz) {
   EXPECT_LT(after, 0.1 * before) << r.out;
   EXPECT_LT(after, 0.03);
   EXPECT_EQ(j["strips"].size(), 4u);
-  EXPECT_EQ(j["summary"]["classes"].size(), 4u);
+  EXPECT_EQ(j["summary"]["classes"].size(), 11u);  // USGS QL0–QL3, ASPRS 1 … 33.3 cm
+  // The roofs (the sloped-plane measure): smeared before, centimetres after.
+  const nlohmann::json& planes = j["summary"]["sloped_planes"];
+  EXPECT_GE(planes["after"]["cells"].get<int>(), 10) << r.out;
+  EXPECT_LT(planes["after"]["rms_m"].get<double>(), 0.03) << r.out;
+  if (planes["before"]["cells"].get<int>() > 0) {
+    EXPECT_GT(planes["before"]["rms_m"].get<double>(), 0.1) << r.out;
+  }
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "qc.html"));
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "dz_1_2_after.tif"));
   const CommandRun bad = runCli("qc " + (dir / "f" / "job.json").string() + " --out " + (dir / "missing").string());
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("missing"), std::string::npos) << bad.err;
+  // qc-summary: a file that is not a pair's qc.json (the job) is refused with its name, and the
+  // summary never replaces one of its inputs.
+  const CommandRun not_qc = runCli("qc-summary " + (dir / "f" / "job.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(not_qc.code, 2);
+  EXPECT_NE(not_qc.err.find("job.json"), std::string::npos) << not_qc.err;
+  const CommandRun over = runCli("qc-summary " + (dir / "out" / "qc.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(over.code, 2);
+  EXPECT_NE(over.err.find("would overwrite an input"), std::string::npos) << over.err;
   std::filesystem::remove_all(dir);
 }
 

@@ -617,16 +617,35 @@ std::string fileNamePart(const std::string& id) {
   return out.empty() ? std::string("_") : out;
 }
 
-int runQc(const std::string& job_path, const std::string& result_path, const std::string& out, double cell) {
+int runQc(const std::string& job_path, const std::string& result_path, const std::string& out, double cell,
+          const std::vector<std::string>& pair, bool print_cell) {
   using namespace mountcal;
   namespace fs = std::filesystem;
   Job job = readJobNoting(job_path);
+  if (print_cell) {  // the block's cell, for its pairs measured one by one
+    const LoadedJob loaded = loadJob(jobWithStrips(job, [&] {
+      std::vector<std::string> all;
+      for (const auto& s : job.strips) all.push_back(s.id);
+      return all;
+    }()));
+    std::vector<std::vector<Vec3>> x = georeferencedStrips(loaded.data, loaded.data.mounting_used);
+    if (!loaded.frame.isLocal())
+      for (auto& strip : x)
+        for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
+    std::printf("%.17g\n", swathQcCellSize(x));
+    return 0;
+  }
+  if (out.empty()) throw FileError(job_path, "", "mountcal qc needs --out (or --print-cell)");
   if (!fs::is_directory(out)) {
     std::fprintf(stderr, "mountcal qc: %s: the output folder does not exist\n", out.c_str());
     return 2;
   }
   std::vector<std::string> inputs = jobInputPaths(job);
   if (!result_path.empty()) inputs.push_back(result_path);
+  if (!pair.empty()) {
+    if (pair[0] == pair[1]) throw FileError(job.path, "field 'strips'", "a pair of one strip ('" + pair[0] + "')");
+    job = jobWithStrips(job, pair);
+  }
   const LoadedJob loaded = loadJob(job);
   const MountingParameters before = loaded.data.mounting_used;
   const MountingParameters after = result_path.empty() ? before : readResultMounting(result_path, job.mounting_used.R_nom);
@@ -640,8 +659,9 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
       for (auto& strip : *x)
         for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
   const SwathQcResult qc = swathQcOfPoints(ids, xb, xa, o);
-  if (qc.pairs.empty()) {
-    std::fprintf(stderr, "mountcal qc: %s: no two strips share a smooth open cell of %.3g m\n", job_path.c_str(), qc.cell_size_m);
+  if (qc.pairs.empty() && pair.empty()) {  // one pair of a block's (--pair): no overlap is an answer, not an error
+    std::fprintf(stderr, "mountcal qc: %s: no two strips share a smooth open cell of %.3g m or a sloped planar one of %.3g m\n",
+                 job_path.c_str(), qc.cell_size_m, qc.plane_cell_size_m);
     return 1;
   }
   // Every output is written under a temporary name, then all are placed together.
@@ -681,6 +701,10 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
   row("all, before", qc.overall_before);
   row("all, after", qc.overall_after);
   for (const PairQc& p : qc.pairs) row(p.a + "-" + p.b + ", after", p.after);
+  if (qc.sloped_planes_before.cells + qc.sloped_planes_after.cells > 0)
+    std::printf("  sloped planes (roofs; cells of %.3g m): distance RMS %.4f m over %zu cells before, %.4f m over %zu after\n",
+                qc.plane_cell_size_m, qc.sloped_planes_before.rmsdz_m, qc.sloped_planes_before.cells, qc.sloped_planes_after.rmsdz_m,
+                qc.sloped_planes_after.cells);
   for (const StripQc& st : qc.strips)
     std::printf("  strip %-10s intraswath precision %.4f m, within-cell range (P95) %.4f m over %zu cells\n", st.id.c_str(),
                 st.intraswath_precision_m, st.intraswath_max_m, st.smooth_cells);
@@ -693,14 +717,65 @@ Command addQc(CLI::App& app) {
   struct Args {
     std::string job, result, out;
     double cell = 0;
+    std::vector<std::string> pair;
+    bool print_cell = false;
   };
   auto a = std::make_shared<Args>();
-  CLI::App* c = app.add_subcommand("qc", "Swath-to-swath quality control (interswath dZ, intraswath precision, USGS quality levels)");
+  CLI::App* c = app.add_subcommand(
+      "qc", "Swath-to-swath quality control (interswath dZ, sloped planes, intraswath precision, USGS and ASPRS classes)");
   c->add_option("job", a->job, "Job JSON file")->required();
   c->add_option("--result", a->result, "Result JSON file: QC before (the job's mounting) and after (the result's)");
-  c->add_option("--out", a->out, "Folder for qc.json, qc.html and the dZ GeoTIFFs (must exist)")->required();
+  c->add_option("--out", a->out, "Folder for qc.json, qc.html and the dZ GeoTIFFs (must exist)");
   c->add_option("--cell", a->cell, "Raster cell [m] (default: from the point spacing)")->check(CLI::Range(0.0, 1000.0));
-  return {c, [a] { return withNotices(runQc(a->job, a->result, a->out, a->cell)); }};
+  c->add_option("--pair", a->pair, "Only these two strips (a block workflow's per-pair job; give the block's --cell)")->expected(2);
+  c->add_flag("--print-cell", a->print_cell, "Print the cell the QC of every strip takes, and nothing else (for --pair jobs' --cell)");
+  return {c, [a] { return withNotices(runQc(a->job, a->result, a->out, a->cell, a->pair, a->print_cell)); }};
+}
+
+int runQcSummary(const std::vector<std::string>& parts, const std::string& out) {
+  using namespace mountcal;
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(out)) {
+    std::fprintf(stderr, "mountcal qc-summary: %s: the output folder does not exist\n", out.c_str());
+    return 2;
+  }
+  std::vector<SwathQcResult> qcs;
+  for (const std::string& path : parts) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw FileError(path, "", "cannot be read");
+    std::ostringstream text;
+    text << in.rdbuf();
+    try {
+      qcs.push_back(swathQcFromJson(text.str()));
+    } catch (const InvalidInput& e) {
+      throw FileError(path, "", e.what());
+    }
+  }
+  const SwathQcResult qc = mergeSwathQc(qcs);
+  std::vector<std::pair<std::string, std::string>> files;
+  for (const auto& [name, text] : {std::pair<std::string, std::string>{"qc.json", swathQcJson(qc)},
+                                   {"qc.html", swathQcHtml(qc, "mountcal swath QC — " + std::to_string(parts.size()) + " pairs")}}) {
+    const std::string path = (fs::path(out) / name).string();
+    for (const std::string& in : parts)
+      if (io::samePath(in, path)) throw FileError(path, "output", "would overwrite an input");
+    files.push_back({path, text});
+  }
+  io::writeFilesAtomically(files);
+  std::printf("swath QC of %zu pairs: RMSDz %.4f m before, %.4f m after over %zu cells; wrote %s/qc.json, qc.html\n", qc.pairs.size(),
+              qc.overall_before.rmsdz_m, qc.overall_after.rmsdz_m, qc.overall_after.cells, out.c_str());
+  return 0;
+}
+
+Command addQcSummary(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> parts;
+    std::string out;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand("qc-summary", "One swath QC (qc.json, qc.html) from the qc.json files of mountcal qc --pair jobs");
+  c->add_option("parts", a->parts, "The pairs' qc.json files")->required();
+  c->add_option("--out", a->out, "Folder for the summary's qc.json and qc.html (must exist)")->required();
+  return {c, [a] { return withNotices(runQcSummary(a->parts, a->out)); }};
 }
 
 Command addEvaluate(CLI::App& app) {
@@ -786,7 +861,7 @@ int main(int argc, char** argv) {
   CLI::App app{"mountcal " MOUNTCAL_VERSION_STRING " — LiDAR mounting (lever arm and boresight) calibration from overlapping strips"};
   app.require_subcommand(1);
   std::vector<Command> commands = {addMethods(app), addMounting(app), addSimulate(app), addCalibrate(app),
-                                   addApply(app),   addEvaluate(app), addQc(app)};
+                                   addApply(app),   addEvaluate(app), addQc(app),       addQcSummary(app)};
   for (Command& c : addFileCommands(app)) commands.push_back(std::move(c));
   for (Command& c : addBlockCommands(app)) commands.push_back(std::move(c));
   commands.push_back(addPlan(app));

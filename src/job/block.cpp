@@ -74,20 +74,27 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job) {
   return out;
 }
 
+Job jobWithStrips(const Job& job, const std::vector<std::string>& ids) {
+  Job sub = job;
+  sub.strips.clear();
+  for (const std::string& id : ids) sub.strips.push_back(job.strips[static_cast<std::size_t>(stripIndex(job, id))]);
+  sub.ties_path.clear();
+  sub.gcps_path.clear();
+  sub.planes_path.clear();
+  sub.targets_path.clear();
+  sub.check_points_path.clear();
+  sub.check_planes_path.clear();
+  return sub;
+}
+
 PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std::string& b) {
   requireBlockMethod(job, false);
   int ia = stripIndex(job, a), ib = stripIndex(job, b);
   if (ia == ib) throw FileError(job.path, "field 'strips'", "a pair of one strip ('" + a + "')");
   if (ia > ib) std::swap(ia, ib);
-  Job two = job;  // the two strips and the trajectory: nothing else is read
-  two.strips = {job.strips[static_cast<std::size_t>(ia)], job.strips[static_cast<std::size_t>(ib)]};
-  two.ties_path.clear();
-  two.gcps_path.clear();
-  two.planes_path.clear();
-  two.targets_path.clear();
-  two.check_points_path.clear();
-  two.check_planes_path.clear();
-  const LoadedJob loaded = loadJob(two);
+  // The two strips and the trajectory: nothing else is read.
+  const LoadedJob loaded =
+      loadJob(jobWithStrips(job, {job.strips[static_cast<std::size_t>(ia)].id, job.strips[static_cast<std::size_t>(ib)].id}));
   return findPairCandidates(loaded.data, 0, 1, job.options.method<CorrespondenceOptions>());
 }
 

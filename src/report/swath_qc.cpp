@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <sstream>
 #include <unordered_map>
@@ -20,11 +21,31 @@
 namespace mountcal {
 
 std::vector<QualityLevel> usgsQualityLevels() {
-  const std::string src = "USGS Lidar Base Specification (TM 11-B4 v1.2/v1.3), data precision requirements";
+  // QL1 and QL2 share one absolute class (RMSE_z 10 cm) and so one relative limit.
+  const std::string src = "USGS Lidar Base Specification (TM 11-B4 v1.2/v1.3), relative vertical accuracy table";
   return {{"USGS QL0", 0.03, 0.04, 0.08, src},
-          {"USGS QL1", 0.06, 0.06, 0.12, src},
+          {"USGS QL1", 0.06, 0.08, 0.16, src},
           {"USGS QL2", 0.06, 0.08, 0.16, src},
           {"USGS QL3", 0.12, 0.16, 0.32, src}};
+}
+
+QualityLevel asprsVerticalClass(double rmse_v_m) {
+  char name[64];
+  std::snprintf(name, sizeof name, "ASPRS %.3g-cm", 100 * rmse_v_m);
+  return {name, 0.6 * rmse_v_m, 0.8 * rmse_v_m, 1.6 * rmse_v_m,
+          "ASPRS Positional Accuracy Standards (Ed. 1 2014, Ed. 2 2023), lidar relative accuracy: 0.6 / 0.8 / 1.6 x RMSE_V"};
+}
+
+std::vector<QualityLevel> asprsVerticalClasses() {
+  std::vector<QualityLevel> out;
+  for (double cm : {1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 33.3}) out.push_back(asprsVerticalClass(cm / 100));
+  return out;
+}
+
+std::vector<QualityLevel> defaultQualityLevels() {
+  std::vector<QualityLevel> out = usgsQualityLevels();
+  for (QualityLevel& l : asprsVerticalClasses()) out.push_back(std::move(l));
+  return out;
 }
 
 double SwathQcOptions::cellSizeFor(double spacing_m) const {
@@ -44,6 +65,10 @@ bool SwathQcOptions::IsValid(std::string* why) const {
   if (min_points < 3 || min_points > 100000) return fail("min_points must be in [3, 100000]");
   if (!(max_slope_deg > 0 && max_slope_deg < 90)) return fail("max_slope_deg must be in (0, 90)");
   if (!(max_roughness_m > 0 && max_roughness_m <= 10)) return fail("max_roughness_m must be in (0, 10] m");
+  if (!(max_plane_angle_deg > 0 && max_plane_angle_deg <= 90)) return fail("max_plane_angle_deg must be in (0, 90] deg");
+  if (!(plane_cell_m >= 0 && plane_cell_m <= 1000)) return fail("plane_cell_m must be in [0, 1000] m (0: half the dZ cell)");
+  if (!(max_plane_slope_deg >= max_slope_deg && max_plane_slope_deg <= 75))
+    return fail("max_plane_slope_deg must be in [max_slope_deg, 75] deg (a cell's plane is a height field z(x, y))");
   if (!(intraswath_cell_m >= 0 && intraswath_cell_m <= 100)) return fail("intraswath_cell_m must be in [0, 100] m (0: from the spacing)");
   for (double t : thresholds_m)
     if (!(t > 0 && t < 1000)) return fail("thresholds_m must be positive lengths below 1000 m");
@@ -85,10 +110,15 @@ struct CellSums {
   }
 };
 
-/// A strip's plane in one cell: height at the centre, slope, roughness; smooth by the gates.
+/// A strip's plane in one cell: height at the centre, slope, roughness, the points' centroid
+/// (about the centre); smooth by the gates, planar when only the slope gate fails (up to
+/// max_plane_slope_deg: roofs).
 struct CellPlane {
   double z = NAN, b = 0, c = 0, roughness = NAN;
-  bool smooth = false;
+  double mx = 0, my = 0, mz = NAN;  ///< centroid: x, y about the cell's centre, z absolute
+  bool smooth = false, planar = false;
+  /// Signed distance of a point (x, y about the centre, z) from the plane, along its normal.
+  double distance(double x, double y, double zp) const { return (zp - (z + b * x + c * y)) / std::sqrt(1 + b * b + c * c); }
 };
 
 using CellKey = std::int64_t;
@@ -126,7 +156,10 @@ CellPlane fitPlane(const CellSums& s, double cell, const SwathQcOptions& o) {
   const double sx = std::sqrt(std::max(s.xx / s.n - (s.x / s.n) * (s.x / s.n), 0.0)),
                sy = std::sqrt(std::max(s.yy / s.n - (s.y / s.n) * (s.y / s.n), 0.0));
   const bool covered = sx >= 0.2 * cell && sy >= 0.2 * cell;
+  p.mx = s.x / s.n, p.my = s.y / s.n, p.mz = s.z0 + s.z / s.n;
   p.smooth = covered && slope <= deg2rad(o.max_slope_deg) && p.roughness <= o.max_roughness_m;
+  // The roughness is a vertical RMS: on a slope the points' distance to the plane is cos(slope) of it.
+  p.planar = covered && !p.smooth && slope <= deg2rad(o.max_plane_slope_deg) && p.roughness * std::cos(slope) <= o.max_roughness_m;
   return p;
 }
 
@@ -204,26 +237,45 @@ DiscrepancyStats overlapPointToPlane(const std::vector<Vec3>& xq, const CellMemb
   return pointToPlaneDiscrepancy(q, r, d);
 }
 
-using PairCells = std::map<std::pair<std::size_t, std::size_t>, std::vector<std::pair<CellIndex, double>>>;
+/// A pair's common cells: dZ = z_A − z_B at the cells both strips find smooth (A the earlier
+/// strip), and at the cells both find planar and sloped (roofs) the distance of B's centroid from
+/// A's plane along its normal — the ASPRS 2018 roof-plane measure at cell scale.
+struct PairCellValues {
+  std::vector<std::pair<CellIndex, double>> dz;
+  std::vector<double> plane_distance;
+};
+using PairCells = std::map<std::pair<std::size_t, std::size_t>, PairCellValues>;
 
-/// Every strip pair's common smooth cells with dZ = z_A − z_B (A the earlier strip): one pass
-/// over the cells, so the work grows with the cells and the overlaps, not with pairs × cells.
-PairCells pairCells(const std::vector<StripCells>& strips) {
+/// Every strip pair's common cells, dZ at the smooth ones or (`planes`) the distances at the
+/// sloped planar ones: one pass over the cells, so the work grows with the cells and the
+/// overlaps, not with pairs × cells.
+PairCells pairCells(const std::vector<StripCells>& strips, bool planes, double max_plane_angle_deg = 90) {
+  const double cos_conjugate = std::cos(deg2rad(max_plane_angle_deg));
   std::unordered_map<CellKey, std::vector<std::pair<std::size_t, const std::pair<CellIndex, CellPlane>*>>> at;
   for (std::size_t s = 0; s < strips.size(); ++s)
     for (const auto& [k, e] : strips[s])
-      if (e.second.smooth) at[k].push_back({s, &e});
+      if (planes ? e.second.planar : e.second.smooth) at[k].push_back({s, &e});
   PairCells out;
   for (const auto& [k, list] : at)
     for (std::size_t u = 0; u < list.size(); ++u)
       for (std::size_t v = u + 1; v < list.size(); ++v) {
-        const auto& [sa, ea] = list[u];
-        const auto& [sb, eb] = list[v];
-        const bool ordered = sa < sb;
-        const double dz = ordered ? ea->second.z - eb->second.z : eb->second.z - ea->second.z;
-        out[{std::min(sa, sb), std::max(sa, sb)}].push_back({ea->first, dz});
+        const bool ordered = list[u].first < list[v].first;
+        const auto& [sa, ea] = ordered ? list[u] : list[v];
+        const auto& [sb, eb] = ordered ? list[v] : list[u];
+        const CellPlane &pa = ea->second, &pb = eb->second;
+        PairCellValues& values = out[{sa, sb}];
+        if (planes) {
+          // Conjugate planes only: two strips that see different surfaces in one cell (a car's
+          // side and the ground behind it) are not a misalignment.
+          const Vec3 na(-pa.b, -pa.c, 1), nb(-pb.b, -pb.c, 1);
+          if (na.normalized().dot(nb.normalized()) >= cos_conjugate) values.plane_distance.push_back(-pa.distance(pb.mx, pb.my, pb.mz));
+        } else
+          values.dz.push_back({ea->first, pa.z - pb.z});
       }
-  for (auto& [pair, cells] : out) std::sort(cells.begin(), cells.end());  // independent of the hash order
+  for (auto& [pair, values] : out) {  // independent of the hash order
+    std::sort(values.dz.begin(), values.dz.end());
+    std::sort(values.plane_distance.begin(), values.plane_distance.end());
+  }
   return out;
 }
 
@@ -251,7 +303,89 @@ std::vector<double> pairDz(const std::vector<std::pair<CellIndex, double>>& cell
   return dz;
 }
 
+/// The verdict per level at the mounting after: the strips' largest intraswath repeatability and
+/// the pooled interswath figures against the level's limits.
+std::vector<LevelVerdict> verdictsOf(const SwathQcResult& qc, const std::vector<QualityLevel>& levels) {
+  double intra = 0;
+  for (const StripQc& s : qc.strips)
+    if (!std::isnan(s.intraswath_max_m)) intra = std::max(intra, s.intraswath_max_m);
+  std::vector<LevelVerdict> out;
+  for (const QualityLevel& l : levels) {
+    LevelVerdict v;
+    v.level = l;
+    v.intraswath_pass = l.intraswath_max_m <= 0 || intra <= l.intraswath_max_m;
+    v.rmsdz_pass = l.interswath_rmsdz_m <= 0 || (qc.overall_after.cells > 0 && qc.overall_after.rmsdz_m <= l.interswath_rmsdz_m);
+    v.max_pass = l.interswath_max_m <= 0 || (qc.overall_after.cells > 0 && qc.overall_after.max_abs_dz_m <= l.interswath_max_m);
+    out.push_back(v);
+  }
+  return out;
+}
+
+/// Statistics of several disjoint sets of values pooled from their own statistics (n, RMS, mean,
+/// largest, shares: the sums they were made of).
+DzStats pooledStats(const std::vector<const DzStats*>& parts, std::size_t thresholds) {
+  DzStats s;
+  s.share_over.assign(thresholds, NAN);
+  double ss = 0, sum = 0, mx = 0;
+  std::vector<double> over(thresholds, 0.0);
+  for (const DzStats* p : parts) {
+    if (p->cells == 0) continue;
+    const double n = static_cast<double>(p->cells);
+    s.cells += p->cells;
+    ss += p->rmsdz_m * p->rmsdz_m * n;
+    sum += p->mean_dz_m * n;
+    mx = std::max(mx, p->max_abs_dz_m);
+    for (std::size_t k = 0; k < thresholds && k < p->share_over.size(); ++k) over[k] += p->share_over[k] * n;
+  }
+  if (s.cells == 0) return s;
+  const double n = static_cast<double>(s.cells);
+  s.rmsdz_m = std::sqrt(ss / n);
+  s.mean_dz_m = sum / n;
+  s.max_abs_dz_m = mx;
+  for (std::size_t k = 0; k < thresholds; ++k) s.share_over[k] = std::round(over[k]) / n;
+  return s;
+}
+
 }  // namespace
+
+double swathQcCellSize(const std::vector<std::vector<Vec3>>& strips, const SwathQcOptions& options) {
+  double sparsest = 0;
+  for (const auto& s : strips) sparsest = std::max(sparsest, detail::planSpacing(s));
+  return options.cellSizeFor(sparsest);
+}
+
+SwathQcResult mergeSwathQc(const std::vector<SwathQcResult>& parts, const std::vector<QualityLevel>& levels) {
+  SwathQcResult out;
+  std::vector<const DzStats*> b, a, pb, pa;
+  for (const SwathQcResult& q : parts) {
+    if (q.pairs.empty() && q.strips.empty()) continue;
+    if (out.cell_size_m == 0) {
+      out.cell_size_m = q.cell_size_m;
+      out.plane_cell_size_m = q.plane_cell_size_m;
+      out.thresholds_m = q.thresholds_m;
+    } else if (q.cell_size_m != out.cell_size_m || q.plane_cell_size_m != out.plane_cell_size_m || q.thresholds_m != out.thresholds_m) {
+      throw InvalidInput("swath QC: the parts were measured on different cells or thresholds (give every pair the same --cell)");
+    }
+    for (const PairQc& p : q.pairs) {
+      for (const PairQc& seen : out.pairs)
+        if (seen.a == p.a && seen.b == p.b) throw InvalidInput("swath QC: the pair " + p.a + " – " + p.b + " is in two parts");
+      out.pairs.push_back(p);
+    }
+    for (const StripQc& s : q.strips)
+      if (std::none_of(out.strips.begin(), out.strips.end(), [&](const StripQc& t) { return t.id == s.id; })) out.strips.push_back(s);
+  }
+  for (const PairQc& p : out.pairs) {
+    b.push_back(&p.before), a.push_back(&p.after);
+    pb.push_back(&p.sloped_planes_before), pa.push_back(&p.sloped_planes_after);
+  }
+  const std::size_t t = out.thresholds_m.size();
+  out.overall_before = pooledStats(b, t);
+  out.overall_after = pooledStats(a, t);
+  out.sloped_planes_before = pooledStats(pb, t);
+  out.sloped_planes_after = pooledStats(pa, t);
+  out.verdicts = verdictsOf(out, levels);
+  return out;
+}
 
 SwathQcResult swathQc(const CalibrationData& data, const MountingParameters& before, const MountingParameters& after,
                       const SwathQcOptions& options) {
@@ -266,15 +400,11 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
   if (!options.IsValid(&why)) throw InvalidInput("swath QC options: " + why);
   if (xb.size() != ids.size() || xa.size() != ids.size()) throw InvalidInput("swath QC: one point set per strip, before and after");
   SwathQcResult out;
+  // One grid for before and after, every strip, and every run: cells at multiples of the cell
+  // from the frame's origin, so that a pair's QC alone (mountcal qc --pair, the block workflow)
+  // sees the cells of the whole block's.
   Grid g;
-  double sparsest = 0, xmin = 1e300, ymin = 1e300;
-  for (const auto& s : xb) {
-    sparsest = std::max(sparsest, detail::planSpacing(s));
-    for (const Vec3& p : s) xmin = std::min(xmin, p.x()), ymin = std::min(ymin, p.y());
-  }
-  g.cell = options.cell_size_m > 0 ? options.cell_size_m : options.cellSizeFor(sparsest);
-  g.x0 = std::floor(xmin / g.cell) * g.cell;  // one grid for before and after, and every strip
-  g.y0 = std::floor(ymin / g.cell) * g.cell;
+  g.cell = options.cell_size_m > 0 ? options.cell_size_m : swathQcCellSize(xb, options);
   out.cell_size_m = g.cell;
   out.thresholds_m = options.thresholds_m;
   std::vector<StripCells> cb, ca;
@@ -285,9 +415,21 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
     const double sub = options.intraswath_cell_m > 0 ? options.intraswath_cell_m : 2.0 * std::max(detail::planSpacing(xa[s]), 1e-3);
     out.strips.push_back(intraswath(ids[s], xa[s], ca.back(), g, sub));
   }
-  std::vector<double> all_b, all_a;
-  const PairCells pb = pairCells(cb), pa = pairCells(ca);
-  static const std::vector<std::pair<CellIndex, double>> kNone;
+  std::vector<double> all_b, all_a, planes_b, planes_a;
+  PairCells pb = pairCells(cb, false), pa = pairCells(ca, false);
+  if (options.sloped_planes) {  // on their own, finer grid: a roof face holds few cells of the dZ grid
+    Grid gp = g;
+    gp.cell = options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2;
+    std::vector<StripCells> sb, sa;
+    for (std::size_t s = 0; s < xb.size(); ++s) {
+      sb.push_back(stripCells(xb[s], gp, options));
+      sa.push_back(stripCells(xa[s], gp, options));
+    }
+    for (auto& [pair, v] : pairCells(sb, true, options.max_plane_angle_deg)) pb[pair].plane_distance = std::move(v.plane_distance);
+    for (auto& [pair, v] : pairCells(sa, true, options.max_plane_angle_deg)) pa[pair].plane_distance = std::move(v.plane_distance);
+  }
+  out.plane_cell_size_m = options.sloped_planes ? (options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2) : 0.0;
+  static const PairCellValues kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
     for (std::size_t b = a + 1; b < xb.size(); ++b) {
       const auto ib = pb.find({a, b}), ia = pa.find({a, b});
@@ -295,10 +437,14 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
       PairQc p;
       p.a = ids[a];
       p.b = ids[b];
-      const std::vector<double> db = pairDz(ib == pb.end() ? kNone : ib->second, g, &p.raster_before),
-                                da = pairDz(ia == pa.end() ? kNone : ia->second, g, &p.raster_after);
+      const PairCellValues &vb = ib == pb.end() ? kNone : ib->second, &va = ia == pa.end() ? kNone : ia->second;
+      const std::vector<double> db = pairDz(vb.dz, g, &p.raster_before), da = pairDz(va.dz, g, &p.raster_after);
       p.before = dzStats(db, options.thresholds_m);
       p.after = dzStats(da, options.thresholds_m);
+      p.sloped_planes_before = dzStats(vb.plane_distance, options.thresholds_m);
+      p.sloped_planes_after = dzStats(va.plane_distance, options.thresholds_m);
+      planes_b.insert(planes_b.end(), vb.plane_distance.begin(), vb.plane_distance.end());
+      planes_a.insert(planes_a.end(), va.plane_distance.begin(), va.plane_distance.end());
       if (options.point_to_plane) {
         DiscrepancyOptions d;
         d.max_queries = options.point_to_plane_queries;
@@ -313,17 +459,9 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
     }
   out.overall_before = dzStats(all_b, options.thresholds_m);
   out.overall_after = dzStats(all_a, options.thresholds_m);
-  double intra = 0;
-  for (const StripQc& s : out.strips)
-    if (!std::isnan(s.intraswath_max_m)) intra = std::max(intra, s.intraswath_max_m);
-  for (const QualityLevel& l : options.levels) {
-    LevelVerdict v;
-    v.level = l;
-    v.intraswath_pass = l.intraswath_max_m <= 0 || intra <= l.intraswath_max_m;
-    v.rmsdz_pass = l.interswath_rmsdz_m <= 0 || (out.overall_after.cells > 0 && out.overall_after.rmsdz_m <= l.interswath_rmsdz_m);
-    v.max_pass = l.interswath_max_m <= 0 || (out.overall_after.cells > 0 && out.overall_after.max_abs_dz_m <= l.interswath_max_m);
-    out.verdicts.push_back(v);
-  }
+  out.sloped_planes_before = dzStats(planes_b, options.thresholds_m);
+  out.sloped_planes_after = dzStats(planes_a, options.thresholds_m);
+  out.verdicts = verdictsOf(out, options.levels);
   return out;
 }
 
@@ -339,12 +477,18 @@ nlohmann::json statsJson(const DzStats& s, const std::vector<double>& thresholds
   j["share_over"] = over;
   return j;
 }
+
+/// The sloped-plane distances' statistics (PairQc::sloped_planes_*).
+nlohmann::json planesJson(const DzStats& s) {
+  return {{"cells", s.cells}, {"rms_m", num(s.rmsdz_m)}, {"mean_m", num(s.mean_dz_m)}, {"max_abs_m", num(s.max_abs_dz_m)}};
+}
 }  // namespace
 
 std::string swathQcJson(const SwathQcResult& qc) {
   const std::vector<double>& thresholds = qc.thresholds_m;
   nlohmann::json j;
   j["cell_size_m"] = qc.cell_size_m;
+  j["plane_cell_size_m"] = qc.plane_cell_size_m;
   j["pairs"] = nlohmann::json::array();
   for (const PairQc& p : qc.pairs) {
     nlohmann::json pj = statsJson(p.after, thresholds);
@@ -357,6 +501,7 @@ std::string swathQcJson(const SwathQcResult& qc) {
           {"queries", d.queries}, {"used", d.used}, {"median_m", num(d.median_m)}, {"rms_m", num(d.rms_m)}, {"p90_m", num(d.p90_m)}};
     };
     pj["point_to_plane"] = {{"before", ptp(p.point_to_plane_before)}, {"after", ptp(p.point_to_plane_after)}};
+    pj["sloped_planes"] = {{"before", planesJson(p.sloped_planes_before)}, {"after", planesJson(p.sloped_planes_after)}};
     j["pairs"].push_back(pj);
   }
   j["strips"] = nlohmann::json::array();
@@ -367,6 +512,7 @@ std::string swathQcJson(const SwathQcResult& qc) {
                            {"intraswath_max_m", num(s.intraswath_max_m)}});
   nlohmann::json summary = statsJson(qc.overall_after, thresholds);
   summary["before"] = statsJson(qc.overall_before, thresholds);
+  summary["sloped_planes"] = {{"before", planesJson(qc.sloped_planes_before)}, {"after", planesJson(qc.sloped_planes_after)}};
   summary["classes"] = nlohmann::json::array();
   for (const LevelVerdict& v : qc.verdicts)
     summary["classes"].push_back({{"name", v.level.name},
@@ -380,6 +526,76 @@ std::string swathQcJson(const SwathQcResult& qc) {
                                   {"source", v.level.source}});
   j["summary"] = summary;
   return j.dump(2) + "\n";
+}
+
+namespace {
+double numberOr(const nlohmann::json& j, const char* key) {
+  if (!j.contains(key) || j[key].is_null()) return NAN;
+  if (!j[key].is_number()) throw InvalidInput(std::string("qc.json: '") + key + "' is not a number");
+  return j[key].get<double>();
+}
+
+std::size_t countOf(const nlohmann::json& j, const char* key) {
+  if (!j.contains(key) || !j[key].is_number_unsigned()) throw InvalidInput(std::string("qc.json: '") + key + "' is not a count");
+  return j[key].get<std::size_t>();
+}
+
+DzStats statsFromJson(const nlohmann::json& j, const char* rms, const char* mean, const char* max) {
+  if (!j.is_object()) throw InvalidInput("qc.json: statistics are not an object");
+  DzStats s;
+  s.cells = countOf(j, "cells");
+  s.rmsdz_m = numberOr(j, rms);
+  s.mean_dz_m = numberOr(j, mean);
+  s.max_abs_dz_m = numberOr(j, max);
+  if (j.contains("share_over"))
+    for (const auto& o : j.at("share_over")) s.share_over.push_back(numberOr(o, "share"));
+  return s;
+}
+
+DiscrepancyStats ptpFromJson(const nlohmann::json& j) {
+  DiscrepancyStats d;
+  d.queries = countOf(j, "queries");
+  d.used = countOf(j, "used");
+  d.median_m = numberOr(j, "median_m");
+  d.rms_m = numberOr(j, "rms_m");
+  d.p90_m = numberOr(j, "p90_m");
+  return d;
+}
+}  // namespace
+
+SwathQcResult swathQcFromJson(const std::string& text) {
+  SwathQcResult q;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(text);
+    q.cell_size_m = numberOr(j, "cell_size_m");
+    q.plane_cell_size_m = j.contains("plane_cell_size_m") ? numberOr(j, "plane_cell_size_m") : 0.0;
+    if (!(q.cell_size_m > 0)) throw InvalidInput("qc.json: 'cell_size_m' must be a positive number");
+    for (const auto& o : j.at("summary").at("share_over")) q.thresholds_m.push_back(numberOr(o, "threshold_m"));
+    for (const auto& pj : j.at("pairs")) {
+      PairQc p;
+      p.a = pj.at("a").get<std::string>();
+      p.b = pj.at("b").get<std::string>();
+      p.before = statsFromJson(pj.at("before"), "rmsdz_m", "mean_dz_m", "max_abs_dz_m");
+      p.after = statsFromJson(pj.at("after"), "rmsdz_m", "mean_dz_m", "max_abs_dz_m");
+      p.point_to_plane_before = ptpFromJson(pj.at("point_to_plane").at("before"));
+      p.point_to_plane_after = ptpFromJson(pj.at("point_to_plane").at("after"));
+      p.sloped_planes_before = statsFromJson(pj.at("sloped_planes").at("before"), "rms_m", "mean_m", "max_abs_m");
+      p.sloped_planes_after = statsFromJson(pj.at("sloped_planes").at("after"), "rms_m", "mean_m", "max_abs_m");
+      for (DzStats* s : {&p.sloped_planes_before, &p.sloped_planes_after}) s->share_over.assign(q.thresholds_m.size(), NAN);
+      q.pairs.push_back(std::move(p));
+    }
+    for (const auto& sj : j.at("strips")) {
+      StripQc s;
+      s.id = sj.at("id").get<std::string>();
+      s.smooth_cells = countOf(sj, "smooth_cells");
+      s.intraswath_precision_m = numberOr(sj, "intraswath_precision_m");
+      s.intraswath_max_m = numberOr(sj, "intraswath_max_m");
+      q.strips.push_back(std::move(s));
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidInput(std::string("qc.json: ") + e.what());
+  }
+  return q;
 }
 
 namespace {
@@ -466,6 +682,25 @@ std::string swathQcSection(const SwathQcResult& qc, int level) {
         << detail::formatNumber(p.point_to_plane_after.rms_m, "%.4f") << "</td><td>"
         << detail::formatNumber(p.point_to_plane_after.p90_m, "%.4f") << "</td></tr>";
   if (ptp) o << "</table>";
+  if (qc.sloped_planes_after.cells + qc.sloped_planes_before.cells > 0) {
+    o << "<" << h2 << ">Sloped planes (ASPRS 2018 roof planes, 3-D)</" << h2 << "><p>On cells of "
+      << detail::formatNumber(qc.plane_cell_size_m, "%.3g")
+      << " m where both strips are planar and sloped (roofs): the distance of one strip's centroid from the other's "
+         "plane, along its normal; a horizontal shift h across a slope θ shows as h·sin θ.</p><table><tr><th></th><th>cells</th><th>RMS "
+         "[m]</th><th>mean [m]</th><th>max |d| [m]</th></tr>";
+    auto row = [&](const std::string& what, const DzStats& d) {
+      o << "<tr><td>" << detail::htmlEscape(what) << "</td><td>" << d.cells << "</td><td>" << detail::formatNumber(d.rmsdz_m, "%.4f")
+        << "</td><td>" << detail::formatNumber(d.mean_dz_m, "%+.4f") << "</td><td>" << detail::formatNumber(d.max_abs_dz_m, "%.4f")
+        << "</td></tr>";
+    };
+    row("all pairs, before", qc.sloped_planes_before);
+    row("all pairs, after", qc.sloped_planes_after);
+    for (const PairQc& p : qc.pairs) {
+      row(p.a + " – " + p.b + ", before", p.sloped_planes_before);
+      row(p.a + " – " + p.b + ", after", p.sloped_planes_after);
+    }
+    o << "</table>";
+  }
   o << "<" << h2 << ">Intraswath (at the mounting after)</" << h2
     << "><table><tr><th>strip</th><th>smooth cells</th><th>precision (RMS) "
        "[m]</th><th>largest "
@@ -482,7 +717,15 @@ std::string swathQcSection(const SwathQcResult& qc, int level) {
   // The maps of the pairs with most cells (at most 8: a block has hundreds of pairs; every
   // pair's raster is in its GeoTIFF).
   std::vector<const PairQc*> drawn;
-  for (const PairQc& p : qc.pairs) drawn.push_back(&p);
+  std::size_t elsewhere = 0;  // merged from per-pair QC: the maps are in each pair's own files
+  for (const PairQc& p : qc.pairs) {
+    if (p.raster_before.nx == 0 && p.raster_after.nx == 0 && p.before.cells + p.after.cells > 0)
+      ++elsewhere;
+    else
+      drawn.push_back(&p);
+  }
+  if (elsewhere > 0)
+    o << "<p>" << elsewhere << " pairs' maps are in their own qc.html and GeoTIFF files (measured one pair at a time).</p>";
   std::stable_sort(drawn.begin(), drawn.end(), [](const PairQc* x, const PairQc* y) { return x->after.cells > y->after.cells; });
   if (drawn.size() > 8) {
     o << "<p>The " << 8 << " pairs with most common cells of " << drawn.size() << "; every pair's raster is in its GeoTIFF.</p>";

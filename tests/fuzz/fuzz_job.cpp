@@ -1,7 +1,8 @@
 // libFuzzer target: the job-file parser (JSON, SPEC §4: schema, types, ranges, paths, CRS) must
 // refuse any malformed input with a mountcal::Error naming the file and the place — never
 // crash, hang or allocate without bound. The input is the file; a parsed job is written back
-// out (jobJson) and its input paths listed, as the command does.
+// out (jobJson) and its input paths listed, as the command does. The same bytes are read as a
+// swath QC file (qc.json, mountcal qc-summary's input), merged and written out again.
 #include <unistd.h>
 
 #include <cstdint>
@@ -10,6 +11,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/job/schema.hpp"
+#include "mountcal/report/swath_qc.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = "/tmp/mountcal_fuzz_job_" + std::to_string(::getpid()) + ".json";
@@ -22,6 +24,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const Job job = readJob(path);
     (void)jobJson(job);
     (void)jobInputPaths(job);
+  } catch (const Error&) {
+  }
+  try {
+    const SwathQcResult qc = mergeSwathQc({swathQcFromJson(std::string(reinterpret_cast<const char*>(data), size))});
+    (void)swathQcJson(qc);
+    (void)swathQcSection(qc);
   } catch (const Error&) {
   }
   return 0;

@@ -21,6 +21,11 @@ namespace mountcal {
 /// Throws FileError for unreadable strips, or a job whose method is not "correspondences" alone.
 std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job);
 
+/// The job with only the strips `ids` (in that order) and the trajectory or poses: ties, GCPs,
+/// plane regions, targets and check data left out — what a per-pair or per-strip job reads.
+/// Throws FileError for an unknown strip id.
+Job jobWithStrips(const Job& job, const std::vector<std::string>& ids);
+
 /// The candidate neighbourhoods of the job's strips `a` and `b` (ids, either order: the result
 /// is in job order), loading only those two strips and the trajectory. Throws FileError for an
 /// unknown strip id and everything loadJob throws.

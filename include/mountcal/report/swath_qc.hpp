@@ -38,11 +38,34 @@ struct QualityLevel {
 /// confirmed). Settable: SwathQcOptions::levels.
 std::vector<QualityLevel> usgsQualityLevels();
 
+/// The lidar relative-accuracy limits of an ASPRS vertical accuracy class of RMSE_V = `rmse_v_m`
+/// ("X-cm class"): intraswath smooth-surface repeatability ≤ 0.6 X, interswath RMSDz ≤ 0.8 X,
+/// largest interswath |dZ| ≤ 1.6 X (ASPRS Positional Accuracy Standards for Digital Geospatial
+/// Data, Edition 1 2014, the table of lidar data internal precision; carried into Edition 2,
+/// 2023 — see docs/swath-qc.md for what was and was not confirmed).
+QualityLevel asprsVerticalClass(double rmse_v_m);
+
+/// The ASPRS classes of 1, 2.5, 5, 10, 15, 20 and 33.3 cm (the standard's examples that lidar
+/// reaches), each by asprsVerticalClass.
+std::vector<QualityLevel> asprsVerticalClasses();
+
+/// The default verdict table: usgsQualityLevels() then asprsVerticalClasses().
+std::vector<QualityLevel> defaultQualityLevels();
+
 struct SwathQcOptions {
   double cell_size_m = 0.0;       ///< raster cell [m]; 0: from the point spacing (below)
   int min_points = 8;             ///< points of one strip in a cell for its plane [-]
   double max_slope_deg = 10.0;    ///< smooth: the cell's plane at most this steep [deg]
   double max_roughness_m = 0.05;  ///< smooth: RMS of the residuals to the plane at most this [m]
+  /// Sloped planes (roofs, the ASPRS 2018 roof-plane measure): cells steeper than max_slope_deg
+  /// up to this slope whose points lie on a plane within max_roughness_m (along its normal) [deg].
+  double max_plane_slope_deg = 60.0;
+  bool sloped_planes = true;  ///< the sloped-plane measure (PairQc::sloped_planes_*)
+  /// Conjugate planes: the two strips' planes in a cell differ in direction by at most this, or
+  /// they see different surfaces there (occlusion), not one surface misaligned [deg].
+  double max_plane_angle_deg = 10.0;
+  /// Its own grid's cell [m]; 0: half the dZ cell (a roof face holds few cells of the dZ grid).
+  double plane_cell_m = 0.0;
   /// The intraswath within-cell range is taken in sub-cells of this size [m]; 0: twice the
   /// strip's mean plan spacing (about four points: 1 m at 0.5 m spacing). A range widens with
   /// the points it spans, so the measure is taken where a cell holds a few, as on the small
@@ -50,7 +73,7 @@ struct SwathQcOptions {
   double intraswath_cell_m = 0.0;
   /// Shares of cells with |dZ| beyond each of these are reported [m].
   std::vector<double> thresholds_m = {0.04, 0.08, 0.16};
-  std::vector<QualityLevel> levels = usgsQualityLevels();
+  std::vector<QualityLevel> levels = defaultQualityLevels();
   /// The ASPRS 2018 guidelines' first 3-D measure beside dZ: each point of a pair's smaller strip
   /// against the tangent plane of the larger (pointToPlaneDiscrepancy, its gates from the
   /// spacing), at most `point_to_plane_queries` points per pair; it sees horizontal
@@ -80,6 +103,12 @@ struct DzStats {
 struct PairQc {
   std::string a, b;
   DzStats before, after;
+  /// The ASPRS 2018 roof-plane measure at cell scale: on the plane grid (SwathQcOptions::
+  /// plane_cell_m), at the cells where both strips are planar
+  /// and sloped (max_slope_deg < slope ≤ max_plane_slope_deg), the distance of B's centroid from
+  /// A's plane along its normal (sign as dZ: A − B). A horizontal shift h across a roof of slope
+  /// θ gives h·sin θ — what dZ on flat ground cannot see. `cells` counts those cells.
+  DzStats sloped_planes_before, sloped_planes_after;
   /// Point to tangent plane (SwathQcOptions::point_to_plane), before and after; empty stats when off.
   DiscrepancyStats point_to_plane_before, point_to_plane_after;
   DzRaster raster_before, raster_after;
@@ -100,11 +129,13 @@ struct LevelVerdict {
 
 struct SwathQcResult {
   double cell_size_m = 0;
-  std::vector<double> thresholds_m;       ///< SwathQcOptions::thresholds_m, for DzStats::share_over
-  std::vector<PairQc> pairs;              ///< the pairs with at least one common smooth cell
-  std::vector<StripQc> strips;            ///< at the mounting after
-  DzStats overall_before, overall_after;  ///< every pair's cells pooled
-  std::vector<LevelVerdict> verdicts;     ///< at the mounting after
+  double plane_cell_size_m = 0;                       ///< the sloped-plane measure's cell; 0 when it is off
+  std::vector<double> thresholds_m;                   ///< SwathQcOptions::thresholds_m, for DzStats::share_over
+  std::vector<PairQc> pairs;                          ///< the pairs with at least one common smooth or sloped-plane cell
+  std::vector<StripQc> strips;                        ///< at the mounting after
+  DzStats overall_before, overall_after;              ///< every pair's cells pooled
+  DzStats sloped_planes_before, sloped_planes_after;  ///< every pair's sloped-plane distances pooled
+  std::vector<LevelVerdict> verdicts;                 ///< at the mounting after
 };
 
 /// QC of `data` at `before` and `after` (the job's mounting and a result's; pass the same twice
@@ -117,6 +148,21 @@ SwathQcResult swathQc(const CalibrationData& data, const MountingParameters& bef
 /// the frame the rasters are to be in (a CRS job's strips converted to its CRS).
 SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::vector<std::vector<Vec3>>& before,
                               const std::vector<std::vector<Vec3>>& after, const SwathQcOptions& options = {});
+
+/// The dZ cell swathQcOfPoints takes when options.cell_size_m is 0: cellSizeFor the sparsest
+/// strip's mean plan spacing. A block's pairs measured one by one need this cell, found once over
+/// every strip (mountcal qc --print-cell), for their cells to be the whole block's.
+double swathQcCellSize(const std::vector<std::vector<Vec3>>& strips, const SwathQcOptions& options = {});
+
+/// Reads `qc.json` (swathQcJson) back; the rasters are not in it (they are in the GeoTIFFs), nor
+/// the pooled figures and verdicts (mergeSwathQc makes them). Throws InvalidInput naming what is wrong.
+SwathQcResult swathQcFromJson(const std::string& text);
+
+/// QC results of disjoint pairs (one per pair, as the block workflow measures them, on one cell)
+/// as one: the pairs in order, each strip once, the pooled figures from the pairs' own sums —
+/// equal to one swathQcOfPoints over the same pairs — and the verdicts against `levels`.
+/// Throws InvalidInput when the parts differ in cells or thresholds or share a pair.
+SwathQcResult mergeSwathQc(const std::vector<SwathQcResult>& parts, const std::vector<QualityLevel>& levels = defaultQualityLevels());
 
 /// The statistics of dZ values against `thresholds_m`.
 DzStats dzStats(const std::vector<double>& dz, const std::vector<double>& thresholds_m);
