@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -132,6 +133,43 @@ TEST(PerPointPoses, TruckLaserIdsFollowTheHdl32eTable) {
     const double manual = id % 2 == 0 ? -30.67 + (id / 2) * 4.0 / 3.0 : -9.33 + (id / 2) * 4.0 / 3.0;
     ASSERT_GT(n[id], 500) << "laser " << id;
     EXPECT_NEAR(sum[id] / n[id] - manual, 0.15, 0.1) << "laser " << id;
+  }
+}
+
+// Issue 28 item 5: a wrong sensor description is refused before calibrating (exit 2, the job's
+// sensor field named, what to check said), where it used to calibrate with exit 0 and a wrong
+// boresight. The right Car job: every laser's median elevation within 0.4° of the HDL-32E table
+// (measured 2026-11-27: at most 0.40°); attitudes in radians declared as degrees: 17°; the
+// sensor turned 180° about its x axis ([0, −90, 0] for [180, −90, 0]): 61°; turned 90° about z: 14°.
+TEST(PerPointPoses, AWrongSensorDescriptionIsRefusedBeforeCalibrating) {
+  REQUIRE_DATA("gravity/Car.las");
+  Job job = readJob(exampleJob("car"));
+  EXPECT_EQ(job.laser_table_tolerance_deg, 5.0);
+  job.laser_table_tolerance_deg = 0;  // measure instead of refusing
+  LaserTableCheck right = checkLaserTable(loadJob(job).data, job.sensor.multibeam);
+  ASSERT_EQ(right.lasers.size(), 32u);
+  EXPECT_LT(right.worst_abs_deviation_deg, 0.6);
+  auto variant = [&](const std::string& name, const std::function<void(nlohmann::json&)>& change) {
+    std::ifstream in(exampleJob("car"));
+    nlohmann::json j = nlohmann::json::parse(in);
+    const fs::path dir = fs::path(MOUNTCAL_SOURCE_DIR) / "examples" / "gravity";
+    for (auto& strip : j["strips"]) strip["path"] = fs::absolute(dir / strip["path"].get<std::string>()).lexically_normal().string();
+    change(j);
+    const fs::path out = fs::temp_directory_path() / ("mountcal_wrong_" + name + "_" + std::to_string(::getpid()) + ".json");
+    std::ofstream(out) << j.dump(2);
+    return out.string();
+  };
+  const std::string unit = variant("unit", [](nlohmann::json& j) { j["poses"]["attitude_unit"] = "deg"; });
+  const std::string flipped = variant("flipped", [](nlohmann::json& j) { j["sensor"]["nominal_rotation_deg"] = {0, -90, 0}; });
+  const std::string turned = variant("turned", [](nlohmann::json& j) { j["sensor"]["nominal_rotation_deg"] = {180, -90, 90}; });
+  for (const std::string& path : {unit, flipped, turned}) {
+    const mountcal_tests::CommandRun r = mountcal_tests::runCli("calibrate --quiet " + path + " --result " + path + ".result.json");
+    EXPECT_EQ(r.code, 2) << path << ": " << r.err;
+    EXPECT_NE(r.err.find("field 'sensor'"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("disagree with the HDL-32E laser table"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("nominal_rotation_deg"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(path + ".result.json"));
+    fs::remove(path);
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/core/sensor_model.hpp"
+#include "mountcal/job/load.hpp"
 
 using namespace mountcal;
 
@@ -97,4 +98,32 @@ TEST(SensorModel, RawToVectorRoundTripsForEveryKind) {
       }
     }
   }
+}
+
+// checkLaserTable (issue 28 item 5) by hand: each VLP-16 laser's vectors over a full turn of
+// azimuth, made by the model (vertical offsets included), deviate by 0 from the table; tilted by
+// δ = 1° about x the elevation of a vector at azimuth α changes by about δ cos α, so over a full
+// turn the median stays within δ; turned 180° about y (upside down), laser i reads −ω_i: the
+// worst deviation is 2 × 15° = 30° (lasers 0 and 15).
+TEST(MultiBeam, LaserTableCheckByHand) {
+  const MultiBeamModel m = MultiBeamModel::VLP16();
+  auto data = [&](const Mat3& R) {
+    CalibrationData d;
+    StripData s;
+    for (int id = 0; id < m.laserCount(); ++id)
+      for (int k = 0; k < 360; ++k) {
+        s.r_s.push_back(R * m.vector(id, k * M_PI / 180, 20.0));
+        s.laser.push_back(static_cast<std::uint16_t>(id));
+      }
+    d.strips.push_back(s);
+    return d;
+  };
+  const LaserTableCheck level = checkLaserTable(data(Mat3::Identity()), m);
+  ASSERT_EQ(level.lasers.size(), 16u);
+  EXPECT_LT(level.worst_abs_deviation_deg, 1e-9);
+  const LaserTableCheck tilted = checkLaserTable(data(Eigen::AngleAxisd(M_PI / 180, Vec3::UnitX()).toRotationMatrix()), m);
+  EXPECT_LT(tilted.worst_abs_deviation_deg, 1.0);
+  const LaserTableCheck upside_down = checkLaserTable(data(Eigen::AngleAxisd(M_PI, Vec3::UnitY()).toRotationMatrix()), m);
+  EXPECT_NEAR(upside_down.worst_abs_deviation_deg, 30.0, 0.1);
+  EXPECT_EQ(upside_down.beyond(5.0), 14);  // all but the ±1° lasers (2 × 1° = 2°)
 }

@@ -398,6 +398,61 @@ LoadedJob loadJobTrajectory(const Job& job) {
   return out;
 }
 
+int LaserTableCheck::beyond(double tolerance_deg) const {
+  return static_cast<int>(
+      std::count_if(lasers.begin(), lasers.end(), [&](const Laser& l) { return std::abs(l.median_deviation_deg) > tolerance_deg; }));
+}
+
+LaserTableCheck checkLaserTable(const CalibrationData& data, const MultiBeamModel& model) {
+  std::vector<std::vector<double>> dev(static_cast<std::size_t>(model.laserCount()));
+  for (const StripData& st : data.strips) {
+    if (st.laser.size() != st.r_s.size()) continue;
+    for (std::size_t i = 0; i < st.r_s.size(); ++i) {
+      const int id = st.laser[i];
+      if (id >= model.laserCount()) continue;
+      const LaserSpec& l = model.laser(id);
+      const Vec3 r = st.r_s[i] - Vec3(0, 0, l.vertical_offset_m);
+      const double h = std::hypot(r.x(), r.y());
+      if (!(h > 0 || r.z() != 0)) continue;
+      dev[static_cast<std::size_t>(id)].push_back(rad2deg(std::atan2(r.z(), h) - l.elevation_rad));
+    }
+  }
+  LaserTableCheck c;
+  for (std::size_t id = 0; id < dev.size(); ++id) {
+    std::vector<double>& d = dev[id];
+    if (d.size() < 50) continue;
+    std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+    LaserTableCheck::Laser l{static_cast<int>(id), d.size(), d[d.size() / 2]};
+    if (std::abs(l.median_deviation_deg) > c.worst_abs_deviation_deg || c.worst_laser < 0) {
+      c.worst_abs_deviation_deg = std::abs(l.median_deviation_deg);
+      c.worst_laser = l.id;
+    }
+    c.lasers.push_back(l);
+  }
+  return c;
+}
+
+namespace {
+/// Refuses a multi-beam job whose points' laser directions disagree with its table
+/// (Job::laser_table_tolerance_deg), naming the worst laser and what to check.
+void requireLaserTable(const Job& job, const CalibrationData& d) {
+  if (job.sensor.type != SensorType::kMultiBeam || !(job.laser_table_tolerance_deg > 0)) return;
+  const MultiBeamModel& model = job.sensor.multibeam;
+  const LaserTableCheck c = checkLaserTable(d, model);
+  if (c.lasers.empty() || c.worst_abs_deviation_deg <= job.laser_table_tolerance_deg) return;
+  const LaserTableCheck::Laser& w = *std::find_if(c.lasers.begin(), c.lasers.end(), [&](const auto& l) { return l.id == c.worst_laser; });
+  char buf[600];
+  std::snprintf(buf, sizeof buf,
+                "the points' laser directions disagree with the %s laser table: laser %d lies %+.2f deg from its elevation %.2f deg "
+                "(median over %zu points), %d of %zu lasers beyond %.3g deg. Check sensor.nominal_rotation_deg, the attitude unit "
+                "(poses.attitude_unit or the trajectory's), sensor.laser_field and sensor.model; a mounting this far from level "
+                "needs a larger sensor.laser_table_tolerance_deg (0: not checked)",
+                model.name().c_str(), w.id, w.median_deviation_deg, rad2deg(model.laser(w.id).elevation_rad), w.points,
+                c.beyond(job.laser_table_tolerance_deg), c.lasers.size(), job.laser_table_tolerance_deg);
+  throw FileError(job.path, "field 'sensor'", buf);
+}
+}  // namespace
+
 LoadedJob loadJob(const Job& job) {
   LoadedJob out = loadJobTrajectory(job);
   CalibrationData& d = out.data;
@@ -417,6 +472,7 @@ LoadedJob loadJob(const Job& job) {
     }
   }
   if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
+  requireLaserTable(job, d);
   if (!job.ties_path.empty()) d.ties = liftPicks(readPicks(job, job.ties_path, "tie"), out);
   if (!job.planes_path.empty()) d.plane_regions = regionsOnData(liftRegions(io::readPlanesCsv(job.planes_path), out), job.planes_path, d);
   if (!job.targets_path.empty())

@@ -31,7 +31,7 @@ const char* lossName(LossType l) {
 
 void readSensor(const std::string& path, const Fields& top, Job* job) {
   const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m", "scan_angle_scale",
-                                           "scan_angle_offset_deg", "laser_field"});
+                                           "scan_angle_offset_deg", "laser_field", "laser_table_tolerance_deg"});
   const std::string type = sensor.str("type");
   job->nominal_rotation_deg = sensor.has("nominal_rotation_deg") ? sensor.vec3("nominal_rotation_deg") : Vec3::Zero();
   if (type == "line") {
@@ -42,6 +42,9 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
     job->sensor = SensorModel::lineScanner(m);
   } else if (type == "multibeam") {
     job->laser_field = sensor.str("laser_field", "");
+    job->laser_table_tolerance_deg = sensor.num("laser_table_tolerance_deg", 5.0);
+    if (!(job->laser_table_tolerance_deg >= 0 && job->laser_table_tolerance_deg <= 90))
+      sensor.fail("laser_table_tolerance_deg", "expected degrees in [0, 90] (0: not checked)");
     if (sensor.has("lasers")) {
       const json& lasers = sensor.at("lasers");
       if (!lasers.is_array() || lasers.empty()) sensor.fail("lasers", "expected a non-empty array of lasers");
@@ -540,6 +543,7 @@ json sensorJson(const Job& job) {
         sensor["lasers"] = lasers;
       }
       if (!job.laser_field.empty()) sensor["laser_field"] = job.laser_field;
+      if (job.laser_table_tolerance_deg != 5.0) sensor["laser_table_tolerance_deg"] = job.laser_table_tolerance_deg;
       break;
     case SensorType::kVector:
       sensor["type"] = "vector";

@@ -50,6 +50,27 @@ struct LoadedJob {
   double crsHeightAt(double x, double y) const;
 };
 
+/// How the laser directions of a multi-beam sensor's points agree with its laser table: for each
+/// laser id with at least 50 points, the median over its points of the elevation of r_s (less the
+/// laser's vertical offset) minus the table's elevation. With the description right these are
+/// the mounting's small tilt at most (a boresight error of δ moves them by up to δ); a wrong
+/// nominal rotation, attitudes in the wrong unit or a wrong laser field move them by degrees to
+/// tens of degrees.
+struct LaserTableCheck {
+  struct Laser {
+    int id = 0;
+    std::size_t points = 0;
+    double median_deviation_deg = 0.0;
+  };
+  std::vector<Laser> lasers;             ///< the lasers with ≥ 50 points, by id
+  double worst_abs_deviation_deg = 0.0;  ///< largest |median deviation| over them
+  int worst_laser = -1;
+  int beyond(double tolerance_deg) const;  ///< lasers whose |median deviation| exceeds the tolerance
+};
+
+/// The check over every strip with laser ids (empty when none has them).
+LaserTableCheck checkLaserTable(const CalibrationData& data, const MultiBeamModel& model);
+
 /// Reads everything a job names for its methods: trajectory, strips, ties (vtpm), plane regions
 /// (planes, unless automatic), GCPs. Throws FileError naming the file and record for malformed
 /// data, a LAS without GPS time, a GPS-time encoding that disagrees with the trajectory, or

@@ -56,6 +56,11 @@ struct Job {
   /// Multi-beam: the LAS field holding each point's laser id (`sensor.laser_field`, e.g.
   /// "user_data" in the Gravity files); empty: not read.
   std::string laser_field;  ///< read for LAS strips, with a trajectory or per-point poses
+  /// Multi-beam with laser ids: loading refuses the job when a laser's elevation, recovered from
+  /// the points (and poses), lies further than this from the sensor's table (checkLaserTable) —
+  /// a wrong nominal rotation, attitude unit or laser field. 0: not checked
+  /// (`sensor.laser_table_tolerance_deg`) [deg].
+  double laser_table_tolerance_deg = 5.0;
   Vec3 nominal_rotation_deg = Vec3::Zero();
   MountingParameters mounting_used;
   std::vector<JobStrip> strips;
