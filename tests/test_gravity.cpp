@@ -173,6 +173,51 @@ TEST(PerPointPoses, AWrongSensorDescriptionIsRefusedBeforeCalibrating) {
   }
 }
 
+// Issue 28 item 6: the report's automatic profiles and intensity overlay at the data's scale. On
+// Car (a 5 m car seen from about 10 m, 2–3 cm spacing) they were 30 m windows in which the car was
+// a speck; now the passes' common extent (measured 2026-11-27: 5 m profiles 8.5 cm wide, a 5 m
+// overlay), and each profile's before and after panels hold points of the car.
+TEST(PerPointPoses, ReportWindowsFollowTheData) {
+  REQUIRE_DATA("gravity/Car.las");
+  const fs::path dir = fs::temp_directory_path() / ("mountcal_windows_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const mountcal_tests::CommandRun r = mountcal_tests::runCli("calibrate --quiet " + exampleJob("car") + " --result " +
+                                                              (dir / "r.json").string() + " --report " + (dir / "r.html").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(dir / "r.html");
+  const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  int profiles = 0;
+  for (std::size_t at = html.find("<h3>auto_"); at != std::string::npos; at = html.find("<h3>auto_", at + 1)) {
+    ++profiles;
+    double x0, y0, x1, y1, width;
+    ASSERT_EQ(std::sscanf(html.c_str() + at, "<h3>auto_%*d: (%lf, %lf) → (%lf, %lf), width %lf m", &x0, &y0, &x1, &y1, &width), 5)
+        << html.substr(at, 120);
+    const double length = std::hypot(x1 - x0, y1 - y0);
+    EXPECT_GT(length, 2.0);
+    EXPECT_LT(length, 10.0);
+    EXPECT_LT(width, 0.2);
+    // The two panels (before, after) that follow, each with points.
+    const std::size_t div = html.find("<div>", at), end = html.find("</div>", div);
+    const std::string panels = html.substr(div, end - div);
+    const std::size_t second = panels.find("<svg", panels.find("<svg") + 1);
+    ASSERT_NE(second, std::string::npos);
+    auto circles = [](const std::string& t) {
+      std::size_t n = 0;
+      for (std::size_t k = t.find("<circle"); k != std::string::npos; k = t.find("<circle", k + 1)) ++n;
+      return n;
+    };
+    EXPECT_GT(circles(panels.substr(0, second)), 50u);
+    EXPECT_GT(circles(panels.substr(second)), 50u);
+  }
+  EXPECT_GE(profiles, 1);
+  double overlay = 0;
+  const std::size_t o = html.find("agree the image is grey), ");
+  ASSERT_NE(o, std::string::npos);
+  ASSERT_EQ(std::sscanf(html.c_str() + o, "agree the image is grey), %lf m", &overlay), 1);
+  EXPECT_LT(overlay, 10.0);
+  fs::remove_all(dir);
+}
+
 // The per-laser elevation intrinsic turns a laser vector within its vertical plane: by hand,
 // r = ρ(cos ω sin α, cos ω cos α, sin ω) → ρ(cos(ω+δ) sin α, cos(ω+δ) cos α, sin(ω+δ)).
 TEST(PerPointPoses, ElevationOffsetByHand) {

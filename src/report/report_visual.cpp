@@ -150,11 +150,48 @@ struct Profile {
   double discrepancy_m = 0;  ///< the automatic choice's height difference between strips [m]
 };
 
-/// Places where the strips disagree most in height at the mounting used: 2 m cells seen by at
-/// least two strips with 4+ points each; the largest spread of the strips' mean heights.
-std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, const ReportOptions& options) {
+/// The report's windows at the data's scale (ReportOptions: 0 takes these) [m].
+struct Windows {
+  double profile_length = 30, profile_width = 1, overlay = 30, cell = 2;
+};
+
+/// From the strips' points: their median plan spacing s and their largest common extent E (the
+/// shorter side of the largest intersection of two strips' plan boxes): profiles and overlay of
+/// E within [20 s, 30 m], width 3 s within [4 cm, 1 m], search cells of 4 s within [0.1, 2] m.
+Windows dataWindows(const std::vector<std::vector<Vec3>>& X, const ReportOptions& options) {
+  std::vector<double> spacing;
+  std::vector<Bounds> box(X.size());
+  for (std::size_t s = 0; s < X.size(); ++s) {
+    if (X[s].size() >= 3) spacing.push_back(detail::planSpacing(X[s]));
+    for (const Vec3& p : X[s]) box[s].add(p.x(), p.y());
+  }
+  double common = 0;
+  for (std::size_t a = 0; a < box.size(); ++a)
+    for (std::size_t b = a + 1; b < box.size(); ++b) {
+      const double w = std::min(box[a].x1, box[b].x1) - std::max(box[a].x0, box[b].x0),
+                   h = std::min(box[a].y1, box[b].y1) - std::max(box[a].y0, box[b].y0);
+      if (w > 0 && h > 0) common = std::max(common, std::min(w, h));
+    }
+  Windows w;
+  if (!spacing.empty() && common > 0) {
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<long>(spacing.size() / 2), spacing.end());
+    const double s = std::max(spacing[spacing.size() / 2], 1e-3);
+    w.profile_length = std::min(30.0, std::max(20 * s, common));
+    w.profile_width = std::clamp(3 * s, 0.04, 1.0);
+    w.cell = std::clamp(4 * s, 0.1, 2.0);
+    w.overlay = w.profile_length;
+  }
+  if (options.profile_length_m > 0) w.profile_length = options.profile_length_m;
+  if (options.profile_width_m > 0) w.profile_width = options.profile_width_m;
+  if (options.overlay_size_m > 0) w.overlay = options.overlay_size_m;
+  return w;
+}
+
+/// Places where the strips disagree most in height at the mounting used: cells (Windows::cell)
+/// seen by at least two strips with 4+ points each; the largest spread of the strips' mean heights.
+std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, const ReportOptions& options, const Windows& win) {
   if (options.automatic_profiles <= 0) return {};
-  const double cell = 2.0;
+  const double cell = win.cell, around_m = 2.5 * win.cell;
   struct Acc {
     double z = 0, zz = 0;
     int n = 0;
@@ -199,26 +236,26 @@ std::vector<Profile> automaticProfiles(const std::vector<std::vector<Vec3>>& X, 
   for (const Cand& c : cands) {
     if (static_cast<int>(out.size()) >= options.automatic_profiles) break;
     bool near = false;
-    for (const Profile& p : out) near |= std::hypot(0.5 * (p.x0 + p.x1) - c.x, 0.5 * (p.y0 + p.y1) - c.y) < 2 * options.profile_length_m;
+    for (const Profile& p : out) near |= std::hypot(0.5 * (p.x0 + p.x1) - c.x, 0.5 * (p.y0 + p.y1) - c.y) < win.profile_length;
     if (near) continue;
     // Across the local slope: the direction in which the heights around the cell change most.
     Vec3 g = Vec3::Zero();
     std::vector<Vec3> around;
     for (const Vec3& p : X[0])
-      if (std::abs(p.x() - c.x) < 5 && std::abs(p.y() - c.y) < 5) around.push_back(p);
+      if (std::abs(p.x() - c.x) < around_m && std::abs(p.y() - c.y) < around_m) around.push_back(p);
     if (around.size() < 6)
       for (const auto& strip : X)
         for (const Vec3& p : strip)
-          if (around.size() < 2000 && std::abs(p.x() - c.x) < 5 && std::abs(p.y() - c.y) < 5) around.push_back(p);
+          if (around.size() < 2000 && std::abs(p.x() - c.x) < around_m && std::abs(p.y() - c.y) < around_m) around.push_back(p);
     if (around.size() >= 6) {
       const detail::PlaneFit f = detail::fitPlane(around.size(), [&](std::size_t i) { return around[i]; });
       g = Vec3(f.normal.x(), f.normal.y(), 0);
     }
     double ux = 1, uy = 0;
     if (g.norm() > 0.05) ux = g.x() / g.norm(), uy = g.y() / g.norm();
-    const double h = 0.5 * options.profile_length_m;
-    out.push_back({"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy,
-                   0.5 * options.profile_width_m, c.d});
+    const double h = 0.5 * win.profile_length;
+    out.push_back(
+        {"auto_" + std::to_string(out.size() + 1), c.x - h * ux, c.y - h * uy, c.x + h * ux, c.y + h * uy, 0.5 * win.profile_width, c.d});
   }
   return out;
 }
@@ -302,16 +339,18 @@ struct DrawnStrips {
   std::vector<std::vector<Vec3>> X;
   std::vector<std::string> strip_ids;
   Bounds box;
+  Windows windows;  ///< profiles and overlay at the data's scale (or the options')
   bool drawable() const { return box.valid() && !X.empty(); }
 };
 
-DrawnStrips drawnStrips(const CalibrationData& data) {
+DrawnStrips drawnStrips(const CalibrationData& data, const ReportOptions& options) {
   DrawnStrips d;
   for (const StripData& s : data.strips) {
     d.X.push_back(detail::referencePoints(data, s, data.mounting_used));
     d.strip_ids.push_back(s.id);
     for (const Vec3& p : d.X.back()) d.box.add(p.x(), p.y());
   }
+  d.windows = dataWindows(d.X, options);
   return d;
 }
 
@@ -475,7 +514,7 @@ std::string profilesSection(const CalibrationData& data, const MountingCalibrato
   const auto& strip_ids = drawn.strip_ids;
   const bool drawable = drawn.drawable();
   std::vector<Profile> profiles;
-  if (drawable) profiles = automaticProfiles(X, options);
+  if (drawable) profiles = automaticProfiles(X, options, drawn.windows);
   for (const auto& p : options.profiles) profiles.push_back({p.id, p.x0_m, p.y0_m, p.x1_m, p.y1_m, 0.5 * p.width_m});
   if (!profiles.empty()) v << "<h2>Elevation profiles across the overlaps</h2>";
   for (const Profile& pr : profiles) {
@@ -512,7 +551,7 @@ std::string profilesSection(const CalibrationData& data, const MountingCalibrato
     const double pad = 0.05 * (z1 - z0) + 0.05;
     v << "<h3>" << detail::htmlEscape(pr.id) << ": (" << detail::formatNumber(pr.x0) << ", " << detail::formatNumber(pr.y0) << ") → ("
       << detail::formatNumber(pr.x1) << ", " << detail::formatNumber(pr.y1) << "), width "
-      << detail::formatNumber(2 * pr.half_width, "%.1f") << " m"
+      << detail::formatNumber(2 * pr.half_width, "%.2g") << " m"
       << (pr.discrepancy_m > 0 ? ", strips " + detail::formatNumber(pr.discrepancy_m, "%.3f") + " m apart in height before" : "")
       << "</h3><div>" << profilePanel("before", before, strip_ids, len, z0 - pad, z1 + pad)
       << profilePanel("after", after, strip_ids, len, z0 - pad, z1 + pad) << "</div>";
@@ -579,7 +618,7 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
   if (drawable && has_intensity && X.size() >= 2) {
     // Centre: where the intensity has the most contrast (markings, targets) among the places
     // seen by two strips: the ties, the target regions and the profiles' middles.
-    const double half = 0.5 * options.overlay_size_m;
+    const double half = 0.5 * drawn.windows.overlay;
     std::vector<std::pair<double, double>> centres;
     for (const TieObservation& t : data.ties)
       if (centres.size() < 200) centres.push_back({t.x_m, t.y_m});
@@ -707,7 +746,7 @@ std::string visualReport(const MountingCalibrator::Summary& summary, const Calib
   }
   std::ostringstream v;  // the visual sections, inserted after the mounting table
   v << warningsSection(summary) << correlationSection(summary);
-  const DrawnStrips drawn = drawnStrips(data);
+  const DrawnStrips drawn = drawnStrips(data, options);
   if (!drawn.drawable()) v << "<p>No strip points: no map, profiles or overlays.</p>";
   if (drawn.drawable()) v << mapSection(data, summary, drawn, plan_residuals, options);
   v << histogramSection(plan_residuals);

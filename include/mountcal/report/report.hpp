@@ -25,9 +25,13 @@ struct ReportOptions {
   };
   std::vector<ProfileLine> profiles;  ///< user-given profiles, drawn after the automatic ones
   int automatic_profiles = 2;         ///< at the places where the strips disagreed most before
-  double profile_length_m = 30.0;
-  double profile_width_m = 1.0;
-  double overlay_size_m = 30.0;             ///< side of the intensity overlay's window
+  /// The automatic profiles' length and width and the overlay's side; 0: from the data — the strips'
+  /// largest common extent, at most 30 m and at least 20 point spacings (an
+  /// aircraft's block: 30 m; a car seen from a drone: metres), a width of 3 point spacings at
+  /// most 1 m — and the profiles' search cells of 4 spacings, at most 2 m.
+  double profile_length_m = 0.0;
+  double profile_width_m = 0.0;
+  double overlay_size_m = 0.0;              ///< side of the intensity overlay's window
   int overlay_px = 180;                     ///< its pixels per side
   int map_px = 720;                         ///< width of the plan-view map
   std::size_t max_points_per_panel = 6000;  ///< larger point sets are thinned evenly for drawing
