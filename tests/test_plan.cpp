@@ -72,6 +72,36 @@ const std::vector<std::tuple<std::string, double, double, double, double, double
 
 }  // namespace
 
+// Issue 28 item 6: a multi-beam scanner's installation in a plan (sensor.nominal_rotation_deg,
+// as in a job). Upright (the identity) a VLP-16's fan of ±15° meets the ground from 40 m at
+// 40 / sin 15° = 155 m, beyond its 100 m range: refused with that geometry and the remedy,
+// where the planner used to say only that no beam reaches a feature. On its side ([0, 90, 0]:
+// R_zyx turns the spin axis forward) a beam points straight down: the plan is read.
+TEST(Planner, AMultiBeamScannerUprightAtHeightIsRefusedOnItsSideIsPlanned) {
+  const fs::path path = fs::temp_directory_path() / ("mountcal_uav_plan_" + std::to_string(::getpid()) + ".json");
+  json plan = {{"sensor", {{"type", "vlp16"}}},
+               {"lines",
+                {{{"id", "1"}, {"start", {-100, 0}}, {"end", {100, 0}}, {"height_m", 60}},
+                 {{"id", "2"}, {"start", {0, -100}}, {"end", {0, 100}}, {"height_m", 40}}}},
+               {"ground", {{"targets", {{{"id", "t1"}, {"centre", {0, 0}}, {"size_m", 2}}}}}}};
+  std::ofstream(path) << plan.dump();
+  try {
+    (void)readPlan(path.string());
+    ADD_FAILURE() << "an upright VLP-16 at 40-60 m was planned";
+  } catch (const FileError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("field 'sensor'"), std::string::npos) << what;
+    EXPECT_NE(what.find("15.0 deg below the horizon"), std::string::npos) << what;
+    EXPECT_NE(what.find("155 m away, beyond its 100 m range"), std::string::npos) << what;  // 40 / sin 15° = 154.5
+    EXPECT_NE(what.find("on its side"), std::string::npos) << what;
+  }
+  plan["sensor"]["nominal_rotation_deg"] = {0, 90, 0};
+  std::ofstream(path) << plan.dump();
+  const Plan p = readPlan(path.string());
+  EXPECT_NEAR((p.survey.nominal_mounting.R_nom * Vec3::UnitZ() - Vec3::UnitX()).norm(), 0.0, 1e-12);  // spin axis forward
+  fs::remove(path);
+}
+
 TEST(Planner, OppositeLinesAtTwoHeightsDetermineRollPitchAndTheHorizontalLeverArm) {
   const Plan plan = load(village(kTwoHeights, false));
   const Prediction p = predict(plan);

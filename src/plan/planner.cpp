@@ -96,11 +96,48 @@ double Plan::meanHeight() const {
 
 namespace {
 
+/// A multi-beam plan whose beams, as the scanner is installed, cannot reach the ground from the
+/// lowest line within the sensor's range is refused with the geometry and what to change (the
+/// simulation would find no point and say only that no beam reaches a feature). Level flight:
+/// the body's z axis (SPEC §2, forward-right-down) points down.
+void requireBeamsReachTheGround(const Fields& top, const Plan& p) {
+  const SurveyConfig& c = p.survey;
+  if (c.sensor != SensorType::kMultiBeam || p.lines.empty()) return;
+  double down = -1;  // the largest downward component of a beam, over lasers and azimuths
+  for (const LaserSpec& l : c.multibeam.model.lasers())
+    for (int k = 0; k < 72; ++k) {
+      const double a = k * kPi / 36, w = l.elevation_rad;
+      down = std::max(down, (c.nominal_mounting.R_nom * Vec3(std::cos(w) * std::sin(a), std::cos(w) * std::cos(a), std::sin(w))).z());
+    }
+  double lowest = 1e300;
+  for (const PlannedLine& l : p.lines) lowest = std::min(lowest, l.height_m);
+  if (down > 0 && lowest / down <= c.multibeam.max_range_m) return;
+  char reach[120];
+  if (down > 0)
+    std::snprintf(reach, sizeof reach, "reach the ground %.0f m away, beyond its %.0f m range", lowest / down, c.multibeam.max_range_m);
+  else
+    std::snprintf(reach, sizeof reach, "never reach the ground");
+  char buf[500];
+  std::snprintf(buf, sizeof buf,
+                "as installed (sensor.nominal_rotation_deg), the %s's beams point at most %.1f deg below the horizon: from the lowest "
+                "line's %.0f m they %s. Mount it on its side (e.g. \"nominal_rotation_deg\": [0, 90, 0]) or fly lower",
+                c.multibeam.model.name().c_str(), rad2deg(std::asin(std::clamp(down, -1.0, 1.0))), lowest, reach);
+  top.fail("sensor", buf);
+}
+
 /// The sensor of the plan.
 void readPlanSensor(const std::string& /*path*/, const Fields& top, Plan& p) {
   SurveyConfig& c = p.survey;
-  const Fields sensor = top.sub("sensor", {"type", "prf_hz", "scan_rate_hz", "half_fov_deg", "rotation_hz", "max_range_m"});
+  const Fields sensor =
+      top.sub("sensor", {"type", "prf_hz", "scan_rate_hz", "half_fov_deg", "rotation_hz", "max_range_m", "nominal_rotation_deg"});
   const std::string type = sensor.str("type");
+  // How the scanner is installed (as a job's sensor.nominal_rotation_deg): a multi-beam scanner
+  // on its side sweeps the ground below; upright, its fan of ±15° looks at the horizon.
+  if (sensor.has("nominal_rotation_deg")) {
+    const Vec3 r = sensor.vec3("nominal_rotation_deg");
+    if (r.cwiseAbs().maxCoeff() > 360.0) sensor.fail("nominal_rotation_deg", "expected angles within ±360°");
+    c.nominal_mounting.R_nom = R_zyx(r * (kPi / 180.0));
+  }
   if (type == "line") {
     c.sensor = SensorType::kLine;
     c.line.prf_hz = sensor.num("prf_hz", 150e3, 1e3, 5e6);
@@ -344,6 +381,7 @@ Plan readPlan(const std::string& path) {
   readPlanGround(path, top, p);
   readPlanGcps(path, top, p);
   readPlanMethods(path, top, p);
+  requireBeamsReachTheGround(top, p);
   return p;
 }
 
