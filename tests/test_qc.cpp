@@ -31,6 +31,15 @@ std::vector<Vec3> gridStrip(double x0, double x1, double y0, double y1, Z z) {
   return out;
 }
 
+/// Cells of 5 m for dZ and the plane measures, without the point-to-plane measure (the roof tests).
+SwathQcOptions roofOptions() {
+  SwathQcOptions o;
+  o.cell_size_m = 5.0;
+  o.plane_cell_m = 5.0;
+  o.point_to_plane = false;
+  return o;
+}
+
 // Two flat strips overlapping on [50, 100] × [0, 100], the second 5 cm higher and tilted by
 // 1 mm/m in x: on 5 m cells every overlap cell's dZ is −(0.05 + 0.001 x_c), x_c = 52.5 … 97.5 —
 // 10 columns × 20 rows (the cells on the strips' last row and column hold one line of points and
@@ -94,10 +103,7 @@ TEST(SwathQc, SlopedPlanesShowAHorizontalShiftAsItsSineOfTheSlope) {
   const double t = std::tan(30 * M_PI / 180);
   const std::vector<Vec3> a = gridStrip(0, 100, 0, 100, [&](double x, double) { return t * x; });
   const std::vector<Vec3> b = gridStrip(0, 100, 0, 100, [&](double x, double) { return t * (x - 0.1); });
-  SwathQcOptions o;
-  o.cell_size_m = 5.0;
-  o.plane_cell_m = 5.0;
-  o.point_to_plane = false;
+  SwathQcOptions o = roofOptions();
   const SwathQcResult qc = swathQcOfPoints({"a", "b"}, {a, a}, {a, b}, o);
   ASSERT_EQ(qc.pairs.size(), 1u);
   EXPECT_EQ(qc.pairs[0].after.cells, 0u);                  // dZ: no smooth cell on a 30° roof
@@ -113,6 +119,31 @@ TEST(SwathQc, SlopedPlanesShowAHorizontalShiftAsItsSineOfTheSlope) {
   const std::string json = swathQcJson(qc);
   EXPECT_NE(json.find("\"sloped_planes\""), std::string::npos);
   EXPECT_NE(swathQcSection(qc).find("Sloped planes"), std::string::npos);
+}
+
+// The ASPRS 2018 roof-edge measure: a gable roof (faces of 30°) whose ridge runs along y at
+// x = 52.5 m, in the middle of a 5 m cell; the second strip's ridge 10 cm further east. The cells
+// on either side of the ridge cell, [45, 50) and [55, 60) m, are planar in both strips and turn by
+// 60°: their planes meet at x = 52.5 in the first strip and at 52.6 in the second — 0.1 m apart
+// across the ridge, for every such pair of cells: each of the 20 rows with the rows within two
+// of it, 20·5 − 2·(2 + 1) = 94 pairs (by hand).
+TEST(SwathQc, RoofEdgesShowAHorizontalShiftAcrossTheRidge) {
+  const double t = std::tan(30 * M_PI / 180);
+  const std::vector<Vec3> a = gridStrip(0, 100, 0, 100, [&](double x, double) { return 10 - t * std::abs(x - 52.5); });
+  const std::vector<Vec3> b = gridStrip(0, 100, 0, 100, [&](double x, double) { return 10 - t * std::abs(x - 52.6); });
+  const SwathQcResult qc = swathQcOfPoints({"a", "b"}, {a, a}, {a, b}, roofOptions());
+  ASSERT_EQ(qc.pairs.size(), 1u);
+  const DzStats& e = qc.pairs[0].roof_edges_after;
+  EXPECT_EQ(e.cells, 94u);
+  EXPECT_NEAR(e.mean_dz_m, 0.1, 1e-9);
+  EXPECT_NEAR(e.max_abs_dz_m, 0.1, 1e-9);
+  EXPECT_NEAR(qc.pairs[0].roof_edges_before.rmsdz_m, 0.0, 1e-9);  // before: the same strip twice
+  EXPECT_NEAR(qc.roof_edges_after.rmsdz_m, 0.1, 1e-9);
+  // Read back from qc.json and merged: the same figures.
+  const SwathQcResult back = mergeSwathQc({swathQcFromJson(swathQcJson(qc))});
+  EXPECT_EQ(back.roof_edges_after.cells, 94u);
+  EXPECT_NEAR(back.roof_edges_after.rmsdz_m, 0.1, 1e-9);
+  EXPECT_NE(swathQcSection(qc).find("Roof edges"), std::string::npos);
 }
 
 // The gates: of a field with four kinds of ground — flat, a 20° slope, a rough patch (±15 cm,

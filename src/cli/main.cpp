@@ -705,6 +705,9 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
     std::printf("  sloped planes (roofs; cells of %.3g m): distance RMS %.4f m over %zu cells before, %.4f m over %zu after\n",
                 qc.plane_cell_size_m, qc.sloped_planes_before.rmsdz_m, qc.sloped_planes_before.cells, qc.sloped_planes_after.rmsdz_m,
                 qc.sloped_planes_after.cells);
+  if (qc.roof_edges_before.cells + qc.roof_edges_after.cells > 0)
+    std::printf("  roof edges (ridges and valleys): distance RMS %.4f m over %zu cell pairs before, %.4f m over %zu after\n",
+                qc.roof_edges_before.rmsdz_m, qc.roof_edges_before.cells, qc.roof_edges_after.rmsdz_m, qc.roof_edges_after.cells);
   for (const StripQc& st : qc.strips)
     std::printf("  strip %-10s intraswath precision %.4f m, within-cell range (P95) %.4f m over %zu cells\n", st.id.c_str(),
                 st.intraswath_precision_m, st.intraswath_max_m, st.smooth_cells);

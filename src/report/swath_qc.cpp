@@ -66,6 +66,7 @@ bool SwathQcOptions::IsValid(std::string* why) const {
   if (!(max_slope_deg > 0 && max_slope_deg < 90)) return fail("max_slope_deg must be in (0, 90)");
   if (!(max_roughness_m > 0 && max_roughness_m <= 10)) return fail("max_roughness_m must be in (0, 10] m");
   if (!(max_plane_angle_deg > 0 && max_plane_angle_deg <= 90)) return fail("max_plane_angle_deg must be in (0, 90] deg");
+  if (!(min_edge_turn_deg >= 5 && min_edge_turn_deg <= 120)) return fail("min_edge_turn_deg must be in [5, 120] deg");
   if (!(plane_cell_m >= 0 && plane_cell_m <= 1000)) return fail("plane_cell_m must be in [0, 1000] m (0: half the dZ cell)");
   if (!(max_plane_slope_deg >= max_slope_deg && max_plane_slope_deg <= 75))
     return fail("max_plane_slope_deg must be in [max_slope_deg, 75] deg (a cell's plane is a height field z(x, y))");
@@ -116,6 +117,7 @@ struct CellSums {
 struct CellPlane {
   double z = NAN, b = 0, c = 0, roughness = NAN;
   double mx = 0, my = 0, mz = NAN;  ///< centroid: x, y about the cell's centre, z absolute
+  double tilt_sigma = NAN;          ///< σ of the plane's tilt from its points: roughness / (√n · spread) [rad]
   bool smooth = false, planar = false;
   /// Signed distance of a point (x, y about the centre, z) from the plane, along its normal.
   double distance(double x, double y, double zp) const { return (zp - (z + b * x + c * y)) / std::sqrt(1 + b * b + c * c); }
@@ -157,6 +159,7 @@ CellPlane fitPlane(const CellSums& s, double cell, const SwathQcOptions& o) {
                sy = std::sqrt(std::max(s.yy / s.n - (s.y / s.n) * (s.y / s.n), 0.0));
   const bool covered = sx >= 0.2 * cell && sy >= 0.2 * cell;
   p.mx = s.x / s.n, p.my = s.y / s.n, p.mz = s.z0 + s.z / s.n;
+  p.tilt_sigma = p.roughness / (std::sqrt(s.n) * std::max(std::min(sx, sy), 1e-9));
   p.smooth = covered && slope <= deg2rad(o.max_slope_deg) && p.roughness <= o.max_roughness_m;
   // The roughness is a vertical RMS: on a slope the points' distance to the plane is cos(slope) of it.
   p.planar = covered && !p.smooth && slope <= deg2rad(o.max_plane_slope_deg) && p.roughness * std::cos(slope) <= o.max_roughness_m;
@@ -242,7 +245,7 @@ DiscrepancyStats overlapPointToPlane(const std::vector<Vec3>& xq, const CellMemb
 /// A's plane along its normal — the ASPRS 2018 roof-plane measure at cell scale.
 struct PairCellValues {
   std::vector<std::pair<CellIndex, double>> dz;
-  std::vector<double> plane_distance;
+  std::vector<double> plane_distance, edge_distance;
 };
 using PairCells = std::map<std::pair<std::size_t, std::size_t>, PairCellValues>;
 
@@ -276,6 +279,79 @@ PairCells pairCells(const std::vector<StripCells>& strips, bool planes, double m
     std::sort(values.dz.begin(), values.dz.end());
     std::sort(values.plane_distance.begin(), values.plane_distance.end());
   }
+  return out;
+}
+
+/// A strip's plane in a cell as n·x = d in absolute coordinates, n = (−b, −c, 1).
+struct AbsPlane {
+  Vec3 n;
+  double d;
+};
+AbsPlane absPlane(const CellPlane& p, const Grid& g, const CellIndex& c) {
+  const Vec3 n(-p.b, -p.c, 1.0);
+  return {n, n.dot(Vec3(g.cx(c.first), g.cy(c.second), p.z))};
+}
+
+/// The line where two planes meet, as the point on it nearest `m` and its direction; false when
+/// the planes are (nearly) parallel.
+bool meetLine(const AbsPlane& p, const AbsPlane& q, const Vec3& m, Vec3* x, Vec3* u) {
+  *u = p.n.cross(q.n);
+  if (u->norm() < 1e-9 * p.n.norm() * q.n.norm()) return false;
+  u->normalize();
+  // x = m + λ₁ n₁ + λ₂ n₂ on both planes (the nearest point to m: x − m ⟂ u).
+  Eigen::Matrix2d A;
+  A << p.n.dot(p.n), p.n.dot(q.n), q.n.dot(p.n), q.n.dot(q.n);
+  const Eigen::Vector2d rhs(p.d - p.n.dot(m), q.d - q.n.dot(m));
+  const Eigen::Vector2d l = A.ldlt().solve(rhs);
+  *x = m + l(0) * p.n + l(1) * q.n;
+  return true;
+}
+
+/// The ASPRS 2018 roof-edge measure at cell scale: where a strip's planar cells within two cells
+/// of each other turn by more than `min_turn_deg` (two faces of a roof), the line where their
+/// planes meet — a ridge or valley — lying between them; in the other strip the same two cells'
+/// planes give the conjugate line; its distance from the first, across the first's direction.
+/// Per pair (A the earlier strip), one value per pair of cells.
+std::map<std::pair<std::size_t, std::size_t>, std::vector<double>> roofEdges(const std::vector<StripCells>& strips, const Grid& g,
+                                                                             double min_turn_deg) {
+  const double cos_turn = std::cos(deg2rad(min_turn_deg));
+  // A face's plane must be well determined: a normal uncertain by degrees (a few noisy points on
+  // a small cell) puts the meeting line anywhere.
+  const double max_tilt_sigma = deg2rad(1.0);
+  auto face = [&](const CellPlane& p) { return p.planar && p.tilt_sigma <= max_tilt_sigma; };
+  auto planar = [&](std::size_t s, CellKey k) -> const std::pair<CellIndex, CellPlane>* {
+    const auto it = strips[s].find(k);
+    return it != strips[s].end() && face(it->second.second) ? &it->second : nullptr;
+  };
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<double>> out;
+  for (std::size_t a = 0; a < strips.size(); ++a)
+    for (const auto& [k1, e1] : strips[a]) {
+      if (!face(e1.second)) continue;
+      const auto [i, j] = e1.first;
+      for (std::int64_t di = 0; di <= 2; ++di)
+        for (std::int64_t dj = -2; dj <= 2; ++dj) {
+          if (di == 0 && dj <= 0) continue;  // each pair of cells once
+          const CellKey k2 = key(i + di, j + dj);
+          const auto* e2 = planar(a, k2);
+          if (!e2) continue;
+          const AbsPlane p1 = absPlane(e1.second, g, e1.first), p2 = absPlane(e2->second, g, e2->first);
+          if (p1.n.normalized().dot(p2.n.normalized()) > cos_turn) continue;  // one face
+          const Vec3 m(0.5 * (g.cx(i) + g.cx(i + di)), 0.5 * (g.cy(j) + g.cy(j + dj)), 0.5 * (e1.second.z + e2->second.z));
+          Vec3 xa, ua;
+          if (!meetLine(p1, p2, m, &xa, &ua)) continue;
+          if (std::hypot(xa.x() - m.x(), xa.y() - m.y()) > 0.5 * g.cell * std::hypot(double(di), double(dj)) + 1e-9) continue;
+          for (std::size_t b = a + 1; b < strips.size(); ++b) {
+            const auto *f1 = planar(b, k1), *f2 = planar(b, k2);
+            if (!f1 || !f2) continue;
+            Vec3 xb, ub;
+            if (!meetLine(absPlane(f1->second, g, f1->first), absPlane(f2->second, g, f2->first), xa, &xb, &ub)) continue;
+            if (std::abs(ua.dot(ub)) < std::cos(deg2rad(10.0))) continue;  // not the conjugate edge
+            const Vec3 d = xb - xa;
+            out[{a, b}].push_back((d - d.dot(ua) * ua).norm());
+          }
+        }
+    }
+  for (auto& [pair, v] : out) std::sort(v.begin(), v.end());
   return out;
 }
 
@@ -346,6 +422,39 @@ DzStats pooledStats(const std::vector<const DzStats*>& parts, std::size_t thresh
   return s;
 }
 
+/// The pooled figures of every measure from the pairs' own (pooledStats).
+void poolPairs(SwathQcResult* out) {
+  std::vector<const DzStats*> b, a, pb, pa, eb, ea;
+  for (const PairQc& p : out->pairs) {
+    b.push_back(&p.before), a.push_back(&p.after);
+    pb.push_back(&p.sloped_planes_before), pa.push_back(&p.sloped_planes_after);
+    eb.push_back(&p.roof_edges_before), ea.push_back(&p.roof_edges_after);
+  }
+  const std::size_t t = out->thresholds_m.size();
+  out->overall_before = pooledStats(b, t);
+  out->overall_after = pooledStats(a, t);
+  out->sloped_planes_before = pooledStats(pb, t);
+  out->sloped_planes_after = pooledStats(pa, t);
+  out->roof_edges_before = pooledStats(eb, t);
+  out->roof_edges_after = pooledStats(ea, t);
+}
+
+/// The sloped-plane and roof-edge measures, on their own, finer grid (a roof face holds few cells
+/// of the dZ grid), into each pair's values before and after.
+void addPlaneMeasures(const std::vector<std::vector<Vec3>>& xb, const std::vector<std::vector<Vec3>>& xa, const Grid& g,
+                      const SwathQcOptions& options, PairCells* pb, PairCells* pa) {
+  Grid gp = g;
+  gp.cell = options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2;
+  for (int state = 0; state < 2; ++state) {
+    const auto& x = state == 0 ? xb : xa;
+    PairCells& out = state == 0 ? *pb : *pa;
+    std::vector<StripCells> cells;
+    for (const auto& strip : x) cells.push_back(stripCells(strip, gp, options));
+    for (auto& [pair, v] : pairCells(cells, true, options.max_plane_angle_deg)) out[pair].plane_distance = std::move(v.plane_distance);
+    for (auto& [pair, v] : roofEdges(cells, gp, options.min_edge_turn_deg)) out[pair].edge_distance = std::move(v);
+  }
+}
+
 }  // namespace
 
 double swathQcCellSize(const std::vector<std::vector<Vec3>>& strips, const SwathQcOptions& options) {
@@ -356,7 +465,6 @@ double swathQcCellSize(const std::vector<std::vector<Vec3>>& strips, const Swath
 
 SwathQcResult mergeSwathQc(const std::vector<SwathQcResult>& parts, const std::vector<QualityLevel>& levels) {
   SwathQcResult out;
-  std::vector<const DzStats*> b, a, pb, pa;
   for (const SwathQcResult& q : parts) {
     if (q.pairs.empty() && q.strips.empty()) continue;
     if (out.cell_size_m == 0) {
@@ -374,15 +482,7 @@ SwathQcResult mergeSwathQc(const std::vector<SwathQcResult>& parts, const std::v
     for (const StripQc& s : q.strips)
       if (std::none_of(out.strips.begin(), out.strips.end(), [&](const StripQc& t) { return t.id == s.id; })) out.strips.push_back(s);
   }
-  for (const PairQc& p : out.pairs) {
-    b.push_back(&p.before), a.push_back(&p.after);
-    pb.push_back(&p.sloped_planes_before), pa.push_back(&p.sloped_planes_after);
-  }
-  const std::size_t t = out.thresholds_m.size();
-  out.overall_before = pooledStats(b, t);
-  out.overall_after = pooledStats(a, t);
-  out.sloped_planes_before = pooledStats(pb, t);
-  out.sloped_planes_after = pooledStats(pa, t);
+  poolPairs(&out);
   out.verdicts = verdictsOf(out, levels);
   return out;
 }
@@ -415,19 +515,8 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
     const double sub = options.intraswath_cell_m > 0 ? options.intraswath_cell_m : 2.0 * std::max(detail::planSpacing(xa[s]), 1e-3);
     out.strips.push_back(intraswath(ids[s], xa[s], ca.back(), g, sub));
   }
-  std::vector<double> all_b, all_a, planes_b, planes_a;
   PairCells pb = pairCells(cb, false), pa = pairCells(ca, false);
-  if (options.sloped_planes) {  // on their own, finer grid: a roof face holds few cells of the dZ grid
-    Grid gp = g;
-    gp.cell = options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2;
-    std::vector<StripCells> sb, sa;
-    for (std::size_t s = 0; s < xb.size(); ++s) {
-      sb.push_back(stripCells(xb[s], gp, options));
-      sa.push_back(stripCells(xa[s], gp, options));
-    }
-    for (auto& [pair, v] : pairCells(sb, true, options.max_plane_angle_deg)) pb[pair].plane_distance = std::move(v.plane_distance);
-    for (auto& [pair, v] : pairCells(sa, true, options.max_plane_angle_deg)) pa[pair].plane_distance = std::move(v.plane_distance);
-  }
+  if (options.sloped_planes) addPlaneMeasures(xb, xa, g, options, &pb, &pa);
   out.plane_cell_size_m = options.sloped_planes ? (options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2) : 0.0;
   static const PairCellValues kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
@@ -443,8 +532,8 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
       p.after = dzStats(da, options.thresholds_m);
       p.sloped_planes_before = dzStats(vb.plane_distance, options.thresholds_m);
       p.sloped_planes_after = dzStats(va.plane_distance, options.thresholds_m);
-      planes_b.insert(planes_b.end(), vb.plane_distance.begin(), vb.plane_distance.end());
-      planes_a.insert(planes_a.end(), va.plane_distance.begin(), va.plane_distance.end());
+      p.roof_edges_before = dzStats(vb.edge_distance, options.thresholds_m);
+      p.roof_edges_after = dzStats(va.edge_distance, options.thresholds_m);
       if (options.point_to_plane) {
         DiscrepancyOptions d;
         d.max_queries = options.point_to_plane_queries;
@@ -453,14 +542,9 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
         p.point_to_plane_before = overlapPointToPlane(xb[q], mb[q], xb[r], mb[r], d);
         p.point_to_plane_after = overlapPointToPlane(xa[q], ma[q], xa[r], ma[r], d);
       }
-      all_b.insert(all_b.end(), db.begin(), db.end());
-      all_a.insert(all_a.end(), da.begin(), da.end());
       out.pairs.push_back(std::move(p));
     }
-  out.overall_before = dzStats(all_b, options.thresholds_m);
-  out.overall_after = dzStats(all_a, options.thresholds_m);
-  out.sloped_planes_before = dzStats(planes_b, options.thresholds_m);
-  out.sloped_planes_after = dzStats(planes_a, options.thresholds_m);
+  poolPairs(&out);
   out.verdicts = verdictsOf(out, options.levels);
   return out;
 }
@@ -502,6 +586,7 @@ std::string swathQcJson(const SwathQcResult& qc) {
     };
     pj["point_to_plane"] = {{"before", ptp(p.point_to_plane_before)}, {"after", ptp(p.point_to_plane_after)}};
     pj["sloped_planes"] = {{"before", planesJson(p.sloped_planes_before)}, {"after", planesJson(p.sloped_planes_after)}};
+    pj["roof_edges"] = {{"before", planesJson(p.roof_edges_before)}, {"after", planesJson(p.roof_edges_after)}};
     j["pairs"].push_back(pj);
   }
   j["strips"] = nlohmann::json::array();
@@ -513,6 +598,7 @@ std::string swathQcJson(const SwathQcResult& qc) {
   nlohmann::json summary = statsJson(qc.overall_after, thresholds);
   summary["before"] = statsJson(qc.overall_before, thresholds);
   summary["sloped_planes"] = {{"before", planesJson(qc.sloped_planes_before)}, {"after", planesJson(qc.sloped_planes_after)}};
+  summary["roof_edges"] = {{"before", planesJson(qc.roof_edges_before)}, {"after", planesJson(qc.roof_edges_after)}};
   summary["classes"] = nlohmann::json::array();
   for (const LevelVerdict& v : qc.verdicts)
     summary["classes"].push_back({{"name", v.level.name},
@@ -581,7 +667,10 @@ SwathQcResult swathQcFromJson(const std::string& text) {
       p.point_to_plane_after = ptpFromJson(pj.at("point_to_plane").at("after"));
       p.sloped_planes_before = statsFromJson(pj.at("sloped_planes").at("before"), "rms_m", "mean_m", "max_abs_m");
       p.sloped_planes_after = statsFromJson(pj.at("sloped_planes").at("after"), "rms_m", "mean_m", "max_abs_m");
-      for (DzStats* s : {&p.sloped_planes_before, &p.sloped_planes_after}) s->share_over.assign(q.thresholds_m.size(), NAN);
+      p.roof_edges_before = statsFromJson(pj.at("roof_edges").at("before"), "rms_m", "mean_m", "max_abs_m");
+      p.roof_edges_after = statsFromJson(pj.at("roof_edges").at("after"), "rms_m", "mean_m", "max_abs_m");
+      for (DzStats* s : {&p.sloped_planes_before, &p.sloped_planes_after, &p.roof_edges_before, &p.roof_edges_after})
+        s->share_over.assign(q.thresholds_m.size(), NAN);
       q.pairs.push_back(std::move(p));
     }
     for (const auto& sj : j.at("strips")) {
@@ -682,25 +771,36 @@ std::string swathQcSection(const SwathQcResult& qc, int level) {
         << detail::formatNumber(p.point_to_plane_after.rms_m, "%.4f") << "</td><td>"
         << detail::formatNumber(p.point_to_plane_after.p90_m, "%.4f") << "</td></tr>";
   if (ptp) o << "</table>";
-  if (qc.sloped_planes_after.cells + qc.sloped_planes_before.cells > 0) {
-    o << "<" << h2 << ">Sloped planes (ASPRS 2018 roof planes, 3-D)</" << h2 << "><p>On cells of "
-      << detail::formatNumber(qc.plane_cell_size_m, "%.3g")
-      << " m where both strips are planar and sloped (roofs): the distance of one strip's centroid from the other's "
-         "plane, along its normal; a horizontal shift h across a slope θ shows as h·sin θ.</p><table><tr><th></th><th>cells</th><th>RMS "
-         "[m]</th><th>mean [m]</th><th>max |d| [m]</th></tr>";
+  auto measureTable = [&](const std::string& heading, const std::string& text, const DzStats& all_b, const DzStats& all_a,
+                          DzStats PairQc::*before, DzStats PairQc::*after) {
+    if (all_b.cells + all_a.cells == 0) return;
+    o << "<" << h2 << ">" << heading << "</" << h2 << "><p>" << text
+      << "</p><table><tr><th></th><th>cells</th><th>RMS [m]</th><th>mean [m]</th><th>max |d| [m]</th></tr>";
     auto row = [&](const std::string& what, const DzStats& d) {
       o << "<tr><td>" << detail::htmlEscape(what) << "</td><td>" << d.cells << "</td><td>" << detail::formatNumber(d.rmsdz_m, "%.4f")
         << "</td><td>" << detail::formatNumber(d.mean_dz_m, "%+.4f") << "</td><td>" << detail::formatNumber(d.max_abs_dz_m, "%.4f")
         << "</td></tr>";
     };
-    row("all pairs, before", qc.sloped_planes_before);
-    row("all pairs, after", qc.sloped_planes_after);
+    row("all pairs, before", all_b);
+    row("all pairs, after", all_a);
     for (const PairQc& p : qc.pairs) {
-      row(p.a + " – " + p.b + ", before", p.sloped_planes_before);
-      row(p.a + " – " + p.b + ", after", p.sloped_planes_after);
+      row(p.a + " – " + p.b + ", before", p.*before);
+      row(p.a + " – " + p.b + ", after", p.*after);
     }
     o << "</table>";
-  }
+  };
+  const std::string cells = detail::formatNumber(qc.plane_cell_size_m, "%.3g");
+  measureTable("Sloped planes (ASPRS 2018 roof planes, 3-D)",
+               "On cells of " + cells +
+                   " m where both strips are planar and sloped (roofs): the distance of one strip's centroid from the other's plane, "
+                   "along its normal; a horizontal shift h across a slope θ shows as h·sin θ.",
+               qc.sloped_planes_before, qc.sloped_planes_after, &PairQc::sloped_planes_before, &PairQc::sloped_planes_after);
+  measureTable("Roof edges (ASPRS 2018, 3-D)",
+               "Where two planar cells of " + cells +
+                   " m turn by more than 20° (two faces of a roof), the line where their planes meet in one strip against the same "
+                   "cells' line in the other: the distance across it (a horizontal shift h across a ridge shows as h). 'cells' counts "
+                   "pairs of cells.",
+               qc.roof_edges_before, qc.roof_edges_after, &PairQc::roof_edges_before, &PairQc::roof_edges_after);
   o << "<" << h2 << ">Intraswath (at the mounting after)</" << h2
     << "><table><tr><th>strip</th><th>smooth cells</th><th>precision (RMS) "
        "[m]</th><th>largest "

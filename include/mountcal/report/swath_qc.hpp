@@ -66,6 +66,10 @@ struct SwathQcOptions {
   double max_plane_angle_deg = 10.0;
   /// Its own grid's cell [m]; 0: half the dZ cell (a roof face holds few cells of the dZ grid).
   double plane_cell_m = 0.0;
+  /// Roof edges (PairQc::roof_edges_*): two planar cells of a strip within two cells of each other
+  /// whose planes turn by more than this are two faces of a roof, and meet in a ridge or valley;
+  /// each face's tilt determined to 1° by its points (roughness / (√n · spread)) [deg].
+  double min_edge_turn_deg = 20.0;
   /// The intraswath within-cell range is taken in sub-cells of this size [m]; 0: twice the
   /// strip's mean plan spacing (about four points: 1 m at 0.5 m spacing). A range widens with
   /// the points it spans, so the measure is taken where a cell holds a few, as on the small
@@ -109,6 +113,12 @@ struct PairQc {
   /// A's plane along its normal (sign as dZ: A − B). A horizontal shift h across a roof of slope
   /// θ gives h·sin θ — what dZ on flat ground cannot see. `cells` counts those cells.
   DzStats sloped_planes_before, sloped_planes_after;
+  /// The ASPRS 2018 roof-edge measure at cell scale: where two planar cells of A within two cells
+  /// of each other turn by more than min_edge_turn_deg, the line where their planes meet (a ridge
+  /// or valley between them), and the same two cells' line in B: B's distance from A's line,
+  /// across it (unsigned; a horizontal shift h across a ridge gives h). `cells` counts the pairs
+  /// of cells.
+  DzStats roof_edges_before, roof_edges_after;
   /// Point to tangent plane (SwathQcOptions::point_to_plane), before and after; empty stats when off.
   DiscrepancyStats point_to_plane_before, point_to_plane_after;
   DzRaster raster_before, raster_after;
@@ -135,6 +145,7 @@ struct SwathQcResult {
   std::vector<StripQc> strips;                        ///< at the mounting after
   DzStats overall_before, overall_after;              ///< every pair's cells pooled
   DzStats sloped_planes_before, sloped_planes_after;  ///< every pair's sloped-plane distances pooled
+  DzStats roof_edges_before, roof_edges_after;        ///< every pair's roof-edge distances pooled
   std::vector<LevelVerdict> verdicts;                 ///< at the mounting after
 };
 
