@@ -653,7 +653,11 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
   o.cell_size_m = cell;
   std::vector<std::string> ids;
   for (const StripData& st : loaded.data.strips) ids.push_back(st.id);
-  std::vector<std::vector<Vec3>> xb = georeferencedStrips(loaded.data, before), xa = georeferencedStrips(loaded.data, after);
+  // After: with the result's per-laser elevation offsets, as apply writes the strips.
+  std::vector<std::vector<Vec3>> xb = georeferencedStrips(loaded.data, before),
+                                 xa = georeferencedStrips(
+                                     loaded.data, after,
+                                     result_path.empty() ? std::vector<double>{} : readResultLaserElevation(result_path));
   if (!loaded.frame.isLocal())  // the rasters in the job's CRS
     for (auto* x : {&xb, &xa})
       for (auto& strip : *x)

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "mountcal/core/error.hpp"
+#include "mountcal/core/sensor_model.hpp"
 #include "geometry/kd_tree.hpp"
 #include "geometry/point_geometry.hpp"
 #include "methods/common/vtp_strip.hpp"
@@ -215,15 +216,22 @@ std::vector<Used> distances(const std::vector<Vec3>& query, const std::vector<Ve
 
 }  // namespace
 
-std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& m) {
+std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& m,
+                                                   const std::vector<double>& laser_elevation_rad) {
   data.requirePoses();
   std::vector<std::vector<Vec3>> x(data.strips.size());
   const Mat3 R_bs = m.R_bs();
   for (std::size_t s = 0; s < data.strips.size(); ++s) {
     const StripData& st = data.strips[s];
+    const bool turn = !laser_elevation_rad.empty() && st.laser.size() == st.r_s.size();
     x[s].resize(st.r_s.size());
     std::size_t cursor = 0;
-    for (std::size_t i = 0; i < st.r_s.size(); ++i) x[s][i] = georeference(data.pose(st, i, &cursor), R_bs, m.a_b, st.r_s[i]);
+    for (std::size_t i = 0; i < st.r_s.size(); ++i) {
+      if (turn && st.laser[i] >= laser_elevation_rad.size())
+        throw InvalidInput("strip '" + st.id + "': laser id " + std::to_string(st.laser[i]) + " has no elevation offset");
+      const Vec3 r = turn ? elevateLaserVector(st.r_s[i], laser_elevation_rad[st.laser[i]]) : st.r_s[i];
+      x[s][i] = georeference(data.pose(st, i, &cursor), R_bs, m.a_b, r);
+    }
   }
   return x;
 }

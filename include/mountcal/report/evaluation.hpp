@@ -81,7 +81,11 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
                                          const DiscrepancyOptions& options = {});
 
 /// Every strip's points georeferenced with `mounting` (per-point poses or the trajectory).
-std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& mounting);
+/// With `laser_elevation_rad` (by laser id, a result's intrinsics) each laser vector is first turned
+/// by its laser's elevation offset (elevateLaserVector), as `apply` writes the strips; InvalidInput
+/// for a laser id without one.
+std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& mounting,
+                                                   const std::vector<double>& laser_elevation_rad = {});
 
 /// Every strip pair of `data` georeferenced with `mounting` (per-point poses or the
 /// trajectory); pairs whose smaller strip has no point within reach of the larger are left out.
