@@ -622,46 +622,38 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
   using namespace mountcal;
   namespace fs = std::filesystem;
   Job job = readJobNoting(job_path);
-  if (print_cell) {  // the block's cell, for its pairs measured one by one
-    const LoadedJob loaded = loadJob(jobWithStrips(job, [&] {
-      std::vector<std::string> all;
-      for (const auto& s : job.strips) all.push_back(s.id);
-      return all;
-    }()));
-    std::vector<std::vector<Vec3>> x = georeferencedStrips(loaded.data, loaded.data.mounting_used);
-    if (!loaded.frame.isLocal())
-      for (auto& strip : x)
-        for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
-    std::printf("%.17g\n", swathQcCellSize(x));
-    return 0;
-  }
-  if (out.empty()) throw FileError(job_path, "", "mountcal qc needs --out (or --print-cell)");
-  if (!fs::is_directory(out)) {
-    std::fprintf(stderr, "mountcal qc: %s: the output folder does not exist\n", out.c_str());
-    return 2;
+  if (!print_cell) {
+    if (out.empty()) throw FileError(job_path, "", "mountcal qc needs --out (or --print-cell)");
+    if (!fs::is_directory(out)) {
+      std::fprintf(stderr, "mountcal qc: %s: the output folder does not exist\n", out.c_str());
+      return 2;
+    }
   }
   std::vector<std::string> inputs = jobInputPaths(job);
   if (!result_path.empty()) inputs.push_back(result_path);
-  if (!pair.empty()) {
-    if (pair[0] == pair[1]) throw FileError(job.path, "field 'strips'", "a pair of one strip ('" + pair[0] + "')");
-    job = jobWithStrips(job, pair);
-  }
+  if (!pair.empty()) job = jobWithStrips(job, pair);
   const LoadedJob loaded = loadJob(job);
+  // The points in the job's frame (a CRS job's rasters are in its CRS).
+  auto inJobFrame = [&](std::vector<std::vector<Vec3>> x) {
+    if (!loaded.frame.isLocal())
+      for (auto& strip : x)
+        for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
+    return x;
+  };
   const MountingParameters before = loaded.data.mounting_used;
+  const std::vector<std::vector<Vec3>> xb = inJobFrame(georeferencedStrips(loaded.data, before));
+  if (print_cell) {  // the cell of the QC of these strips, for a block's pairs measured one by one
+    std::printf("%.17g\n", swathQcCellSize(xb));
+    return 0;
+  }
   const MountingParameters after = result_path.empty() ? before : readResultMounting(result_path, job.mounting_used.R_nom);
   SwathQcOptions o;
   o.cell_size_m = cell;
   std::vector<std::string> ids;
   for (const StripData& st : loaded.data.strips) ids.push_back(st.id);
   // After: with the result's per-laser elevation offsets, as apply writes the strips.
-  std::vector<std::vector<Vec3>> xb = georeferencedStrips(loaded.data, before),
-                                 xa = georeferencedStrips(
-                                     loaded.data, after,
-                                     result_path.empty() ? std::vector<double>{} : readResultLaserElevation(result_path));
-  if (!loaded.frame.isLocal())  // the rasters in the job's CRS
-    for (auto* x : {&xb, &xa})
-      for (auto& strip : *x)
-        for (Vec3& p : strip) p = loaded.frame.fromLocal(p);
+  const std::vector<std::vector<Vec3>> xa = inJobFrame(
+      georeferencedStrips(loaded.data, after, result_path.empty() ? std::vector<double>{} : readResultLaserElevation(result_path)));
   const SwathQcResult qc = swathQcOfPoints(ids, xb, xa, o);
   if (qc.pairs.empty() && pair.empty()) {  // one pair of a block's (--pair): no overlap is an answer, not an error
     std::fprintf(stderr, "mountcal qc: %s: no two strips share a smooth open cell of %.3g m or a sloped planar one of %.3g m\n",

@@ -77,7 +77,13 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job) {
 Job jobWithStrips(const Job& job, const std::vector<std::string>& ids) {
   Job sub = job;
   sub.strips.clear();
-  for (const std::string& id : ids) sub.strips.push_back(job.strips[static_cast<std::size_t>(stripIndex(job, id))]);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    for (std::size_t l = 0; l < k; ++l)
+      if (ids[l] == ids[k])
+        throw FileError(job.path, "field 'strips'",
+                        ids.size() == 2 ? "a pair of one strip ('" + ids[k] + "')" : "strip '" + ids[k] + "' named twice");
+    sub.strips.push_back(job.strips[static_cast<std::size_t>(stripIndex(job, ids[k]))]);
+  }
   sub.ties_path.clear();
   sub.gcps_path.clear();
   sub.planes_path.clear();
@@ -89,12 +95,9 @@ Job jobWithStrips(const Job& job, const std::vector<std::string>& ids) {
 
 PairCandidates jobPairCandidates(const Job& job, const std::string& a, const std::string& b) {
   requireBlockMethod(job, false);
-  int ia = stripIndex(job, a), ib = stripIndex(job, b);
-  if (ia == ib) throw FileError(job.path, "field 'strips'", "a pair of one strip ('" + a + "')");
-  if (ia > ib) std::swap(ia, ib);
-  // The two strips and the trajectory: nothing else is read.
-  const LoadedJob loaded =
-      loadJob(jobWithStrips(job, {job.strips[static_cast<std::size_t>(ia)].id, job.strips[static_cast<std::size_t>(ib)].id}));
+  // The two strips, in job order, and the trajectory: nothing else is read.
+  const bool swapped = stripIndex(job, a) > stripIndex(job, b);
+  const LoadedJob loaded = loadJob(jobWithStrips(job, swapped ? std::vector<std::string>{b, a} : std::vector<std::string>{a, b}));
   return findPairCandidates(loaded.data, 0, 1, job.options.method<CorrespondenceOptions>());
 }
 

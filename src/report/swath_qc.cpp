@@ -119,8 +119,9 @@ struct CellPlane {
   double mx = 0, my = 0, mz = NAN;  ///< centroid: x, y about the cell's centre, z absolute
   double tilt_sigma = NAN;          ///< σ of the plane's tilt from its points: roughness / (√n · spread) [rad]
   bool smooth = false, planar = false;
+  Vec3 normal() const { return Vec3(-b, -c, 1.0); }  ///< upwards, not unit
   /// Signed distance of a point (x, y about the centre, z) from the plane, along its normal.
-  double distance(double x, double y, double zp) const { return (zp - (z + b * x + c * y)) / std::sqrt(1 + b * b + c * c); }
+  double distance(double x, double y, double zp) const { return (zp - (z + b * x + c * y)) / normal().norm(); }
 };
 
 using CellKey = std::int64_t;
@@ -270,8 +271,8 @@ PairCells pairCells(const std::vector<StripCells>& strips, bool planes, double m
         if (planes) {
           // Conjugate planes only: two strips that see different surfaces in one cell (a car's
           // side and the ground behind it) are not a misalignment.
-          const Vec3 na(-pa.b, -pa.c, 1), nb(-pb.b, -pb.c, 1);
-          if (na.normalized().dot(nb.normalized()) >= cos_conjugate) values.plane_distance.push_back(-pa.distance(pb.mx, pb.my, pb.mz));
+          if (pa.normal().normalized().dot(pb.normal().normalized()) >= cos_conjugate)
+            values.plane_distance.push_back(-pa.distance(pb.mx, pb.my, pb.mz));
         } else
           values.dz.push_back({ea->first, pa.z - pb.z});
       }
@@ -288,8 +289,7 @@ struct AbsPlane {
   double d;
 };
 AbsPlane absPlane(const CellPlane& p, const Grid& g, const CellIndex& c) {
-  const Vec3 n(-p.b, -p.c, 1.0);
-  return {n, n.dot(Vec3(g.cx(c.first), g.cy(c.second), p.z))};
+  return {p.normal(), p.normal().dot(Vec3(g.cx(c.first), g.cy(c.second), p.z))};
 }
 
 /// The line where two planes meet, as the point on it nearest `m` and its direction; false when
@@ -442,9 +442,9 @@ void poolPairs(SwathQcResult* out) {
 /// The sloped-plane and roof-edge measures, on their own, finer grid (a roof face holds few cells
 /// of the dZ grid), into each pair's values before and after.
 void addPlaneMeasures(const std::vector<std::vector<Vec3>>& xb, const std::vector<std::vector<Vec3>>& xa, const Grid& g,
-                      const SwathQcOptions& options, PairCells* pb, PairCells* pa) {
+                      double plane_cell_m, const SwathQcOptions& options, PairCells* pb, PairCells* pa) {
   Grid gp = g;
-  gp.cell = options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2;
+  gp.cell = plane_cell_m;
   for (int state = 0; state < 2; ++state) {
     const auto& x = state == 0 ? xb : xa;
     PairCells& out = state == 0 ? *pb : *pa;
@@ -516,8 +516,8 @@ SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::ve
     out.strips.push_back(intraswath(ids[s], xa[s], ca.back(), g, sub));
   }
   PairCells pb = pairCells(cb, false), pa = pairCells(ca, false);
-  if (options.sloped_planes) addPlaneMeasures(xb, xa, g, options, &pb, &pa);
   out.plane_cell_size_m = options.sloped_planes ? (options.plane_cell_m > 0 ? options.plane_cell_m : g.cell / 2) : 0.0;
+  if (options.sloped_planes) addPlaneMeasures(xb, xa, g, out.plane_cell_size_m, options, &pb, &pa);
   static const PairCellValues kNone;
   for (std::size_t a = 0; a < xb.size(); ++a)
     for (std::size_t b = a + 1; b < xb.size(); ++b) {

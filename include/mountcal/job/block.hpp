@@ -23,7 +23,7 @@ std::vector<std::pair<std::string, std::string>> jobStripPairs(const Job& job);
 
 /// The job with only the strips `ids` (in that order) and the trajectory or poses: ties, GCPs,
 /// plane regions, targets and check data left out — what a per-pair or per-strip job reads.
-/// Throws FileError for an unknown strip id.
+/// Throws FileError for an unknown strip id or one named twice.
 Job jobWithStrips(const Job& job, const std::vector<std::string>& ids);
 
 /// The candidate neighbourhoods of the job's strips `a` and `b` (ids, either order: the result
