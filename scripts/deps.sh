@@ -6,7 +6,8 @@ set -euo pipefail
 
 MOUNTCAL_DEPS=(build-essential cmake pkg-config libeigen3-dev libceres-dev libflann-dev liblz4-dev
   libopenmesh-dev libproj-dev proj-data nlohmann-json3-dev libcli11-dev
-  libgtest-dev libgmock-dev libbenchmark-dev zlib1g-dev ninja-build libgdal-dev)
+  libgtest-dev libgmock-dev libbenchmark-dev zlib1g-dev ninja-build libgdal-dev
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib)
 
 # The CMake generator arguments for a build directory: none when it is configured already (it
 # keeps its generator), else Ninja — it compiles a target's sources while the libraries it links

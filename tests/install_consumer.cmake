@@ -15,3 +15,13 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer)
 run(${WORK_DIR}/build/core_consumer)
+# The Python package from the install alone (PYTHONPATH names only the prefix's folder).
+if(PYTHON)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${prefix}/${PYTHON_DIR} PYTHONNOUSERSITE=1
+                          ${PYTHON} -c "import mountcal; print(mountcal.__version__, mountcal.__file__)"
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(NOT rc EQUAL 0 OR NOT out MATCHES "^${VERSION} ${prefix}/${PYTHON_DIR}/mountcal/__init__.py$")
+    message(FATAL_ERROR "import mountcal from the install failed (${rc}): ${out}\n${err}")
+  endif()
+  message(STATUS "python: ${out}")
+endif()

@@ -1,6 +1,7 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/core/rotation.hpp"
 
+#include "adjustment/block_arena.hpp"
 #include "adjustment/corrected_cost.hpp"
 
 #include <ceres/ceres.h>
@@ -167,7 +168,8 @@ double robustScaleFromNorms(std::vector<double> norms, int dims) {
 
 AdjustmentProblem::AdjustmentProblem(const std::array<double, 6>& mounting, double strip_offset_sigma_m, LossType loss, double loss_scale_m,
                                      double numeric_diff_relative_step)
-    : mounting_(mounting),
+    : arena_(std::make_unique<detail::BlockArena>()),
+      mounting_(arena_->allocate(6, mounting.data())),
       offset_sigma_m_(strip_offset_sigma_m),
       loss_(loss),
       loss_scale_m_(loss_scale_m),
@@ -249,8 +251,9 @@ class MountingPrior final : public ceres::SizedCostFunction<1, 6> {
 
 double* AdjustmentProblem::stripOffset(const std::string& strip_id) {
   auto it = offsets_.find(strip_id);
-  if (it != offsets_.end()) return it->second.data();
-  double* block = offsets_.emplace(strip_id, std::array<double, 3>{0.0, 0.0, 0.0}).first->second.data();
+  if (it != offsets_.end()) return it->second;
+  const double zero[3] = {0.0, 0.0, 0.0};
+  double* block = offsets_.emplace(strip_id, arena_->allocate(3, zero)).first->second;
   problem_->AddParameterBlock(block, 3);
   if (offset_sigma_m_ > 0) {
     const double w = 1.0 / offset_sigma_m_;
@@ -313,8 +316,7 @@ Vec3 AdjustmentProblem::stripOffsetValue(const std::string& strip_id) const {
 }
 
 double* AdjustmentProblem::addNuisanceBlock(int size, const double* initial, ceres::Manifold* manifold, bool schur_eliminable) {
-  storage_.emplace_back(initial, initial + size);
-  double* values = storage_.back().data();
+  double* values = arena_->allocate(static_cast<std::size_t>(size), initial);
   if (manifold)
     problem_->AddParameterBlock(values, size, manifold);
   else
@@ -381,12 +383,12 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
     }
     const std::vector<double> zero(static_cast<std::size_t>(n), 0.0);
     for (const auto& [id, o3] : offsets_) {
-      auto it = span.find(o3.data());
+      auto it = span.find(o3);
       if (it == span.end()) continue;
       // Non-eliminable: it shares residual blocks with the sources' own nuisance blocks.
       double* block = addNuisanceBlock(n, zero.data(), nullptr, false);
       addResidualBlock(new BlockPrior(n, zero, w), 0.0, {block});
-      index[o3.data()] = corrections_blocks_.size();
+      index[o3] = corrections_blocks_.size();
       corrections_blocks_.push_back(
           {id, block, 0.5 * (it->second.first + it->second.second), 0.5 * (it->second.second - it->second.first)});
     }
@@ -471,7 +473,7 @@ void AdjustmentProblem::setEpoch(int record, const std::string& strip_id, double
   Record& rec = records_.at(static_cast<std::size_t>(record));
   auto it = offsets_.find(strip_id);
   if (it == offsets_.end()) return;
-  const double* offset = it->second.data();
+  const double* offset = it->second;
   for (std::size_t b = 0; b < rec.blocks.size(); ++b)
     if (rec.blocks[b] == offset) {
       Epoch e{static_cast<int>(b), offset, time_s, u_m, in_sigma};
@@ -517,7 +519,7 @@ Columns columnsOf(const AdjustmentProblem& problem) {
   }
   if (problem.stripOffsetSigma() > 0) {
     for (const auto& entry : problem.stripOffsets()) {
-      c.col[entry.second.data()] = {c.n, 3};
+      c.col[entry.second] = {c.n, 3};
       c.n += 3;
     }
   }
@@ -1139,7 +1141,7 @@ class Estimation {
         ordering->AddElementToGroup(b.values, 1);
       }
     }
-    for (auto& entry : P_->stripOffsets()) ordering->AddElementToGroup(const_cast<double*>(entry.second.data()), 1);
+    for (auto& entry : P_->stripOffsets()) ordering->AddElementToGroup(entry.second, 1);
     ordering->AddElementToGroup(P_->mounting(), 1);
     // The blocks that are not eliminated first: dense while few (the mounting and the strip
     // offsets), sparse once per-strip trajectory corrections make them many (each observation

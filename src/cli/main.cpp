@@ -152,13 +152,13 @@ int runCalibrate(const std::string& job_path, bool quiet, const std::string& rep
   const LoadedJob loaded = pair_dir.empty() ? loadJob(job) : loadJobFromPairFiles(job, pair_dir);
   const CalibrationData& data = loaded.data;
   progress("building the observations and solving");
-  const MountingCalibrator::Summary summary = MountingCalibrator(job.options).calibrate(data);
   // Check data and the pass-to-pass discrepancy need the strips' points: not from pair files.
-  const ResultEvaluation ev =
-      pair_dir.empty() ? evaluateJob(job, loaded, summary.mounting, false, summary.laserElevationOffsetsRad()) : ResultEvaluation{};
+  const JobCalibration run = calibrateJob(job, loaded, pair_dir.empty());
+  const MountingCalibrator::Summary& summary = run.summary;
+  const ResultEvaluation& ev = run.evaluation;
   const bool any_eval = ev.any();
   std::vector<std::pair<std::string, std::string>> outputs;  // written all or nothing
-  if (!job.result_path.empty()) outputs.emplace_back(job.result_path, resultJson(summary, any_eval ? &ev : nullptr));
+  if (!job.result_path.empty()) outputs.emplace_back(job.result_path, run.result_json);
   if (!job.report_path.empty()) outputs.emplace_back(job.report_path, visualReport(summary, data, any_eval ? &ev : nullptr, ro));
   io::writeFilesAtomically(outputs);
   if (!quiet) std::printf("%s", summary.FullReport().c_str());

@@ -5,6 +5,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "core/interval_expansion.hpp"
+#include "core/parallel.hpp"
 #include "core/sincos_batch.hpp"
 
 namespace mountcal {
@@ -108,6 +109,17 @@ void GeoreferenceModel::forwardLineScan(const LineScannerModel& scanner, const d
         *trajectory_, R_bs_, mounting_.a_b, time_s + k0, x_m + 3 * k0, m,
         [&](std::size_t k) { return Vec3(0.0, rho[k] * sin_theta[k], rho[k] * cos_theta[k]); }, &cursor, &e);
   }
+}
+
+void reGeoreference(const GeoreferenceModel& from, const GeoreferenceModel& to, const double* time_s, const double* x_m, double* x_out,
+                    std::size_t n, int threads) {
+  constexpr std::size_t kBlock = 4096;
+  detail::parallelFor((n + kBlock - 1) / kBlock, threads, [&](std::size_t b) {
+    const std::size_t k0 = b * kBlock, m = std::min(kBlock, n - k0);
+    double r_s[3 * kBlock];
+    from.inverse(time_s + k0, x_m + 3 * k0, r_s, m);
+    to.forward(time_s + k0, r_s, x_out + 3 * k0, m);
+  });
 }
 
 }  // namespace mountcal

@@ -265,4 +265,12 @@ MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom
   return out;
 }
 
+JobCalibration calibrateJob(const Job& job, const LoadedJob& loaded, bool evaluate) {
+  JobCalibration out;
+  out.summary = MountingCalibrator(job.options).calibrate(loaded.data);
+  if (evaluate) out.evaluation = evaluateJob(job, loaded, out.summary.mounting, false, out.summary.laserElevationOffsetsRad());
+  out.result_json = resultJson(out.summary, out.evaluation.any() ? &out.evaluation : nullptr);
+  return out;
+}
+
 }  // namespace mountcal

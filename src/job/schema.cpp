@@ -378,7 +378,7 @@ void applyDataDefaults(Job* job) {
 }
 
 /// "method": a name or an array of names (SPEC §4); each named method's input is required.
-void readMethods(const Fields& top, Job* job) {
+void readMethods(const Fields& top, Job* job, bool require_inputs = true) {
   // ---- methods: a name or an array of names (SPEC §4) ---------------------------------------
   MountingCalibrator::Options& opts = job->options;
   std::vector<std::string> methods;
@@ -406,7 +406,7 @@ void readMethods(const Fields& top, Job* job) {
     const Method& m = *findMethod(name);
     const MethodInput in = m.input();
     const auto given = job->method_inputs.find(name);
-    if (in.required && !in.job_key.empty() && given == job->method_inputs.end())
+    if (require_inputs && in.required && !in.job_key.empty() && given == job->method_inputs.end())
       top.fail(in.job_key, "missing: method \"" + name + "\" needs " + in.doc + " (SPEC §4)");
     if (given != job->method_inputs.end()) m.adoptInput(given->second, &opts.method_options.at(name, m.defaultOptions()));
   }
@@ -480,8 +480,30 @@ void readMeasuredLeverArm(const Fields& used, Job* job) {
   }
 }
 
-Job readJob(const std::string& path) {
-  const json j = detail::parseJsonFile(path, "job");
+namespace {
+
+/// A JSON object given as text by a caller (not a file): InvalidInput naming `what` otherwise.
+json parseObjectText(const std::string& text, const std::string& what) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    throw InvalidInput(what + " are not JSON: " + e.what());
+  }
+  if (!j.is_object()) throw InvalidInput(what + " must be a JSON object");
+  return j;
+}
+
+}  // namespace
+
+Job readJob(const std::string& path, const std::string& overrides_json) {
+  json j = detail::parseJsonFile(path, "job");
+  if (!overrides_json.empty()) {
+    // RFC 7386 merge patch: an object merges key by key, anything else replaces, null removes.
+    const json patch = parseObjectText(overrides_json, path + ": the overrides");
+    if (!j.is_object()) throw FileError(path, "", "expected a JSON object (SPEC §4)");
+    j.merge_patch(patch);
+  }
   Job job;
   job.path = path;
   const Fields top(path, j, "", topLevelKeys());
@@ -511,6 +533,22 @@ Job readJob(const std::string& path) {
     job.report_path = detail::resolvePath(path, out.str("report", ""));
   }
   return job;
+}
+
+MountingCalibrator::Options readOptions(const std::string& json_text, const std::string& name) {
+  const json j = parseObjectText(json_text, name + ": the calibration settings");
+  std::set<std::string> keys = {"method", "estimate", "stochastic", "solver", "pulse_noise"};
+  for (const auto& m : registeredMethods()) keys.insert(m->name());
+  Job job;
+  job.path = name;
+  const Fields top(name, j, "", keys);
+  readMethodSections(name, top, j, &job);
+  readStochastic(top, j, &job);
+  if (top.has("method")) readMethods(top, &job, false);
+  readSettings(top, &job);
+  std::string why;
+  if (!job.options.IsValid(&why)) throw FileError(name, "", "invalid calibration settings: " + why);
+  return job.options;
 }
 
 namespace {
@@ -552,57 +590,12 @@ json sensorJson(const Job& job) {
   return sensor;
 }
 
-}  // namespace
-
-std::string jobJson(const Job& job) {
-  auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
-  const MountingCalibrator::Options& opts = job.options;
+/// The calibration settings of a job file (SPEC §4): "method", "estimate", each method's options
+/// that differ from its defaults, "stochastic", "pulse_noise", "solver" — into `j` (a method's input
+/// already under its key joins its options object as "regions").
+void writeOptions(const MountingCalibrator::Options& opts, json* out) {
+  json& j = *out;
   const MountingCalibrator::Options def;
-  json j;
-  j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
-  if (job.per_point_poses) {
-    const io::PoseFields& f = job.pose_fields;
-    j["poses"] = {{"from", "extra_bytes"},
-                  {"position", {f.position[0], f.position[1], f.position[2]}},
-                  {"attitude", {f.attitude[0], f.attitude[1], f.attitude[2]}},
-                  {"attitude_unit", f.degrees ? "deg" : "rad"},
-                  {"convention", io::toString(f.convention)}};
-  } else {
-    j["trajectory"] = {{"path", rel(job.trajectory_path)},
-                       {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
-                       {"time_offset_s", job.time_offset_s}};
-  }
-  j["sensor"] = sensorJson(job);
-  const Vec3 b = job.mounting_used.boresightDeg();
-  j["mounting_used"] = {{"lever_arm_m", {job.mounting_used.a_b.x(), job.mounting_used.a_b.y(), job.mounting_used.a_b.z()}},
-                        {"boresight_deg", {b.x(), b.y(), b.z()}}};
-  if (opts.prior_sigma[0] > 0 || opts.prior_sigma[1] > 0 || opts.prior_sigma[2] > 0)
-    j["mounting_used"]["lever_arm_sigma_m"] = {opts.prior_sigma[0], opts.prior_sigma[1], opts.prior_sigma[2]};
-  json strips = json::array();
-  for (const JobStrip& s : job.strips) {
-    json e = {{"id", s.id}, {"path", rel(s.path)}};
-    if (s.format != "las") e["format"] = s.format;
-    if (s.split.active()) {
-      e["split"] = {{"field", s.split.field}};
-      if (s.split.part > 0) {
-        e["split"]["part"] = s.split.part;
-        e["split"]["gap"] = s.split.gap;
-      } else {
-        e["split"]["range"] = {s.split.min, s.split.max};
-      }
-    }
-    strips.push_back(e);
-  }
-  j["strips"] = strips;
-  if (!job.ties_path.empty()) j["ties"] = rel(job.ties_path);
-  if (!job.gcps_path.empty()) j["gcps"] = rel(job.gcps_path);
-  if (!job.check_points_path.empty()) j["check_points"] = rel(job.check_points_path);
-  if (!job.check_planes_path.empty()) j["check_planes"] = rel(job.check_planes_path);
-  if (!job.targets_path.empty()) j["targets"] = rel(job.targets_path);
-  if (job.planes_auto)
-    j["planes"] = "auto";
-  else if (!job.planes_path.empty())
-    j["planes"] = rel(job.planes_path);
   if (opts.methods.size() == 1) {
     j["method"] = opts.methods[0];
   } else {
@@ -663,6 +656,59 @@ std::string jobJson(const Job& job) {
   j["solver"] = {{"max_iterations", opts.max_iterations}, {"loss", lossName(opts.loss)}};
   if (opts.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = opts.loss_scale_m;
   if (opts.resolve_check != def.resolve_check) j["solver"]["resolve_check"] = opts.resolve_check;
+}
+
+}  // namespace
+
+std::string jobJson(const Job& job) {
+  auto rel = [&](const std::string& p) { return detail::relativePath(job.path, p); };
+  const MountingCalibrator::Options& opts = job.options;
+  json j;
+  j["frame"] = job.frame_type == JobFrameType::kLocal ? json{{"type", "local"}} : json{{"type", "crs"}, {"crs", job.crs}};
+  if (job.per_point_poses) {
+    const io::PoseFields& f = job.pose_fields;
+    j["poses"] = {{"from", "extra_bytes"},
+                  {"position", {f.position[0], f.position[1], f.position[2]}},
+                  {"attitude", {f.attitude[0], f.attitude[1], f.attitude[2]}},
+                  {"attitude_unit", f.degrees ? "deg" : "rad"},
+                  {"convention", io::toString(f.convention)}};
+  } else {
+    j["trajectory"] = {{"path", rel(job.trajectory_path)},
+                       {"format", job.trajectory_format == TrajectoryFormat::kCsv ? "csv" : "sbet"},
+                       {"time_offset_s", job.time_offset_s}};
+  }
+  j["sensor"] = sensorJson(job);
+  const Vec3 b = job.mounting_used.boresightDeg();
+  j["mounting_used"] = {{"lever_arm_m", {job.mounting_used.a_b.x(), job.mounting_used.a_b.y(), job.mounting_used.a_b.z()}},
+                        {"boresight_deg", {b.x(), b.y(), b.z()}}};
+  if (opts.prior_sigma[0] > 0 || opts.prior_sigma[1] > 0 || opts.prior_sigma[2] > 0)
+    j["mounting_used"]["lever_arm_sigma_m"] = {opts.prior_sigma[0], opts.prior_sigma[1], opts.prior_sigma[2]};
+  json strips = json::array();
+  for (const JobStrip& s : job.strips) {
+    json e = {{"id", s.id}, {"path", rel(s.path)}};
+    if (s.format != "las") e["format"] = s.format;
+    if (s.split.active()) {
+      e["split"] = {{"field", s.split.field}};
+      if (s.split.part > 0) {
+        e["split"]["part"] = s.split.part;
+        e["split"]["gap"] = s.split.gap;
+      } else {
+        e["split"]["range"] = {s.split.min, s.split.max};
+      }
+    }
+    strips.push_back(e);
+  }
+  j["strips"] = strips;
+  if (!job.ties_path.empty()) j["ties"] = rel(job.ties_path);
+  if (!job.gcps_path.empty()) j["gcps"] = rel(job.gcps_path);
+  if (!job.check_points_path.empty()) j["check_points"] = rel(job.check_points_path);
+  if (!job.check_planes_path.empty()) j["check_planes"] = rel(job.check_planes_path);
+  if (!job.targets_path.empty()) j["targets"] = rel(job.targets_path);
+  if (job.planes_auto)
+    j["planes"] = "auto";
+  else if (!job.planes_path.empty())
+    j["planes"] = rel(job.planes_path);
+  writeOptions(opts, &j);
   json out = json::object();
   if (!job.result_path.empty()) out["result"] = rel(job.result_path);
   if (!job.report_path.empty()) out["report"] = rel(job.report_path);
@@ -700,6 +746,12 @@ void checkJobOutputs(const Job& job, const std::vector<std::string>& also_inputs
     if (!folder.empty() && !fs::is_directory(folder, ec))
       throw FileError(job.path, where, "the folder " + folder.string() + " does not exist");
   }
+}
+
+std::string optionsJson(const MountingCalibrator::Options& options) {
+  json j = json::object();
+  writeOptions(options, &j);
+  return j.dump(2) + "\n";
 }
 
 }  // namespace mountcal

@@ -36,6 +36,10 @@ class LossFunction;
 
 namespace mountcal {
 
+namespace detail {
+class BlockArena;
+}
+
 /// How an adjustment ended (after Ceres' TerminationType).
 enum class TerminationType {
   kConvergence,    ///< a tolerance was met: the solution is usable
@@ -318,8 +322,10 @@ class AdjustmentProblem {
   AdjustmentProblem& operator=(const AdjustmentProblem&) = delete;
 
   /// The mounting block: (a_x, a_y, a_z [m], ω, φ, κ [rad]), MountingIndex order.
-  double* mounting() { return mounting_.data(); }
-  const std::array<double, 6>& mountingValues() const { return mounting_; }
+  double* mounting() { return mounting_; }
+  std::array<double, 6> mountingValues() const {
+    return {mounting_[0], mounting_[1], mounting_[2], mounting_[3], mounting_[4], mounting_[5]};
+  }
   /// The 3-D offset block of a strip [m] (a random effect with the stochastic model's prior, or
   /// held at zero when that prior is off). Created on first use.
   double* stripOffset(const std::string& strip_id);
@@ -420,15 +426,17 @@ class AdjustmentProblem {
   void setSource(int source) { source_ = source; }
   const std::vector<Record>& records() const { return records_; }
   const std::vector<Block>& nuisanceBlocks() const { return nuisance_; }
-  const std::map<std::string, std::array<double, 3>>& stripOffsets() const { return offsets_; }
+  const std::map<std::string, double*>& stripOffsets() const { return offsets_; }
   ceres::Problem& ceresProblem() { return *problem_; }
   double stripOffsetSigma() const { return offset_sigma_m_; }
 
  private:
+  /// Every block's values, at addresses in creation order (adjustment/block_arena.hpp); declared
+  /// first, so that it outlives the Ceres problem that points into it.
+  std::unique_ptr<detail::BlockArena> arena_;
   std::unique_ptr<ceres::Problem> problem_;
-  std::array<double, 6> mounting_{};
-  std::map<std::string, std::array<double, 3>> offsets_;
-  std::deque<std::vector<double>> storage_;
+  double* mounting_ = nullptr;              ///< 6 values in arena_
+  std::map<std::string, double*> offsets_;  ///< 3 values each in arena_
   std::vector<Block> nuisance_;
   std::vector<Record> records_;
   double offset_sigma_m_;

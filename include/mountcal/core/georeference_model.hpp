@@ -62,4 +62,13 @@ class GeoreferenceModel {
   Mat3 R_bs_ = Mat3::Identity();
 };
 
+/// The points `x_m` (n interleaved xyz triples [m], emitted at `time_s`), georeferenced with
+/// `from`'s mounting, as `to`'s mounting places them: each inverse-georeferenced with `from` and
+/// georeferenced again with `to` at its time (what `mountcal apply` does to a strip's points, here
+/// on arrays). `x_out` may be `x_m` (in place). Blocks of 4096 points on `threads` threads (0: every
+/// core); the values do not depend on it. Throws TimeOutOfRange for a point outside either model's
+/// trajectory (which outputs were then written is unspecified).
+void reGeoreference(const GeoreferenceModel& from, const GeoreferenceModel& to, const double* time_s, const double* x_m, double* x_out,
+                    std::size_t n, int threads = 1);
+
 }  // namespace mountcal

@@ -34,6 +34,19 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
 /// per other kind of observation: `planes`, `correspondences`, `control`.
 std::string resultJson(const MountingCalibrator::Summary& summary, const ResultEvaluation* evaluation = nullptr);
 
+/// A job calibrated as `mountcal calibrate` does it: the summary, the evaluation stored with it and
+/// the result file's text.
+struct JobCalibration {
+  MountingCalibrator::Summary summary;
+  ResultEvaluation evaluation;
+  std::string result_json;  ///< resultJson(summary, &evaluation) as `mountcal calibrate` writes it
+};
+
+/// Calibrates `loaded` (loadJob(job)) with the job's options, then — with `evaluate` — evaluates
+/// the result on the job's check data and overlaps (evaluateJob, with the estimated per-laser
+/// offsets). Throws what MountingCalibrator::calibrate and evaluateJob throw; writes nothing.
+JobCalibration calibrateJob(const Job& job, const LoadedJob& loaded, bool evaluate = true);
+
 /// Reads the "mounting" of a result file (lever arm [m], boresight [deg]); the nominal rotation
 /// must be supplied by the caller (it is a property of the job, not of the result).
 MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom);

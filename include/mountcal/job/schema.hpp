@@ -85,7 +85,23 @@ struct Job {
 /// unreadable file, invalid JSON, an unknown or missing field, a value of the wrong type or out
 /// of range, or a method without its input (`"vtpm"` without `"ties"`, `"planes"` without
 /// `"planes"`, `"features"` without `"targets"`).
-Job readJob(const std::string& path);
+/// `overrides_json` (optional): a JSON object of job keys merged into the file's before it is read
+/// (RFC 7386 merge patch: objects merge key by key, other values replace, null removes), e.g.
+/// `{"solver": {"max_iterations": 20}}`; read and checked like the file's own. Throws
+/// InvalidInput when it is not a JSON object.
+Job readJob(const std::string& path, const std::string& overrides_json = "");
+
+/// The calibration settings alone, as a job file writes them (SPEC §4): a JSON object of
+/// `"method"`, `"estimate"`, `"stochastic"`, `"solver"`, `"pulse_noise"` and each method's options
+/// object (`"planes": {"regions": "auto", "sigma_m": 0.02}`). Every key and value is checked as
+/// in readJob; a method's input file is not required. Throws FileError naming `name` and the
+/// field, InvalidInput when the text is not a JSON object.
+MountingCalibrator::Options readOptions(const std::string& json_text, const std::string& name = "options");
+
+/// The settings of `options` as the JSON object readOptions reads (each method's options only
+/// where they differ from its defaults); readOptions(optionsJson(o)) gives `o` back (a method's
+/// input, such as "planes": "auto", is not among them).
+std::string optionsJson(const MountingCalibrator::Options& options);
 
 /// The job as SPEC §4 JSON, paths relative to `job.path`'s folder where they lie below it.
 std::string jobJson(const Job& job);
