@@ -34,3 +34,11 @@ def cli():
 @pytest.fixture(scope="session")
 def examples():
     return ROOT / "examples"
+
+
+def command_env():
+    """The environment for the mountcal command: without the sanitizer runtime the interpreter was
+    started with (LD_PRELOAD, sanitizer build) — the command carries its own."""
+    env = dict(os.environ)
+    env.pop("LD_PRELOAD", None)
+    return env

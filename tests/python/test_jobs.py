@@ -1,12 +1,13 @@
 """Jobs from Python: calibrate_job against the command, read_job, Options, calibrate, Summary, errors."""
 import json
+import os
 import subprocess
 
 import numpy as np
 import pytest
 
 import mountcal
-from conftest import data_file
+from conftest import command_env, data_file
 
 # Wall times differ from run to run; every other value of a result file must be identical.
 TIMINGS = {("solver", "time_s"), ("solver", "construction_time_s"), ("solver", "solve_time_s"),
@@ -26,12 +27,14 @@ def without_timings(result):
 
 def cli_result(cli, job, tmp_path, *extra):
     out = tmp_path / (job.stem + "_cli.json")
-    subprocess.run([cli, "calibrate", str(job), "--quiet", "--result", str(out), *extra], check=True)
+    subprocess.run([cli, "calibrate", str(job), "--quiet", "--result", str(out), *extra], check=True, env=command_env())
     return json.loads(out.read_text())
 
 
 @pytest.mark.parametrize("name", ["truck.json", "car.json", "tent.json", "truck_laz.json"])
 def test_calibrate_job_gives_the_commands_result_to_the_last_digit(cli, examples, tmp_path, name):
+    if os.environ.get("MOUNTCAL_SANITIZER_BUILD") == "1" and name != "truck_laz.json":
+        pytest.skip("sanitizer build: the LAZ job only (15-30 s a job there); the Release suite compares all four")
     data_file("gravity/Truck.las")
     data_file("laz/Truck.adc.laz")
     job = examples / "gravity" / name
@@ -44,7 +47,7 @@ def test_calibrate_job_gives_the_commands_result_to_the_last_digit(cli, examples
 def test_a_simulated_survey_from_python_is_the_commands_and_calibrates_alike(cli, tmp_path):
     py_job = mountcal.simulate("paper-calibration-field", seed=3, out=str(tmp_path / "py"))
     subprocess.run([cli, "simulate", "--preset", "paper-calibration-field", "--seed", "3", "--out", str(tmp_path / "cli")],
-                   check=True, stdout=subprocess.DEVNULL)
+                   check=True, stdout=subprocess.DEVNULL, env=command_env())
     for name in ["job.json", "truth.json", "ties.csv", "trajectory.csv"]:
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
     strips = sorted(p.name for p in (tmp_path / "py").glob("*.las"))
