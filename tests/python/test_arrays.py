@@ -165,3 +165,23 @@ def test_long_calls_release_the_gil(examples):
     call = time.perf_counter() - t0
     assert done and call > 0.2
     assert longest < 0.25 * call, f"this thread stood still for {longest:.3f} s of a {call:.3f} s call"
+
+
+def test_the_stub_states_every_public_name_and_member():
+    """__init__.pyi (what editors complete) against the module itself: no name missing, none invented."""
+    import ast
+    import pathlib
+
+    stub = ast.parse((pathlib.Path(mountcal.__file__).parent / "__init__.pyi").read_text())
+    top = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    top |= {t.target.id for t in stub.body if isinstance(t, ast.AnnAssign) and t.target.id == "__version__"}
+    assert top == set(mountcal.__all__)
+    for cls in (n for n in stub.body if isinstance(n, ast.ClassDef)):
+        members = {n.name for n in cls.body if isinstance(n, ast.FunctionDef)}
+        members |= {n.target.id for n in cls.body if isinstance(n, ast.AnnAssign)}
+        real = getattr(mountcal, cls.name)
+        for name in members - {"__init__"}:
+            assert hasattr(real, name) or issubclass(real, BaseException), f"{cls.name}.{name} is in the stub, not in the module"
+        if not issubclass(real, BaseException):
+            public = {k for k in dir(real) if not k.startswith("_")}
+            assert public <= members, f"{cls.name}: {sorted(public - members)} are not in the stub"
