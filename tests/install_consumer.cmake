@@ -17,7 +17,11 @@ run(${WORK_DIR}/build/consumer)
 run(${WORK_DIR}/build/core_consumer)
 # The Python package from the install alone (PYTHONPATH names only the prefix's folder).
 if(PYTHON)
-  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${prefix}/${PYTHON_DIR} PYTHONNOUSERSITE=1
+  set(preload "")
+  if(PYTHON_PRELOAD)  # a sanitizer build: the interpreter takes the sanitizers' runtime first
+    set(preload LD_PRELOAD=${PYTHON_PRELOAD} ASAN_OPTIONS=detect_leaks=0)
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${prefix}/${PYTHON_DIR} PYTHONNOUSERSITE=1 ${preload}
                           ${PYTHON} -c "import mountcal; print(mountcal.__version__, mountcal.__file__)"
                   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err OUTPUT_STRIP_TRAILING_WHITESPACE)
   if(NOT rc EQUAL 0 OR NOT out MATCHES "^${VERSION} ${prefix}/${PYTHON_DIR}/mountcal/__init__.py$")
