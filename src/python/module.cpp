@@ -392,6 +392,19 @@ void bindJobs(py::module_& m) {
       .def_property_readonly("job", [](const PyData& d) { return std::const_pointer_cast<Job>(d.job); });
 
   m.def(
+      "load_job_trajectory",
+      [](const std::shared_ptr<Job>& job) {
+        if (!job) throw py::value_error("job: None");
+        if (job->per_point_poses) throw InvalidInput(job->path + ": the job takes per-point poses from its strips; it names no trajectory");
+        std::shared_ptr<const Trajectory> t;
+        {
+          py::gil_scoped_release release;
+          t = loadJobTrajectory(*job).data.trajectory;
+        }
+        return std::make_shared<Trajectory>(*t);
+      },
+      py::arg("job"), "The job's trajectory alone (no strips), in its computation frame (local; a CRS job's ENU tangent frame).");
+  m.def(
       "load_job_data",
       [](const std::shared_ptr<Job>& job) {
         if (!job) throw py::value_error("job: None");

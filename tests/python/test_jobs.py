@@ -54,6 +54,16 @@ def test_a_simulated_survey_from_python_is_the_commands_and_calibrates_alike(cli
     assert strips and all((tmp_path / "py" / s).read_bytes() == (tmp_path / "cli" / s).read_bytes() for s in strips)
     got = without_timings(mountcal.calibrate_job(py_job))
     assert got == without_timings(cli_result(cli, tmp_path / "cli" / "job.json", tmp_path))
+    # The job's trajectory alone, and apply on a strip's arrays against the points at the new mounting.
+    job = mountcal.read_job(py_job)
+    traj = mountcal.load_job_trajectory(job)
+    data = mountcal.load_job_data(job)
+    assert len(traj) == len(data.trajectory) and traj.start_time == data.trajectory.start_time
+    strip = data.strip(0)
+    new = mountcal.Mounting(got["mounting"]["lever_arm_m"], got["mounting"]["boresight_deg"])
+    moved = mountcal.apply(traj, job.mounting_used, new, strip["time_s"], data.points(0, job.mounting_used))
+    assert np.abs(moved - data.points(0, new)).max() < 1e-6
+    assert np.abs(moved - strip["x_m"]).max() > 0.1  # the mountings differ by decimetres on the ground
     # The simulated truth is recovered (SPEC §5 tolerances of the paper field: 1 cm, 0.005 deg).
     truth = json.loads((tmp_path / "py" / "truth.json").read_text())["mounting"]
     assert np.allclose(got["mounting"]["boresight_deg"], truth["boresight_deg"], atol=0.005)
@@ -84,6 +94,8 @@ def test_calibrate_on_loaded_data_equals_the_job_call(examples):
     assert data.strip(1)["time_s"].shape[0] > 1000
     with pytest.raises(KeyError):
         data.strip("tent-3")
+    with pytest.raises(mountcal.InvalidInput, match="per-point poses"):
+        mountcal.load_job_trajectory(mountcal.read_job(path))
     summary = mountcal.calibrate(data)  # the job's own settings
     result = mountcal.calibrate_job(path)
     assert summary.usable and summary.termination == "CONVERGENCE"

@@ -35,6 +35,7 @@ from ._mountcal import (  # noqa: F401
     georeference,
     inverse_georeference,
     load_job_data,
+    load_job_trajectory,
     presets,
     read_job,
     read_las_header,
@@ -45,5 +46,5 @@ from ._mountcal import (  # noqa: F401
 __all__ = [
     "CalibrationData", "Error", "FileError", "InvalidInput", "Job", "Mounting", "Options", "Summary",
     "TimeOutOfRange", "Trajectory", "__version__", "apply", "calibrate", "calibrate_job", "georeference",
-    "inverse_georeference", "load_job_data", "presets", "read_job", "read_las_header", "read_strip", "simulate",
+    "inverse_georeference", "load_job_data", "load_job_trajectory", "presets", "read_job", "read_las_header", "read_strip", "simulate",
 ]

@@ -115,6 +115,9 @@ class CalibrationData:
 
 def load_job_data(job: Job) -> CalibrationData: ...
 
+def load_job_trajectory(job: Job) -> Trajectory:
+    """The job's trajectory alone (no strips), in its computation frame; InvalidInput for a job with per-point poses."""
+
 class Summary:
     """A calibration's result."""
     @property
