@@ -50,23 +50,19 @@ int runSimulate(const std::string& scenario, const std::string& preset, std::uin
     makePreset(preset, seed, &config, &scene);
   }
   if (no_noise) config.noise = NoiseModel::none();
-  if (!crs.empty() && mountcal::io::CrsTransform::isGeographic(crs)) {  // refused before the survey is simulated
-    throw mountcal::InvalidInput("--crs " + crs +
-                                 " is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
-  }
-  const auto t0 = std::chrono::steady_clock::now();
-  const SimulatedSurvey survey = simulate(config, scene);
-  for (const auto& s : survey.strips) {  // nothing written: a survey without points calibrates nothing
-    if (s.points_m.empty()) {
-      std::fprintf(stderr, "mountcal simulate: %s: strip %s has no point on the ground (check the mountings and the flight)\n",
-                   scenario.empty() ? ("--preset " + preset).c_str() : scenario.c_str(), s.id.c_str());
-      return 1;
-    }
-  }
   mountcal::SurveyWriteOptions write_options;
   write_options.crs = crs;
   write_options.ties = !no_ties;
   write_options.laz = laz;
+  mountcal::checkSurveyWriteOptions(write_options);  // refused before the survey is simulated
+  const auto t0 = std::chrono::steady_clock::now();
+  const SimulatedSurvey survey = simulate(config, scene);
+  const std::string empty = mountcal::stripWithoutPoints(survey);
+  if (!empty.empty()) {  // nothing written: a survey without points calibrates nothing
+    std::fprintf(stderr, "mountcal simulate: %s: strip %s has no point on the ground (check the mountings and the flight)\n",
+                 scenario.empty() ? ("--preset " + preset).c_str() : scenario.c_str(), empty.c_str());
+    return 1;
+  }
   mountcal::writeSurvey(survey, out, write_options);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t points = 0;

@@ -111,7 +111,7 @@ class FileApplier {
     const GeoreferenceModel new_model(loaded_.data.trajectory, mounting_);
     std::uint64_t record = 0;
     std::vector<std::uint8_t> records;
-    std::vector<double> times, xyz_crs, xyz, r_s_batch, xyz_new;
+    std::vector<double> times, xyz_crs, xyz, xyz_new;
     std::vector<std::int32_t> XYZ_new;
     double max_shift2 = 0;  // the largest squared shift: one square root per file
     const std::size_t len = h.point_record_length;
@@ -130,7 +130,6 @@ class FileApplier {
         std::uint8_t* block = records.data() + k0 * len;
         times.resize(n);
         xyz_crs.resize(3 * n);
-        r_s_batch.resize(3 * n);
         xyz_new.resize(3 * n);
         XYZ_new.resize(3 * n);
         // The records' times and coordinates in the CRS, as arrays.
@@ -158,8 +157,7 @@ class FileApplier {
           }
           x_local = xyz.data();
         }
-        used_model.inverse(times.data(), x_local, r_s_batch.data(), n);
-        new_model.forward(times.data(), r_s_batch.data(), xyz_new.data(), n);
+        reGeoreference(used_model, new_model, times.data(), x_local, xyz_new.data(), n);  // files run in parallel, not points
         if (!frame_.isLocal()) {
           for (std::size_t k = 0; k < n; ++k) {
             const Vec3 x = frame_.fromLocal(Vec3(xyz_new[3 * k], xyz_new[3 * k + 1], xyz_new[3 * k + 2]));

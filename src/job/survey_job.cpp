@@ -243,10 +243,7 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   // The simulated ENU frame is placed on WGS84 under the CRS point (500000, 4000000) of the
   // requested CRS, or of UTM zone 11 N for a local job — so that an SBET can always be written.
   const std::string placement_crs = options.crs.empty() ? "EPSG:32611" : options.crs;
-  if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
-    throw InvalidInput("CRS '" + options.crs +
-                       "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
-  }
+  checkSurveyWriteOptions(options);
   const io::CrsTransform placement(placement_crs);
   const LocalTangentFrame tangent(placement.toGeodetic(Vec3(500000.0, 4000000.0, 0.0)));
   writeSimulatedSbet(survey, tangent, dir);
@@ -271,6 +268,19 @@ void writeSurvey(const SimulatedSurvey& survey, const std::string& dir, const Su
   writeSimulatedInputs(survey, frame, dir, options);
   writeSimulatedJobs(survey, job, options);
   writeSimulatedTruth(survey, dir);
+}
+
+void checkSurveyWriteOptions(const SurveyWriteOptions& options) {
+  if (!options.crs.empty() && io::CrsTransform::isGeographic(options.crs)) {
+    throw InvalidInput("CRS '" + options.crs +
+                       "' is geographic (degrees): strips are written in a projected CRS in metres, e.g. a UTM zone (EPSG:326xx)");
+  }
+}
+
+std::string stripWithoutPoints(const simulation::SimulatedSurvey& survey) {
+  for (const auto& s : survey.strips)
+    if (s.points_m.empty()) return s.id;
+  return "";
 }
 
 }  // namespace mountcal

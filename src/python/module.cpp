@@ -75,10 +75,11 @@ Vec3 toVec3(const py::handle& obj, const std::string& what) {
   const F64 a = requireF64(py::array::ensure(obj).attr("reshape")(1, 3), what, 3);
   return Vec3(a.at(0, 0), a.at(0, 1), a.at(0, 2));
 }
-F64 mat(const double* rowmajor_or_eigen, int rows, int cols, bool eigen_colmajor) {
-  F64 a({rows, cols});
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) a.mutable_at(r, c) = eigen_colmajor ? rowmajor_or_eigen[c * rows + r] : rowmajor_or_eigen[r * cols + c];
+template <class Matrix>
+F64 mat(const Matrix& m) {
+  F64 a({static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c) a.mutable_at(r, c) = m(r, c);
   return a;
 }
 template <class T>
@@ -204,8 +205,7 @@ void bindGeometry(py::module_& m) {
       .def_property_readonly("lever_arm_m", [](const MountingParameters& p) { return vec3(p.a_b); })
       .def_property_readonly("boresight_deg", [](const MountingParameters& p) { return vec3(p.boresightDeg()); })
       .def_property_readonly(
-          "R_bs", [](const MountingParameters& p) { return mat(p.R_bs().data(), 3, 3, true); },
-          "Scanner-to-body rotation R_bore · R_nom (3×3).")
+          "R_bs", [](const MountingParameters& p) { return mat(p.R_bs()); }, "Scanner-to-body rotation R_bore · R_nom (3×3).")
       .def("to_dict", &mountingDict)
       .def("__repr__", [](const MountingParameters& p) {
         const Vec3 b = p.boresightDeg();
@@ -240,7 +240,7 @@ void bindGeometry(py::module_& m) {
           "pose",
           [](const Trajectory& tr, double t) {
             const Pose p = tr.pose(t);
-            return py::make_tuple(vec3(p.p_m), mat(p.R_mb.data(), 3, 3, true));
+            return py::make_tuple(vec3(p.p_m), mat(p.R_mb));
           },
           py::arg("time_s"), "(p_m (3,), R_mb (3, 3)) at a time; TimeOutOfRange outside the trajectory.");
 }
@@ -369,17 +369,12 @@ void bindJobs(py::module_& m) {
           "points",
           [](const PyData& d, const py::object& key, const MountingParameters& mounting) {
             const StripData& s = stripOf(d, key);
-            d.loaded->data.requirePoses();
-            F64 x = newPoints(static_cast<py::ssize_t>(s.r_s.size()));
-            double* px = x.mutable_data();
+            std::vector<Vec3> x;
             {
               py::gil_scoped_release release;
-              const Mat3 R_bs = mounting.R_bs();
-              std::size_t cursor = 0;
-              for (std::size_t i = 0; i < s.r_s.size(); ++i)
-                Eigen::Map<Vec3>(px + 3 * i) = georeference(d.loaded->data.pose(s, i, &cursor), R_bs, mounting.a_b, s.r_s[i]);
+              x = georeferencedStrip(d.loaded->data, s, mounting);
             }
-            return x;
+            return fromVec3s(x);
           },
           py::arg("key"), py::arg("mounting"),
           "A strip's points (n, 3) georeferenced with `mounting` at their own poses (per-point or from the trajectory).")
@@ -418,9 +413,10 @@ void bindJobs(py::module_& m) {
       py::arg("job"), "Reads the trajectory, strips and inputs a job names (loadJob).");
 }
 
-/// Summary as Python sees it: the C++ summary and its result file (parsed once).
+/// Summary as Python sees it: the C++ summary and its result file's text (written once, with it).
 struct PySummary {
   std::shared_ptr<const MountingCalibrator::Summary> s;
+  std::string result_json;  ///< resultJson(*s)
 };
 
 void bindSummary(py::module_& m) {
@@ -441,9 +437,9 @@ void bindSummary(py::module_& m) {
           "formal_sigma", [](const S& x) { return sixInUnits(x.s->formal_sigma); },
           "The formal σ (independent observations, no trajectory errors in time) [m, deg].")
       .def_property_readonly("sigma_model", [](const S& x) { return x.s->sigma_model; })
-      .def_property_readonly("correlation", [](const S& x) { return mat(x.s->correlation.data(), 6, 6, true); })
+      .def_property_readonly("correlation", [](const S& x) { return mat(x.s->correlation); })
       .def_property_readonly(
-          "covariance", [](const S& x) { return mat(x.s->covariance.data(), 6, 6, true); }, "6×6 [m, rad].")
+          "covariance", [](const S& x) { return mat(x.s->covariance); }, "6×6 [m, rad].")
       .def_property_readonly("variance_factor", [](const S& x) { return x.s->variance_factor; })
       .def_property_readonly("degrees_of_freedom", [](const S& x) { return x.s->degrees_of_freedom; })
       .def_property_readonly("unobservable", [](const S& x) { return x.s->unobservable; })
@@ -473,7 +469,7 @@ void bindSummary(py::module_& m) {
           "residuals",
           [](const S& x) {
             // Each kind's section of the result file (SPEC §4), as plain Python values.
-            const py::dict r = fromJson(resultJson(*x.s));
+            const py::dict r = fromJson(x.result_json);
             py::dict d;
             for (const auto& k : x.s->kinds)
               if (r.contains(k.kind.c_str()) && !r[k.kind.c_str()].is_none()) d[py::str(k.kind)] = r[k.kind.c_str()];
@@ -482,7 +478,7 @@ void bindSummary(py::module_& m) {
           },
           "Each kind's residual section of the result file: {kind: dict}.")
       .def(
-          "result", [](const S& x) { return fromJson(resultJson(*x.s)); }, "The result file's content (SPEC §4) without evaluation.")
+          "result", [](const S& x) { return fromJson(x.result_json); }, "The result file's content (SPEC §4) without evaluation.")
       .def(
           "report", [](const S& x) { return x.s->FullReport(); }, "The table `mountcal calibrate` prints.")
       .def("__repr__", [](const S& x) { return x.s->BriefReport(); });
@@ -493,11 +489,13 @@ void bindSummary(py::module_& m) {
         const MountingCalibrator::Options o = options.is_none() ? (data.job ? data.job->options : MountingCalibrator::Options{})
                                                                 : options.cast<MountingCalibrator::Options>();
         auto s = std::make_shared<MountingCalibrator::Summary>();
+        std::string text;
         {
           py::gil_scoped_release release;
           *s = MountingCalibrator(o).calibrate(data.loaded->data);
+          text = resultJson(*s);
         }
-        return PySummary{s};
+        return PySummary{s, std::move(text)};
       },
       py::arg("data"), py::arg("options") = py::none(), "Calibrates the mounting from loaded data; options None: the job's own settings.");
 
@@ -541,15 +539,15 @@ PYBIND11_MODULE(_mountcal, m) {
         simulation::Scene scene;
         simulation::makePreset(preset, seed, &config, &scene);
         if (!noise) config.noise = simulation::NoiseModel::none();
-        if (!crs.empty() && io::CrsTransform::isGeographic(crs))
-          throw InvalidInput("crs " + crs + " is geographic (degrees): strips are written in a projected CRS in metres, e.g. EPSG:326xx");
-        const simulation::SimulatedSurvey survey = simulation::simulate(config, scene);
-        for (const auto& s : survey.strips)
-          if (s.points_m.empty()) throw InvalidInput("preset " + preset + ": strip " + s.id + " has no point on the ground");
         SurveyWriteOptions w;
         w.crs = crs;
         w.ties = ties;
         w.laz = laz;
+        checkSurveyWriteOptions(w);  // before the survey is simulated
+        const simulation::SimulatedSurvey survey = simulation::simulate(config, scene);
+        const std::string empty = stripWithoutPoints(survey);
+        if (!empty.empty())
+          throw InvalidInput("preset " + preset + ": strip " + empty + " has no point on the ground (check the mountings and the flight)");
         writeSurvey(survey, out, w);
         return out + "/job.json";
       },

@@ -24,6 +24,14 @@ struct SurveyWriteOptions {
   bool laz = false;
 };
 
+/// Throws InvalidInput for options writeSurvey refuses (a geographic CRS: strips are written in a
+/// projected CRS in metres) — for a caller to check before it simulates.
+void checkSurveyWriteOptions(const SurveyWriteOptions& options);
+
+/// The id of the first strip of `survey` that holds no point (no ray met the ground: check the
+/// mountings and the flight), or empty: a survey with such a strip calibrates nothing.
+std::string stripWithoutPoints(const simulation::SimulatedSurvey& survey);
+
 /// Writes the folder layout of SPEC §4: job.json, truth.json, trajectory.csv and
 /// trajectory.sbet (a local job's ENU frame placed under UTM 11 N's (500000, 4000000)),
 /// strip_<id>.las (LAS 1.4, point format 6, GPS week seconds), raw_<id>.csv, ties.csv,

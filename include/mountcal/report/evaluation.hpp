@@ -86,6 +86,9 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
 /// for a laser id without one.
 std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& mounting,
                                                    const std::vector<double>& laser_elevation_rad = {});
+/// One strip of `data` (`strip` is one of data.strips) as georeferencedStrips gives it.
+std::vector<Vec3> georeferencedStrip(const CalibrationData& data, const StripData& strip, const MountingParameters& mounting,
+                                     const std::vector<double>& laser_elevation_rad = {});
 
 /// Every strip pair of `data` georeferenced with `mounting` (per-point poses or the
 /// trajectory); pairs whose smaller strip has no point within reach of the larger are left out.
