@@ -30,9 +30,7 @@ void calibrateSet(benchmark::State& state, const char* name) {
     benchmark::DoNotOptimize(S.mounting);
   }
   CalibrationData d = loadJob(job).data;
-  std::vector<double> lasers;
-  for (double v : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(v));
-  applyLaserElevation(&d, lasers);
+  applyLaserCorrections(&d, S.laserCorrections());
   state.counters["median_after_m"] = pooledDiscrepancy(d, S.mounting).median_m;
   state.counters["matchings"] = S.section<CorrespondenceSection>().rounds;
 }

@@ -43,10 +43,10 @@ bool MountingCalibrator::Summary::uses(const std::string& method) const {
   return std::find(methods.begin(), methods.end(), method) != methods.end();
 }
 
-std::vector<double> MountingCalibrator::Summary::laserElevationOffsetsRad() const {
+LaserCorrections MountingCalibrator::Summary::laserCorrections() const {
   for (const auto& s : sections) {
-    std::vector<double> offsets = s->laserElevationOffsetsRad();
-    if (!offsets.empty()) return offsets;
+    LaserCorrections lasers = s->laserCorrections();
+    if (!lasers.empty()) return lasers;
   }
   return {};
 }

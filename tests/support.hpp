@@ -16,6 +16,8 @@
 #include <string>
 
 #include "mountcal/core/rotation.hpp"
+#include "mountcal/methods/correspondence/correspondences.hpp"
+#include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
 
 namespace mountcal_tests {
@@ -89,6 +91,36 @@ inline const mountcal::simulation::SimulatedSurvey& crossingField(std::uint64_t 
     slot = std::make_unique<SimulatedSurvey>(simulate(c, scene));
   }
   return *slot;
+}
+
+/// The VLP-16 preset's field flown by three of its passes (the centre line both ways at 50 m and
+/// once at 80 m), 4 m around each target, with the true lever arm as the nominal one.
+inline void uavThreePasses(std::uint64_t seed, mountcal::simulation::SurveyConfig* c, mountcal::simulation::Scene* scene) {
+  mountcal::simulation::makePreset("uav-vlp16", seed, c, scene);
+  c->nominal_mounting.a_b = c->true_mounting.a_b;
+  c->roi_radius_m = 4.0;
+  std::vector<mountcal::simulation::FlightLine> lines;
+  for (const mountcal::simulation::FlightLine& l : c->lines)
+    if (l.id == "1" || l.id == "2" || l.id == "4") lines.push_back(l);
+  c->lines = lines;
+}
+
+/// The dense correspondences of the simulated UAV surveys (VLP-16 preset's field, three passes):
+/// boresight only, no strip offsets and no trajectory errors in time (none are simulated), 0.3 m
+/// neighbourhoods after a 1 m coarse stage, 1000 samples per pair; per-laser intrinsics off.
+inline mountcal::MountingCalibrator::Options uavDenseOptions() {
+  mountcal::MountingCalibrator::Options o;
+  o.methods = {"correspondences"};
+  o.estimate = {false, false, false, true, true, true};
+  o.strip_offset_sigma_m = 0;
+  o.trajectory = mountcal::TrajectoryAccuracy::none();
+  mountcal::CorrespondenceOptions& c = o.method<mountcal::CorrespondenceOptions>();
+  c.dense = true;
+  c.radius_m = 0.3;
+  c.coarse_radius_m = 1.0;
+  c.max_neighbours = 10;
+  c.budget = 1000;
+  return o;
 }
 
 }  // namespace mountcal_tests

@@ -35,9 +35,7 @@ std::string exampleJob(const std::string& name) { return std::string(MOUNTCAL_SO
 /// The pass-to-pass discrepancy after a calibration: its mounting and per-laser elevations.
 DiscrepancyStats afterCalibration(const CalibrationData& data, const MountingCalibrator::Summary& S) {
   CalibrationData after = data;
-  std::vector<double> lasers;
-  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
-  if (!lasers.empty()) applyLaserElevation(&after, lasers);
+  applyLaserCorrections(&after, S.laserCorrections());
   return pooledDiscrepancy(after, S.mounting);
 }
 
@@ -255,9 +253,12 @@ TEST(PerPointPoses, ElevationOffsetByHand) {
   const double rho = 25.0, w = deg2rad(-12.0), a = deg2rad(130.0), d = deg2rad(0.4);
   const Vec3 r = rho * Vec3(std::cos(w) * std::sin(a), std::cos(w) * std::cos(a), std::sin(w));
   const Vec3 e = rho * Vec3(std::cos(w + d) * std::sin(a), std::cos(w + d) * std::cos(a), std::sin(w + d));
-  EXPECT_LT((elevateLaserVector(r, d) - e).norm(), 1e-12);
-  EXPECT_LT((elevateLaserVector(r, 0.0) - r).norm(), 0.0 + 1e-15);
-  EXPECT_NEAR(elevateLaserVector(r, d).norm(), rho, 1e-12);
+  LaserCorrection c;
+  c.elevation_rad = d;
+  EXPECT_LT((correctLaserVector(r, c) - e).norm(), 1e-12);
+  EXPECT_LT((correctLaserVector(r, LaserCorrection{}) - r).norm(), 0.0 + 1e-15);
+  EXPECT_NEAR(correctLaserVector(r, c).norm(), rho, 1e-12);
+  EXPECT_LT((LaserCorrector(c).apply(LaserRay(r)) - e).norm(), 1e-12);  // the general path gives the same
 }
 
 // Split by ranges equals split by gaps; an empty selection names the job, the strip and the file.
@@ -314,10 +315,9 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
   ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
   const DiscrepancyStats before = pooledDiscrepancy(L.data, job.mounting_used);
   CalibrationData after_data = L.data;
-  std::vector<double> lasers;
-  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
+  const LaserCorrections lasers = S.laserCorrections();
   ASSERT_EQ(lasers.size(), 32u);
-  applyLaserElevation(&after_data, lasers);
+  applyLaserCorrections(&after_data, lasers);
   const DiscrepancyStats after = pooledDiscrepancy(after_data, S.mounting);
   EXPECT_GT(before.median_m, c.before_min_m);
   EXPECT_LT(after.median_m, c.after_max_m) << "boresight " << S.mounting.boresightDeg().transpose();
@@ -328,8 +328,8 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
   // and each has a σ.
   EXPECT_LT(S.mounting.boresightDeg().cwiseAbs().maxCoeff(), 3.0);
   for (std::size_t i = 0; i < lasers.size(); ++i) {
-    EXPECT_LT(std::abs(S.section<CorrespondenceSection>().laser_elevation_deg[i]), 0.6) << "laser " << i;
-    EXPECT_GT(S.section<CorrespondenceSection>().laser_elevation_sigma_deg[i], 0.0) << "laser " << i;
+    EXPECT_LT(std::abs(rad2deg(lasers[i].elevation_rad)), 0.6) << "laser " << i;
+    EXPECT_GT(S.section<CorrespondenceSection>().laser_sigma[i].elevation_rad, 0.0) << "laser " << i;
   }
   EXPECT_TRUE(S.estimated[3] && S.estimated[4] && S.estimated[5]);
   // Issue 26: a re-solve started from the result stays within 2σ of it — and where it does not
@@ -412,14 +412,12 @@ TEST(PerPointPoses, ApplyWritesWhatCalibrateEvaluated) {
   const LoadedJob L = loadJob(job);
   const MountingCalibrator::Summary S = MountingCalibrator(job.options).calibrate(L.data);
   ASSERT_TRUE(S.IsSolutionUsable());
-  std::vector<double> lasers;
-  for (double d : S.section<CorrespondenceSection>().laser_elevation_deg) lasers.push_back(deg2rad(d));
   CalibrationData expected = L.data;
-  applyLaserElevation(&expected, lasers);
+  applyLaserCorrections(&expected, S.laserCorrections());
   const DiscrepancyStats want = pooledDiscrepancy(expected, S.mounting);
   const fs::path out = fs::temp_directory_path() / "mountcal_gravity_apply_tent";
   fs::remove_all(out);
-  applyMounting(job, S.mounting, out.string(), 1u << 20, lasers);
+  applyMounting(job, S.mounting, out.string(), 1u << 20, S.laserCorrections());
   Job written = job;
   for (JobStrip& s : written.strips) s.path = (out / "Tent.las").string();
   const DiscrepancyStats got = pooledDiscrepancy(loadJob(written).data, job.mounting_used);

@@ -526,15 +526,8 @@ struct PerLaserSurvey {
 const PerLaserSurvey& perLaserSurvey() {
   static const std::unique_ptr<PerLaserSurvey> s = [] {
     auto p = std::make_unique<PerLaserSurvey>();
-    makePreset("uav-vlp16", 3, &p->config, &p->scene);
+    mountcal_tests::uavThreePasses(3, &p->config, &p->scene);
     p->config.noise = NoiseModel::none();
-    p->config.nominal_mounting.a_b = p->config.true_mounting.a_b;
-    p->config.roi_radius_m = 4.0;
-    // The centre line both ways at 50 m and once at 80 m (the preset's lines 1, 2 and 4).
-    std::vector<FlightLine> lines;
-    for (const FlightLine& l : p->config.lines)
-      if (l.id == "1" || l.id == "2" || l.id == "4") lines.push_back(l);
-    p->config.lines = lines;
     p->config.multibeam.laser_errors = drawLaserErrors(p->config.multibeam.model.laserCount(), 11, deg2rad(0.1));
     p->survey = simulate(p->config, p->scene);
     return p;
@@ -543,18 +536,8 @@ const PerLaserSurvey& perLaserSurvey() {
 }
 
 MountingCalibrator::Summary denseCalibration(const PerLaserSurvey& s, double laser_sigma_deg) {
-  MountingCalibrator::Options o;
-  o.methods = {"correspondences"};
-  o.estimate = {false, false, false, true, true, true};
-  o.strip_offset_sigma_m = 0;
-  o.trajectory = TrajectoryAccuracy::none();
-  CorrespondenceOptions& c = o.method<CorrespondenceOptions>();
-  c.dense = true;
-  c.radius_m = 0.3;
-  c.coarse_radius_m = 1.0;
-  c.max_neighbours = 10;
-  c.budget = 1000;
-  c.laser_elevation_sigma_deg = laser_sigma_deg;
+  MountingCalibrator::Options o = mountcal_tests::uavDenseOptions();
+  o.method<CorrespondenceOptions>().laser_elevation_sigma_deg = laser_sigma_deg;
   return calibrate(toCalibrationData(s.survey), o);
 }
 
@@ -601,14 +584,9 @@ TEST(DiscrepancyBreakdown, BeforeAndAfterAreMatchedByClassLabel) {
 TEST(DiscrepancyBreakdown, SinglesOutTheLaserWhoseTableEntryIsWrong) {
   SurveyConfig c;
   Scene scene;
-  makePreset("uav-vlp16", 3, &c, &scene);
+  mountcal_tests::uavThreePasses(3, &c, &scene);
   c.noise = NoiseModel::none();
   c.nominal_mounting = c.true_mounting;
-  c.roi_radius_m = 4.0;
-  std::vector<FlightLine> lines;
-  for (const FlightLine& l : c.lines)
-    if (l.id == "1" || l.id == "2" || l.id == "4") lines.push_back(l);
-  c.lines = lines;
   c.multibeam.laser_errors.assign(static_cast<std::size_t>(c.multibeam.model.laserCount()), LaserSpec{});
   c.multibeam.laser_errors[5].elevation_rad = deg2rad(-0.3);
   const SimulatedSurvey s = simulate(c, scene);
@@ -678,10 +656,10 @@ TEST(CorrespondenceMethod, DenseMatchingRecoversEachLasersElevationErrorOnSimula
   const auto with = denseCalibration(s, 0.5);
   ASSERT_TRUE(with.IsSolutionUsable()) << with.FullReport();
   const CorrespondenceSection& c = with.section<CorrespondenceSection>();
-  ASSERT_EQ(c.laser_elevation_deg.size(), truth.size());
+  ASSERT_EQ(c.lasers.size(), truth.size());
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    EXPECT_NEAR(c.laser_elevation_deg[i], rad2deg(truth[i].elevation_rad), 5e-4) << "laser " << i;  // measured ≤ 1.4e-4°
-    EXPECT_TRUE(std::isfinite(c.laser_elevation_sigma_deg[i])) << "laser " << i;
+    EXPECT_NEAR(rad2deg(c.lasers[i].elevation_rad), rad2deg(truth[i].elevation_rad), 5e-4) << "laser " << i;  // measured ≤ 1.4e-4°
+    EXPECT_TRUE(std::isfinite(c.laser_sigma[i].elevation_rad)) << "laser " << i;
     EXPECT_GT(c.laser_points[i], 100) << "laser " << i;
   }
   const auto e = with.mounting.toArray();
@@ -689,7 +667,7 @@ TEST(CorrespondenceMethod, DenseMatchingRecoversEachLasersElevationErrorOnSimula
   EXPECT_LT(c.median_after_m, 2e-4);
   double worst_laser = 0, worst_angle = 0;
   for (std::size_t i = 0; i < truth.size(); ++i)
-    worst_laser = std::max(worst_laser, std::abs(c.laser_elevation_deg[i] - rad2deg(truth[i].elevation_rad)));
+    worst_laser = std::max(worst_laser, std::abs(rad2deg(c.lasers[i].elevation_rad - truth[i].elevation_rad)));
   for (int j = 3; j < 6; ++j) worst_angle = std::max(worst_angle, std::abs(e[j] - t[j]) / kDeg);
   std::printf("per-laser offsets: worst laser %.2e deg, worst boresight angle %.2e deg, median after %.2e m\n", worst_laser, worst_angle,
               c.median_after_m);

@@ -65,11 +65,15 @@ TEST(MountingForms, EveryFormDescribesTheSameRotationOfTheSameVectors) {
 
 TEST(MountingForms, TextAndJsonNameTheConventions) {
   const MountingParameters m = MountingParameters::fromDegrees(Vec3(0.1, 0.2, 0.3), Vec3(1.362, 1.087, -2.252));
-  const std::string text = mountingFormsText(m, {deg2rad(0.1), deg2rad(-0.2)});
+  LaserCorrections lasers(2);
+  lasers[0].elevation_rad = deg2rad(0.1);
+  lasers[1].elevation_rad = deg2rad(-0.2);
+  lasers[1].range_m = 0.0125;
+  const std::string text = mountingFormsText(m, lasers);
   EXPECT_NE(text.find("Rz(heading) * Ry(pitch) * Rx(roll)"), std::string::npos);
   EXPECT_NE(text.find("forward-left-up"), std::string::npos);
   EXPECT_NE(text.find("+1.362000 -1.087000 +2.252000 deg"), std::string::npos) << text;
-  EXPECT_NE(text.find("laser   1  -0.20000 deg"), std::string::npos) << text;
+  EXPECT_NE(text.find("      1         -0.20000       +0.00000    +0.0125"), std::string::npos) << text;
   const std::string json = mountingFormsJson(m);
   EXPECT_NE(json.find("\"forward-left-up\""), std::string::npos);
   EXPECT_NE(json.find("\"q_bore\""), std::string::npos);

@@ -389,6 +389,24 @@ TEST(Scenario, LaserErrorsAreDrawnForAMultiBeamPresetAndRefusedForALineScanner) 
   }
   std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"elevation_sigma_deg": 5}})";
   EXPECT_THROW(loadScenario(path, &c, &scene), FileError);  // 5°: not an error of a laser table
+  // The sensor's error preset: every group drawn with laserErrorPreset's σ, a key overriding one.
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"preset": "VLP-16", "range_sigma_m": 0.02, "seed": 4}})";
+  loadScenario(path, &c, &scene);
+  const LaserErrorSigmas p = laserErrorPreset("VLP-16");
+  const std::vector<LaserSpec> all = drawLaserErrors(16, 4, p.elevation_rad, p.azimuth_rad, p.vertical_m, 0.02, p.horizontal_m);
+  ASSERT_EQ(c.multibeam.laser_errors.size(), 16u);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    EXPECT_EQ(c.multibeam.laser_errors[i].range_offset_m, all[i].range_offset_m);
+    EXPECT_EQ(c.multibeam.laser_errors[i].horizontal_offset_m, all[i].horizontal_offset_m);
+    EXPECT_NE(all[i].horizontal_offset_m, 0.0);
+  }
+  std::ofstream(path) << R"({"preset": "uav-vlp16", "laser_errors": {"preset": "VLP-32"}})";
+  try {
+    loadScenario(path, &c, &scene);
+    FAIL() << "no such error preset";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("laser_errors.preset"), std::string::npos) << e.what();
+  }
   std::remove(path.c_str());
 }
 

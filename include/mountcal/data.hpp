@@ -11,6 +11,7 @@
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/core/mounting.hpp"
+#include "mountcal/core/sensor_model.hpp"
 #include "mountcal/observations.hpp"
 #include "mountcal/core/trajectory.hpp"
 

@@ -110,8 +110,8 @@ class MountingCalibrator {
       return t ? *t : empty;
     }
     bool uses(const std::string& method) const;
-    /// Per-laser elevation offsets a method estimated [rad] (empty: none).
-    std::vector<double> laserElevationOffsetsRad() const;
+    /// Per-laser intrinsics a method estimated, by laser id (empty: none).
+    LaserCorrections laserCorrections() const;
     std::string BriefReport() const;
     /// Ends with the verdict and its reasons.
     std::string FullReport() const;

@@ -200,7 +200,7 @@ int runApply(const std::string& job_path, const std::string& result_path, const 
     job.strips = keep;
   }
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
-  const std::vector<double> lasers = readResultLaserElevation(result_path);
+  const LaserCorrections lasers = readResultLaserCorrections(result_path);
   progress("rewriting the strips");
   const StripFormat f = format == "las" ? StripFormat::las : format == "laz" ? StripFormat::laz : StripFormat::same_as_input;
   const ApplyStats st = applyMounting(job, m, out, 1u << 20, lasers, f, other_inputs, threads < 0 ? 0 : threads);
@@ -235,7 +235,7 @@ int runEvaluate(const std::string& job_path, const std::string& result_path, con
   }
   const LoadedJob loaded = loadJob(job);
   const MountingParameters m = readResultMounting(result_path, job.mounting_used.R_nom);
-  const ResultEvaluation ev = evaluateJob(job, loaded, m, true, readResultLaserElevation(result_path));
+  const ResultEvaluation ev = evaluateJob(job, loaded, m, true, readResultLaserCorrections(result_path));
   if (!ev.any()) {
     std::fprintf(stderr, "mountcal evaluate: %s: the job names no check_points or check_planes, and no strips overlap\n", job_path.c_str());
     return 2;
@@ -532,7 +532,7 @@ Command addMounting(CLI::App& app) {
             if (!a->job.empty())
               R_nom = MountingParameters::fromDegrees(Vec3::Zero(), Vec3::Zero(), readJobNoting(a->job).nominal_rotation_deg).R_nom;
             const MountingParameters m = readResultMounting(a->result, R_nom);
-            const std::vector<double> lasers = readResultLaserElevation(a->result);
+            const LaserCorrections lasers = readResultLaserCorrections(a->result);
             std::printf("%s", (a->json ? mountingFormsJson(m, lasers) : mountingFormsText(m, lasers)).c_str());
             return withNotices(0);
           }};
@@ -647,9 +647,9 @@ int runQc(const std::string& job_path, const std::string& result_path, const std
   o.cell_size_m = cell;
   std::vector<std::string> ids;
   for (const StripData& st : loaded.data.strips) ids.push_back(st.id);
-  // After: with the result's per-laser elevation offsets, as apply writes the strips.
+  // After: with the result's per-laser intrinsics, as apply writes the strips.
   const std::vector<std::vector<Vec3>> xa = inJobFrame(
-      georeferencedStrips(loaded.data, after, result_path.empty() ? std::vector<double>{} : readResultLaserElevation(result_path)));
+      georeferencedStrips(loaded.data, after, result_path.empty() ? LaserCorrections{} : readResultLaserCorrections(result_path)));
   const SwathQcResult qc = swathQcOfPoints(ids, xb, xa, o);
   if (qc.pairs.empty() && pair.empty()) {  // one pair of a block's (--pair): no overlap is an answer, not an error
     std::fprintf(stderr, "mountcal qc: %s: no two strips share a smooth open cell of %.3g m or a sloped planar one of %.3g m\n",

@@ -31,7 +31,7 @@ MountingForm mountingForm(const MountingParameters& m, BodyAxes axes) {
   return f;
 }
 
-std::string mountingFormsText(const MountingParameters& m, const std::vector<double>& laser_elevation_offset_rad) {
+std::string mountingFormsText(const MountingParameters& m, const LaserCorrections& lasers) {
   std::ostringstream out;
   char b[256];
   out << "Conventions: R_bore = Rz(heading) * Ry(pitch) * Rx(roll), active, right-handed; R_bs = R_bore * R_nom maps the\n"
@@ -58,17 +58,20 @@ std::string mountingFormsText(const MountingParameters& m, const std::vector<dou
                   f.q_bs.y(), f.q_bs.z());
     out << b;
   }
-  if (!laser_elevation_offset_rad.empty()) {
-    out << "\nPer-laser elevation offsets (add to each laser's vertical angle, by laser id):\n";
-    for (std::size_t i = 0; i < laser_elevation_offset_rad.size(); ++i) {
-      std::snprintf(b, sizeof b, "  laser %3zu  %+.5f deg\n", i, rad2deg(laser_elevation_offset_rad[i]));
+  if (!lasers.empty()) {
+    out << "\nPer-laser intrinsics (add to each laser's table value, by laser id; docs/command-and-files.md maps them to\n"
+           "a driver's calibration file):\n  laser  elevation [deg]  azimuth [deg]  range [m]  vertical [m]  horizontal [m]\n";
+    for (std::size_t i = 0; i < lasers.size(); ++i) {
+      const LaserCorrection& l = lasers[i];
+      std::snprintf(b, sizeof b, "  %5zu  %+15.5f  %+13.5f  %+9.4f  %+12.4f  %+14.4f\n", i, rad2deg(l.elevation_rad),
+                    rad2deg(l.azimuth_rad), l.range_m, l.vertical_m, l.horizontal_m);
       out << b;
     }
   }
   return out.str();
 }
 
-std::string mountingFormsJson(const MountingParameters& m, const std::vector<double>& laser_elevation_offset_rad) {
+std::string mountingFormsJson(const MountingParameters& m, const LaserCorrections& lasers) {
   using nlohmann::json;
   auto vec = [](const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); };
   auto mat = [](const Mat3& R) {
@@ -92,10 +95,20 @@ std::string mountingFormsJson(const MountingParameters& m, const std::vector<dou
                          {"R_bs", mat(f.R_bs)},
                          {"q_bs", quat(f.q_bs)}};
   }
-  if (!laser_elevation_offset_rad.empty()) {
-    json off = json::array();
-    for (double v : laser_elevation_offset_rad) off.push_back(rad2deg(v));
-    j["laser_elevation_offset_deg"] = off;
+  if (!lasers.empty()) {
+    json e = json::array(), a = json::array(), r = json::array(), v = json::array(), h = json::array();
+    for (const LaserCorrection& l : lasers) {
+      e.push_back(rad2deg(l.elevation_rad));
+      a.push_back(rad2deg(l.azimuth_rad));
+      r.push_back(l.range_m);
+      v.push_back(l.vertical_m);
+      h.push_back(l.horizontal_m);
+    }
+    j["laser_elevation_offset_deg"] = e;
+    j["laser_azimuth_offset_deg"] = a;
+    j["laser_range_offset_m"] = r;
+    j["laser_vertical_offset_m"] = v;
+    j["laser_horizontal_offset_m"] = h;
   }
   return j.dump(2) + "\n";
 }

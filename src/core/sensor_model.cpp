@@ -1,5 +1,6 @@
 #include "mountcal/core/sensor_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "mountcal/core/error.hpp"
@@ -25,7 +26,7 @@ MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, 
   for (std::size_t i = 0; i < lasers_.size(); ++i) {
     const LaserSpec& l = lasers_[i];
     if (!std::isfinite(l.elevation_rad) || !std::isfinite(l.vertical_offset_m) || !std::isfinite(l.azimuth_offset_rad) ||
-        !std::isfinite(l.range_offset_m) || !std::isfinite(l.firing_offset_s)) {
+        !std::isfinite(l.range_offset_m) || !std::isfinite(l.firing_offset_s) || !std::isfinite(l.horizontal_offset_m)) {
       throw InvalidInput("multi-beam model '" + name_ + "': laser " + std::to_string(i) + " has a non-finite value");
     }
   }
@@ -77,19 +78,71 @@ Vec3 MultiBeamModel::vector(int laser_id, double azimuth_rad, double range_m) co
   const LaserSpec& l = laser(laser_id);
   const double rho = range_m + l.range_offset_m;
   const double alpha = azimuth_rad + l.azimuth_offset_rad;
-  const double c = std::cos(l.elevation_rad);
-  // SPEC §2 multi-beam (Velodyne manual convention)
-  return {rho * c * std::sin(alpha), rho * c * std::cos(alpha), rho * std::sin(l.elevation_rad) + l.vertical_offset_m};
+  const double c = std::cos(l.elevation_rad), sa = std::sin(alpha), ca = std::cos(alpha);
+  // SPEC §2 multi-beam (Velodyne manual convention; Glennie & Lichti 2010 eq. (1))
+  return {rho * c * sa - l.horizontal_offset_m * ca, rho * c * ca + l.horizontal_offset_m * sa,
+          rho * std::sin(l.elevation_rad) + l.vertical_offset_m};
 }
 
 void MultiBeamModel::inverse(const Vec3& r_s, int laser_id, double* azimuth_rad, double* range_m) const {
   const LaserSpec& l = laser(laser_id);
-  const Vec3 v(r_s.x(), r_s.y(), r_s.z() - l.vertical_offset_m);
-  double alpha = std::atan2(v.x(), v.y()) - l.azimuth_offset_rad;
-  alpha = std::fmod(alpha, 2 * kPi);
+  const Vec3 w(r_s.x(), r_s.y(), r_s.z() - l.vertical_offset_m);
+  // w_xy = a e + H J e with e = (sin α', cos α'), J e = (−e_y, e_x), a = ρ' cos ω:
+  // e = (a I − H J) w_xy / (a² + H²), a = √(|w_xy|² − H²).
+  const double H = l.horizontal_offset_m;
+  double alpha = std::atan2(w.x(), w.y()), rho = w.norm();
+  if (H != 0) {
+    const double a = std::sqrt(std::max(w.x() * w.x() + w.y() * w.y() - H * H, 0.0));
+    alpha = std::atan2(a * w.x() + H * w.y(), a * w.y() - H * w.x());
+    rho = std::hypot(a, w.z());
+  }
+  alpha = std::fmod(alpha - l.azimuth_offset_rad, 2 * kPi);
   if (alpha < 0) alpha += 2 * kPi;
   *azimuth_rad = alpha;
-  *range_m = v.norm() - l.range_offset_m;
+  *range_m = rho - l.range_offset_m;
+}
+
+LaserRay::LaserRay(const Vec3& r_s) : r(r_s), u(elevationTangent(r_s)), rho(r_s.norm()) {
+  const double h = std::hypot(r_s.x(), r_s.y());
+  if (h > 0) p = Vec3(-r_s.y() / h, r_s.x() / h, 0.0);
+}
+
+LaserCorrector::LaserCorrector(const LaserCorrection& c)
+    : c_(c),
+      cw_(std::cos(c.elevation_rad)),
+      sw_(std::sin(c.elevation_rad)),
+      ca_(std::cos(c.azimuth_rad)),
+      sa_(std::sin(c.azimuth_rad)),
+      elevation_only_(c.azimuth_rad == 0 && c.range_m == 0 && c.vertical_m == 0 && c.horizontal_m == 0) {}
+
+Vec3 LaserCorrector::apply(const LaserRay& ray, Eigen::Matrix<double, 3, 5>* jacobian) const {
+  const double k = ray.rho > 0 ? 1.0 + c_.range_m / ray.rho : 1.0;
+  const Vec3 beam = cw_ * ray.r + sw_ * ray.u;  // r(ω + δω), exactly: |u| = |r|, u ⟂ r
+  const Vec3 q = k * beam + c_.horizontal_m * ray.p;
+  Mat3 Rz;
+  Rz << ca_, sa_, 0, -sa_, ca_, 0, 0, 0, 1;  // (sin α, cos α) → (sin(α + δα), cos(α + δα))
+  if (jacobian) {
+    Mat3 dRz;
+    dRz << -sa_, ca_, 0, -ca_, -sa_, 0, 0, 0, 0;
+    jacobian->col(0) = Rz * (k * (-sw_ * ray.r + cw_ * ray.u));
+    jacobian->col(1) = dRz * q;
+    jacobian->col(2) = ray.rho > 0 ? Vec3(Rz * beam / ray.rho) : Vec3::Zero();
+    jacobian->col(3) = Vec3::UnitZ();
+    jacobian->col(4) = Rz * ray.p;
+  }
+  return Rz * q + Vec3(0, 0, c_.vertical_m);
+}
+
+Vec3 LaserCorrector::operator()(const Vec3& r_s) const {
+  if (elevation_only_) return cw_ * r_s + sw_ * elevationTangent(r_s);
+  return apply(LaserRay(r_s));
+}
+
+std::vector<LaserCorrector> laserCorrectors(const LaserCorrections& lasers) {
+  std::vector<LaserCorrector> out;
+  out.reserve(lasers.size());
+  for (const LaserCorrection& c : lasers) out.emplace_back(c);
+  return out;
 }
 
 SensorModel SensorModel::lineScanner(const LineScannerModel& m) {

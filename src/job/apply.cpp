@@ -26,13 +26,13 @@ namespace {
 /// Every input LAS file once, in job order, and the output path of each in `out_dir`; throws
 /// FileError before anything is written when an output would overwrite an input or another
 /// output, or when the result needs a field the job does not name.
-void planOutputs(const Job& job, const std::string& out_dir, const std::vector<double>& laser_elevation_rad, StripFormat format,
+void planOutputs(const Job& job, const std::string& out_dir, const LaserCorrections& lasers, StripFormat format,
                  const std::vector<std::string>& also_inputs, std::vector<std::string>* inputs_out, std::vector<std::string>* outputs_out) {
   std::vector<std::string>& inputs = *inputs_out;
   std::vector<std::string>& outputs = *outputs_out;
-  if (!laser_elevation_rad.empty() && job.laser_field.empty()) {
+  if (!lasers.empty() && job.laser_field.empty()) {
     throw FileError(job.path, "field 'sensor.laser_field'",
-                    "the result has per-laser elevation offsets; the job must name the field holding each point's laser id");
+                    "the result has per-laser intrinsics; the job must name the field holding each point's laser id");
   }
   // Every input file once, in job order; every output checked against every input first.
   for (const JobStrip& js : job.strips) {
@@ -71,18 +71,18 @@ std::unique_ptr<io::PoseFieldReader> poseReader(const Job& job, const io::LasHea
 /// One input file re-georeferenced into its output: from the mounting the job used to `mounting`.
 class FileApplier {
  public:
-  FileApplier(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, const std::vector<double>& laser_elevation_rad,
+  FileApplier(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, const LaserCorrections& lasers,
               const std::string& in_path, const std::string& out_path, std::size_t chunk_points)
       : job_(job),
         loaded_(loaded),
         mounting_(mounting),
-        laser_elevation_rad_(laser_elevation_rad),
+        lasers_(laserCorrectors(lasers)),
         in_path_(in_path),
         chunk_points_(chunk_points),
         frame_(loaded.frame.forAnotherThread()),
         reader_(in_path),
         poses_(poseReader(job, reader_.header(), in_path)),
-        laser_(laser_elevation_rad.empty() ? nullptr : std::make_unique<io::PointFieldReader>(reader_.header(), in_path, job.laser_field)),
+        laser_(lasers.empty() ? nullptr : std::make_unique<io::PointFieldReader>(reader_.header(), in_path, job.laser_field)),
         writer_(out_path, reader_.header()) {}
 
   /// Rewrites the file into a temporary file beside its output; returns the statistics and, in
@@ -203,11 +203,11 @@ class FileApplier {
         Vec3 r_s = inverseGeoreference(pose, R_bs0, job_.mounting_used.a_b, frame_.toLocal(x_crs));
         if (laser_) {
           const double id = laser_->value(p);
-          if (!(id >= 0 && id < static_cast<double>(laser_elevation_rad_.size()))) {
+          if (!(id >= 0 && id < static_cast<double>(lasers_.size()))) {
             throw FileError(in_path_, "record " + std::to_string(record),
-                            "laser id " + std::to_string(id) + " has no elevation offset in the result");
+                            "laser id " + std::to_string(id) + " has no intrinsics in the result");
           }
-          r_s = elevateLaserVector(r_s, laser_elevation_rad_[static_cast<std::size_t>(id)]);
+          r_s = lasers_[static_cast<std::size_t>(id)](r_s);
         }
         const Vec3 x_new = frame_.fromLocal(georeference(pose, R_bs1, mounting_.a_b, r_s));
         stats.max_shift_m = std::max(stats.max_shift_m, (x_new - x_crs).norm());
@@ -224,7 +224,7 @@ class FileApplier {
   const Job& job_;
   const LoadedJob& loaded_;
   const MountingParameters& mounting_;
-  const std::vector<double>& laser_elevation_rad_;
+  std::vector<LaserCorrector> lasers_;
   const std::string& in_path_;
   const std::size_t chunk_points_;
   const JobFrame frame_;
@@ -237,10 +237,9 @@ class FileApplier {
 }  // namespace
 
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir, std::size_t chunk_points,
-                         const std::vector<double>& laser_elevation_rad, StripFormat format, const std::vector<std::string>& also_inputs,
-                         int threads) {
+                         const LaserCorrections& lasers, StripFormat format, const std::vector<std::string>& also_inputs, int threads) {
   std::vector<std::string> inputs, outputs;
-  planOutputs(job, out_dir, laser_elevation_rad, format, also_inputs, &inputs, &outputs);
+  planOutputs(job, out_dir, lasers, format, also_inputs, &inputs, &outputs);
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw FileError(out_dir, "", "cannot create the output folder: " + ec.message());
@@ -252,7 +251,7 @@ ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, con
   std::vector<std::string> temporaries(inputs.size());
   try {
     detail::parallelFor(inputs.size(), threads, [&](std::size_t f) {
-      per_file[f] = FileApplier(job, loaded, mounting, laser_elevation_rad, inputs[f], outputs[f], chunk_points).run(&temporaries[f]);
+      per_file[f] = FileApplier(job, loaded, mounting, lasers, inputs[f], outputs[f], chunk_points).run(&temporaries[f]);
     });
   } catch (...) {
     for (const std::string& t : temporaries)

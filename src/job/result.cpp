@@ -12,21 +12,22 @@ namespace mountcal {
 
 using nlohmann::json;
 
-void applyLaserElevation(CalibrationData* data, const std::vector<double>& offsets) {
-  if (offsets.empty()) return;
+void applyLaserCorrections(CalibrationData* data, const LaserCorrections& lasers) {
+  if (lasers.empty()) return;
+  const std::vector<LaserCorrector> correct = laserCorrectors(lasers);
   for (StripData& s : data->strips) {
     if (s.laser.empty()) continue;
     for (std::size_t i = 0; i < s.r_s.size(); ++i) {
-      if (s.laser[i] >= offsets.size())
-        throw InvalidInput("strip '" + s.id + "': laser id " + std::to_string(s.laser[i]) + " has no elevation offset");
-      s.r_s[i] = elevateLaserVector(s.r_s[i], offsets[s.laser[i]]);
+      if (s.laser[i] >= lasers.size())
+        throw InvalidInput("strip '" + s.id + "': laser id " + std::to_string(s.laser[i]) + " has no intrinsics");
+      s.r_s[i] = correct[s.laser[i]](s.r_s[i]);
     }
     s.x_m.clear();
   }
 }
 
 ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy,
-                             const std::vector<double>& laser_elevation_rad) {
+                             const LaserCorrections& lasers) {
   ResultEvaluation ev;
   CalibrationData check = loaded.data;
   check.ties = loadCheckPoints(job, loaded);
@@ -42,11 +43,11 @@ ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const Moun
   }
   if ((discrepancy || job.per_point_poses) && loaded.data.strips.size() >= 2) {
     DiscrepancyReport before = discrepancyReport(loaded.data, job.mounting_used), after;
-    if (laser_elevation_rad.empty()) {
+    if (lasers.empty()) {
       after = discrepancyReport(loaded.data, mounting);
     } else {
       CalibrationData d = loaded.data;
-      applyLaserElevation(&d, laser_elevation_rad);
+      applyLaserCorrections(&d, lasers);
       after = discrepancyReport(d, mounting);
     }
     ev.discrepancy_before = std::move(before.pairs);
@@ -238,20 +239,38 @@ namespace {
 json readResultFile(const std::string& path) { return detail::parseJsonFile(path, "result"); }
 }  // namespace
 
-std::vector<double> readResultLaserElevation(const std::string& path) {
+LaserCorrections readResultLaserCorrections(const std::string& path) {
   const json j = readResultFile(path);
-  std::vector<double> out;
+  LaserCorrections out;
   if (!j.is_object() || !j.contains("intrinsics") || j["intrinsics"].is_null()) return out;
   const json& intrinsics = j["intrinsics"];
-  if (!intrinsics.is_object() || !intrinsics.contains("laser_elevation_offset_deg") ||
-      !intrinsics["laser_elevation_offset_deg"].is_array() || intrinsics["laser_elevation_offset_deg"].size() > 4096) {
-    throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected an array of numbers, one per laser");
-  }
-  for (const json& v : intrinsics["laser_elevation_offset_deg"]) {
-    if (!v.is_number() || !std::isfinite(v.get<double>()) || std::abs(v.get<double>()) > 10) {
-      throw FileError(path, "field 'intrinsics.laser_elevation_offset_deg'", "expected offsets in degrees within ±10");
+  if (!intrinsics.is_object()) throw FileError(path, "field 'intrinsics'", "expected an object of per-laser arrays");
+  struct Group {
+    const char* key;
+    double limit, scale;  // |value| ≤ limit in the file's unit; × scale to the library's
+    double LaserCorrection::*field;
+  };
+  const Group groups[] = {{"laser_elevation_offset_deg", 10, kPi / 180, &LaserCorrection::elevation_rad},
+                          {"laser_azimuth_offset_deg", 10, kPi / 180, &LaserCorrection::azimuth_rad},
+                          {"laser_range_offset_m", 1, 1, &LaserCorrection::range_m},
+                          {"laser_vertical_offset_m", 1, 1, &LaserCorrection::vertical_m},
+                          {"laser_horizontal_offset_m", 1, 1, &LaserCorrection::horizontal_m}};
+  for (const Group& g : groups) {
+    if (!intrinsics.contains(g.key)) continue;
+    const json& a = intrinsics[g.key];
+    const std::string field = std::string("field 'intrinsics.") + g.key + "'";
+    if (!a.is_array() || a.empty() || a.size() > 4096) throw FileError(path, field, "expected an array of numbers, one per laser");
+    if (!out.empty() && a.size() != out.size())
+      throw FileError(path, field,
+                      std::to_string(a.size()) + " lasers, where another group of the intrinsics has " + std::to_string(out.size()));
+    out.resize(a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()) || std::abs(a[i].get<double>()) > g.limit) {
+        throw FileError(path, field + " laser " + std::to_string(i),
+                        std::string("expected a number within ±") + (g.scale == 1 ? "1 m" : "10 degrees"));
+      }
+      out[i].*g.field = a[i].get<double>() * g.scale;
     }
-    out.push_back(deg2rad(v.get<double>()));
   }
   return out;
 }
@@ -268,7 +287,7 @@ MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom
 JobCalibration calibrateJob(const Job& job, const LoadedJob& loaded, bool evaluate) {
   JobCalibration out;
   out.summary = MountingCalibrator(job.options).calibrate(loaded.data);
-  if (evaluate) out.evaluation = evaluateJob(job, loaded, out.summary.mounting, false, out.summary.laserElevationOffsetsRad());
+  if (evaluate) out.evaluation = evaluateJob(job, loaded, out.summary.mounting, false, out.summary.laserCorrections());
   out.result_json = resultJson(out.summary, out.evaluation.any() ? &out.evaluation : nullptr);
   return out;
 }

@@ -50,14 +50,16 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
       if (!lasers.is_array() || lasers.empty()) sensor.fail("lasers", "expected a non-empty array of lasers");
       std::vector<LaserSpec> specs;
       for (std::size_t i = 0; i < lasers.size(); ++i) {
-        const Fields l(path, lasers[i], "sensor.lasers[" + std::to_string(i) + "]",
-                       {"elevation_deg", "vertical_offset_m", "azimuth_offset_deg", "range_offset_m", "firing_offset_s"});
+        const Fields l(
+            path, lasers[i], "sensor.lasers[" + std::to_string(i) + "]",
+            {"elevation_deg", "vertical_offset_m", "azimuth_offset_deg", "range_offset_m", "firing_offset_s", "horizontal_offset_m"});
         LaserSpec s;
         s.elevation_rad = deg2rad(l.num("elevation_deg"));
         s.vertical_offset_m = l.num("vertical_offset_m", 0.0);
         s.azimuth_offset_rad = deg2rad(l.num("azimuth_offset_deg", 0.0));
         s.range_offset_m = l.num("range_offset_m", 0.0);
         s.firing_offset_s = l.num("firing_offset_s", 0.0);
+        s.horizontal_offset_m = l.num("horizontal_offset_m", 0.0);
         specs.push_back(s);
       }
       job->sensor_model = sensor.str("model", "custom");
@@ -577,6 +579,7 @@ json sensorJson(const Job& job) {
                             {"azimuth_offset_deg", rad2deg(l.azimuth_offset_rad)},
                             {"range_offset_m", l.range_offset_m},
                             {"firing_offset_s", l.firing_offset_s}});
+          if (l.horizontal_offset_m != 0) lasers.back()["horizontal_offset_m"] = l.horizontal_offset_m;
         }
         sensor["lasers"] = lasers;
       }

@@ -174,12 +174,14 @@ void writeSimulatedTruth(const SimulatedSurvey& survey, const std::string& dir) 
     nlohmann::json e = {{"elevation_deg", nlohmann::json::array()},
                         {"azimuth_deg", nlohmann::json::array()},
                         {"vertical_offset_m", nlohmann::json::array()},
-                        {"range_offset_m", nlohmann::json::array()}};
+                        {"range_offset_m", nlohmann::json::array()},
+                        {"horizontal_offset_m", nlohmann::json::array()}};
     for (const LaserSpec& l : c.multibeam.laser_errors) {
       e["elevation_deg"].push_back(rad2deg(l.elevation_rad));
       e["azimuth_deg"].push_back(rad2deg(l.azimuth_offset_rad));
       e["vertical_offset_m"].push_back(l.vertical_offset_m);
       e["range_offset_m"].push_back(l.range_offset_m);
+      e["horizontal_offset_m"].push_back(l.horizontal_offset_m);
     }
     truth["laser_errors"] = e;
   }

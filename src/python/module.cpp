@@ -452,10 +452,26 @@ void bindSummary(py::module_& m) {
       .def_property_readonly("verdict_reasons", [](const S& x) { return x.s->verdict().reasons; })
       .def_property_readonly("laser_elevation_offsets_deg",
                              [](const S& x) {
-                               std::vector<double> v = x.s->laserElevationOffsetsRad();
-                               for (double& d : v) d *= kDeg;
+                               std::vector<double> v;
+                               for (const LaserCorrection& l : x.s->laserCorrections()) v.push_back(l.elevation_rad * kDeg);
                                return fromVector(v);
                              })
+      .def_property_readonly(
+          "laser_intrinsics",
+          [](const S& x) {
+            std::vector<double> e, a, r, v, h;
+            for (const LaserCorrection& l : x.s->laserCorrections()) {
+              e.push_back(l.elevation_rad * kDeg);
+              a.push_back(l.azimuth_rad * kDeg);
+              r.push_back(l.range_m);
+              v.push_back(l.vertical_m);
+              h.push_back(l.horizontal_m);
+            }
+            return py::dict(py::arg("elevation_deg") = fromVector(e), py::arg("azimuth_deg") = fromVector(a),
+                            py::arg("range_m") = fromVector(r), py::arg("vertical_m") = fromVector(v),
+                            py::arg("horizontal_m") = fromVector(h));
+          },
+          "Per-laser intrinsics by laser id (arrays; zero for a group not estimated; empty: none).")
       .def_property_readonly(
           "kinds",
           [](const S& x) {

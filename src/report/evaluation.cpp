@@ -217,26 +217,27 @@ std::vector<Used> distances(const std::vector<Vec3>& query, const std::vector<Ve
 }  // namespace
 
 std::vector<Vec3> georeferencedStrip(const CalibrationData& data, const StripData& st, const MountingParameters& m,
-                                     const std::vector<double>& laser_elevation_rad) {
+                                     const LaserCorrections& lasers) {
   data.requirePoses();
   const Mat3 R_bs = m.R_bs();
-  const bool turn = !laser_elevation_rad.empty() && st.laser.size() == st.r_s.size();
+  const bool turn = !lasers.empty() && st.laser.size() == st.r_s.size();
+  const std::vector<LaserCorrector> correct = laserCorrectors(lasers);
   std::vector<Vec3> x(st.r_s.size());
   std::size_t cursor = 0;
   for (std::size_t i = 0; i < st.r_s.size(); ++i) {
-    if (turn && st.laser[i] >= laser_elevation_rad.size())
-      throw InvalidInput("strip '" + st.id + "': laser id " + std::to_string(st.laser[i]) + " has no elevation offset");
-    const Vec3 r = turn ? elevateLaserVector(st.r_s[i], laser_elevation_rad[st.laser[i]]) : st.r_s[i];
+    if (turn && st.laser[i] >= lasers.size())
+      throw InvalidInput("strip '" + st.id + "': laser id " + std::to_string(st.laser[i]) + " has no intrinsics");
+    const Vec3 r = turn ? correct[st.laser[i]](st.r_s[i]) : st.r_s[i];
     x[i] = georeference(data.pose(st, i, &cursor), R_bs, m.a_b, r);
   }
   return x;
 }
 
 std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& m,
-                                                   const std::vector<double>& laser_elevation_rad) {
+                                                   const LaserCorrections& lasers) {
   data.requirePoses();
   std::vector<std::vector<Vec3>> x;
-  for (const StripData& st : data.strips) x.push_back(georeferencedStrip(data, st, m, laser_elevation_rad));
+  for (const StripData& st : data.strips) x.push_back(georeferencedStrip(data, st, m, lasers));
   return x;
 }
 

@@ -759,7 +759,7 @@ std::string visualReport(const MountingCalibrator::Summary& summary, const Calib
     try {
       SwathQcOptions qo;
       qo.point_to_plane = false;  // the dZ measures only: the report stays quick (`mountcal qc` has all)
-      v << swathQcSection(swathQc(data, summary.mounting_used, summary.mounting, qo, summary.laserElevationOffsetsRad()));
+      v << swathQcSection(swathQc(data, summary.mounting_used, summary.mounting, qo, summary.laserCorrections()));
     } catch (const InvalidInput& e) {
       v << "<h2>Swath QC</h2><p>Not measured: " << detail::htmlEscape(e.what()) << "</p>";
     }

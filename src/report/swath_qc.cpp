@@ -488,10 +488,10 @@ SwathQcResult mergeSwathQc(const std::vector<SwathQcResult>& parts, const std::v
 }
 
 SwathQcResult swathQc(const CalibrationData& data, const MountingParameters& before, const MountingParameters& after,
-                      const SwathQcOptions& options, const std::vector<double>& laser_elevation_after_rad) {
+                      const SwathQcOptions& options, const LaserCorrections& lasers_after) {
   std::vector<std::string> ids;
   for (const StripData& st : data.strips) ids.push_back(st.id);
-  return swathQcOfPoints(ids, georeferencedStrips(data, before), georeferencedStrips(data, after, laser_elevation_after_rad), options);
+  return swathQcOfPoints(ids, georeferencedStrips(data, before), georeferencedStrips(data, after, lasers_after), options);
 }
 
 SwathQcResult swathQcOfPoints(const std::vector<std::string>& ids, const std::vector<std::vector<Vec3>>& xb,

@@ -102,8 +102,9 @@ void validate(const SurveyConfig& c) {
     }
     for (const LaserSpec& l : e) {
       if (!std::isfinite(l.elevation_rad) || !std::isfinite(l.azimuth_offset_rad) || !std::isfinite(l.vertical_offset_m) ||
-          !std::isfinite(l.range_offset_m) || std::abs(l.elevation_rad) > 0.1 || std::abs(l.azimuth_offset_rad) > 0.1 ||
-          std::abs(l.vertical_offset_m) > 1.0 || std::abs(l.range_offset_m) > 1.0)
+          !std::isfinite(l.range_offset_m) || !std::isfinite(l.horizontal_offset_m) || std::abs(l.elevation_rad) > 0.1 ||
+          std::abs(l.azimuth_offset_rad) > 0.1 || std::abs(l.vertical_offset_m) > 1.0 || std::abs(l.range_offset_m) > 1.0 ||
+          std::abs(l.horizontal_offset_m) > 1.0)
         throw InvalidInput("survey '" + c.name + "': a laser error beyond 0.1 rad or 1 m (or not finite)");
     }
   } else {
@@ -584,7 +585,9 @@ class LineSimulator {
         const double ce = std::cos(spec.elevation_rad);
         const double alpha = raw.angle_rad + spec.azimuth_offset_rad;
         const Vec3 dir_s(ce * std::sin(alpha), ce * std::cos(alpha), std::sin(spec.elevation_rad));
-        const Vec3 origin_s(0, 0, spec.vertical_offset_m);  // r_s = ρ' u + (0,0,offset)
+        // r_s = ρ' u + H (−cos α', sin α', 0) + (0, 0, V) (MultiBeamModel::vector)
+        const Vec3 origin_s(-spec.horizontal_offset_m * std::cos(alpha), spec.horizontal_offset_m * std::sin(alpha),
+                            spec.vertical_offset_m);
         Vec3 origin, dir;
         if (e_true.exact) {
           const Pose truth = T_true.interpolateInInterval(i, t);
@@ -723,7 +726,7 @@ CalibrationData toCalibrationData(const SimulatedSurvey& survey, bool use_check_
 }
 
 std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double elevation_sigma_rad, double azimuth_sigma_rad,
-                                       double vertical_sigma_m, double range_sigma_m) {
+                                       double vertical_sigma_m, double range_sigma_m, double horizontal_sigma_m) {
   if (lasers <= 0) return {};
   detail::Rng rng(seed);
   std::vector<LaserSpec> e(static_cast<std::size_t>(lasers));
@@ -733,6 +736,8 @@ std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double el
     l.azimuth_offset_rad = azimuth_sigma_rad * rng.normal();
     l.vertical_offset_m = vertical_sigma_m * rng.normal();
     l.range_offset_m = range_sigma_m * rng.normal();
+    // Drawn last and only when asked for, so that a seed draws the other groups as before.
+    if (horizontal_sigma_m > 0) l.horizontal_offset_m = horizontal_sigma_m * rng.normal();
     mean.elevation_rad += l.elevation_rad / lasers;
     mean.azimuth_offset_rad += l.azimuth_offset_rad / lasers;
     mean.vertical_offset_m += l.vertical_offset_m / lasers;
@@ -742,6 +747,52 @@ std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double el
     l.elevation_rad -= mean.elevation_rad;
     l.azimuth_offset_rad -= mean.azimuth_offset_rad;
     l.vertical_offset_m -= mean.vertical_offset_m;
+  }
+  return e;
+}
+
+LaserErrorSigmas laserErrorPreset(const std::string& sensor_model) {
+  LaserErrorSigmas s;
+  s.elevation_rad = s.azimuth_rad = deg2rad(0.05);
+  s.vertical_m = s.horizontal_m = 0.005;
+  if (sensor_model == "VLP-16") {
+    s.range_m = 0.010;
+  } else if (sensor_model == "HDL-32E") {
+    s.range_m = 0.007;
+  } else {
+    throw InvalidInput("laser error preset '" + sensor_model + "': expected \"VLP-16\" or \"HDL-32E\"");
+  }
+  return s;
+}
+
+std::vector<LaserSpec> drawLaserErrorsOnSeenLasers(const SurveyConfig& config, const Scene& scene, std::uint64_t seed,
+                                                   const LaserErrorSigmas& sigmas, int min_points) {
+  SurveyConfig clean = config;
+  clean.multibeam.laser_errors.clear();
+  const int L = clean.multibeam.model.laserCount();
+  std::vector<int> points(static_cast<std::size_t>(L), 0);
+  for (const SimulatedStrip& st : simulate(clean, scene).strips)
+    for (const RawPulse& q : st.pulses)
+      if (q.laser_id >= 0 && q.laser_id < L) ++points[static_cast<std::size_t>(q.laser_id)];
+  std::vector<LaserSpec> e =
+      drawLaserErrors(L, seed, sigmas.elevation_rad, sigmas.azimuth_rad, sigmas.vertical_m, sigmas.range_m, sigmas.horizontal_m);
+  LaserSpec mean;
+  int seen = 0;
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    if (points[i] < min_points) {
+      e[i] = LaserSpec{};
+      continue;
+    }
+    ++seen;
+    mean.elevation_rad += e[i].elevation_rad;
+    mean.azimuth_offset_rad += e[i].azimuth_offset_rad;
+    mean.vertical_offset_m += e[i].vertical_offset_m;
+  }
+  for (std::size_t i = 0; i < e.size() && seen > 0; ++i) {
+    if (points[i] < min_points) continue;
+    e[i].elevation_rad -= mean.elevation_rad / seen;
+    e[i].azimuth_offset_rad -= mean.azimuth_offset_rad / seen;
+    e[i].vertical_offset_m -= mean.vertical_offset_m / seen;
   }
   return e;
 }
@@ -758,6 +809,7 @@ MultiBeamModel firedModel(const MultiBeamConfig& config) {
     l.azimuth_offset_rad += e.azimuth_offset_rad;
     l.vertical_offset_m += e.vertical_offset_m;
     l.range_offset_m += e.range_offset_m;
+    l.horizontal_offset_m += e.horizontal_offset_m;
   }
   return m;
 }

@@ -70,15 +70,25 @@ std::uint64_t readSeed(const detail::Fields& f, const std::string& key, std::uin
   return static_cast<std::uint64_t>(seed);
 }
 
-/// "laser_errors": {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m",
-/// "range_sigma_m", "seed"} — per-laser errors of a multi-beam sensor drawn by drawLaserErrors.
+/// "laser_errors": {"preset", "elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m",
+/// "range_sigma_m", "horizontal_sigma_m", "seed"} — per-laser errors of a multi-beam sensor drawn
+/// by drawLaserErrors; "preset" ("VLP-16", "HDL-32E": laserErrorPreset) sets the σ the other keys
+/// do not give.
 void readLaserErrors(const detail::Fields& top, SurveyConfig* config) {
   if (config->sensor != SensorType::kMultiBeam) top.fail("laser_errors", "the preset's sensor is not a multi-beam scanner");
-  const detail::Fields e =
-      top.sub("laser_errors", {"elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m", "range_sigma_m", "seed"});
+  const detail::Fields e = top.sub("laser_errors", {"preset", "elevation_sigma_deg", "azimuth_sigma_deg", "vertical_sigma_m",
+                                                    "range_sigma_m", "horizontal_sigma_m", "seed"});
+  LaserErrorSigmas s;
+  if (e.has("preset")) {
+    const std::string name = e.str("preset");
+    if (name != "VLP-16" && name != "HDL-32E") e.fail("preset", "expected \"VLP-16\" or \"HDL-32E\"");
+    s = laserErrorPreset(name);
+  }
   config->multibeam.laser_errors = drawLaserErrors(
-      config->multibeam.model.laserCount(), readSeed(e, "seed", 1), deg2rad(e.num("elevation_sigma_deg", 0.0, 0.0, 1.0)),
-      deg2rad(e.num("azimuth_sigma_deg", 0.0, 0.0, 1.0)), e.num("vertical_sigma_m", 0.0, 0.0, 0.1), e.num("range_sigma_m", 0.0, 0.0, 0.1));
+      config->multibeam.model.laserCount(), readSeed(e, "seed", 1),
+      deg2rad(e.num("elevation_sigma_deg", rad2deg(s.elevation_rad), 0.0, 1.0)),
+      deg2rad(e.num("azimuth_sigma_deg", rad2deg(s.azimuth_rad), 0.0, 1.0)), e.num("vertical_sigma_m", s.vertical_m, 0.0, 0.1),
+      e.num("range_sigma_m", s.range_m, 0.0, 0.1), e.num("horizontal_sigma_m", s.horizontal_m, 0.0, 0.1));
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "mountcal/core/mounting.hpp"
+#include "mountcal/core/sensor_model.hpp"
 
 namespace mountcal {
 
@@ -43,9 +44,9 @@ MountingForm mountingForm(const MountingParameters& mounting, BodyAxes axes);
 
 /// Every form as text: lever arm, boresight angles in degrees and radians, rotation matrices
 /// and quaternions, in FRD and FLU axes; and the per-laser elevation offsets when given [rad].
-std::string mountingFormsText(const MountingParameters& mounting, const std::vector<double>& laser_elevation_offset_rad = {});
+std::string mountingFormsText(const MountingParameters& mounting, const LaserCorrections& lasers = {});
 
 /// The same as a JSON object's text (for `mountcal mounting --json`).
-std::string mountingFormsJson(const MountingParameters& mounting, const std::vector<double>& laser_elevation_offset_rad = {});
+std::string mountingFormsJson(const MountingParameters& mounting, const LaserCorrections& lasers = {});
 
 }  // namespace mountcal

@@ -37,11 +37,12 @@ struct LineScannerModel {
 
 /// One laser of a multi-beam scanner.
 struct LaserSpec {
-  double elevation_rad = 0.0;       ///< vertical angle ω_i [rad], positive up
-  double vertical_offset_m = 0.0;   ///< added to the z component of r_s [m]
-  double azimuth_offset_rad = 0.0;  ///< added to the encoder azimuth [rad]
-  double range_offset_m = 0.0;      ///< added to the measured range [m]
-  double firing_offset_s = 0.0;     ///< firing time after the start of its sequence [s]
+  double elevation_rad = 0.0;        ///< vertical angle ω_i [rad], positive up
+  double vertical_offset_m = 0.0;    ///< added to the z component of r_s [m]
+  double azimuth_offset_rad = 0.0;   ///< added to the encoder azimuth [rad]
+  double range_offset_m = 0.0;       ///< added to the measured range [m]
+  double firing_offset_s = 0.0;      ///< firing time after the start of its sequence [s]
+  double horizontal_offset_m = 0.0;  ///< the laser's origin off the spin axis, across the beam [m]
 };
 
 /// ∂r/∂ω of a multi-beam laser vector r = ρ(cos ω sin α, cos ω cos α, sin ω) (SPEC §2):
@@ -51,17 +52,59 @@ inline Vec3 elevationTangent(const Vec3& r) {
   if (h <= 0.0) return Vec3::Zero();
   return Vec3(-r.z() * r.x() / h, -r.z() * r.y() / h, h);
 }
-/// The laser vector with its elevation offset by δ (a per-laser elevation intrinsic), azimuth
-/// and range kept: r(ω + δ) = cos δ · r + sin δ · ∂r/∂ω, exactly.
-inline Vec3 elevateLaserVector(const Vec3& r, double delta) {
-  if (delta == 0.0) return r;
-  return std::cos(delta) * r + std::sin(delta) * elevationTangent(r);
-}
 
-/// Multi-beam spinning scanner in the Velodyne manual convention:
-/// `r_s = ρ' · (cos ω_i sin α', cos ω_i cos α', sin ω_i) + (0, 0, vertical_offset_i)`,
+/// The per-laser intrinsics of a spinning multi-beam scanner as corrections to its laser table
+/// (Glennie & Lichti 2010, eq. (1); OA-LICalib's six parameters less the range scale): a laser
+/// fires at elevation ω + δω and azimuth α + δα, measures ρ + δρ, from an origin moved by δH
+/// across its beam and δV along the spin axis. Result files carry them per laser id
+/// (`intrinsics`, docs/command-and-files.md).
+struct LaserCorrection {
+  double elevation_rad = 0.0;  ///< δω [rad], positive up
+  double azimuth_rad = 0.0;    ///< δα [rad], clockwise seen from above (as α)
+  double range_m = 0.0;        ///< δρ [m]
+  double vertical_m = 0.0;     ///< δV [m], along the spin axis (+z)
+  double horizontal_m = 0.0;   ///< δH [m], across the beam: along (−cos α, sin α, 0)
+  bool isZero() const { return elevation_rad == 0 && azimuth_rad == 0 && range_m == 0 && vertical_m == 0 && horizontal_m == 0; }
+};
+/// One correction per laser id; empty: none.
+using LaserCorrections = std::vector<LaserCorrection>;
+
+/// A measured laser vector split into what the corrections act on (taken from the scanner's
+/// origin: the table's own origin offsets v_i, H_i enter only to second order, |v_i| δ ≤ 0.2 mm
+/// for |v_i| ≤ 0.1 m and δ ≤ 0.1°): the beam r, its elevation tangent u = ∂r/∂ω (|u| = |r|),
+/// the unit across-beam vector p and the range ρ = |r|.
+struct LaserRay {
+  Vec3 r = Vec3::Zero(), u = Vec3::Zero(), p = Vec3::Zero();
+  double rho = 0.0;
+  explicit LaserRay(const Vec3& r_s);
+};
+
+/// One laser's correction with its trigonometry done once, for the many points of that laser:
+/// r' = R_z(δα) [(1 + δρ/ρ)(cos δω r + sin δω u) + δH p] + δV e_z, exactly (R_z(δα) turns α to
+/// α + δα; cos δω r + sin δω u is r(ω + δω)).
+class LaserCorrector {
+ public:
+  LaserCorrector() = default;
+  explicit LaserCorrector(const LaserCorrection& c);
+  /// The corrected vector; `jacobian` (optional) receives ∂r'/∂(δω, δα, δρ, δV, δH).
+  Vec3 apply(const LaserRay& ray, Eigen::Matrix<double, 3, 5>* jacobian = nullptr) const;
+  /// The corrected laser vector of a measured one.
+  Vec3 operator()(const Vec3& r_s) const;
+
+ private:
+  LaserCorrection c_;
+  double cw_ = 1, sw_ = 0, ca_ = 1, sa_ = 0;
+  bool elevation_only_ = true;
+};
+/// The laser vector with its laser's corrections applied (LaserCorrector).
+inline Vec3 correctLaserVector(const Vec3& r_s, const LaserCorrection& c) { return c.isZero() ? r_s : LaserCorrector(c)(r_s); }
+/// One corrector per laser id.
+std::vector<LaserCorrector> laserCorrectors(const LaserCorrections& lasers);
+
+/// Multi-beam spinning scanner in the Velodyne manual convention (Glennie & Lichti 2010 eq. (1)):
+/// `r_s = ρ' · (cos ω_i sin α', cos ω_i cos α', sin ω_i) + H_i (−cos α', sin α', 0) + (0, 0, V_i)`,
 /// α measured clockwise from the sensor's +y (looking down on the sensor), ρ' = ρ + range
-/// offset, α' = α + azimuth offset.
+/// offset, α' = α + azimuth offset, H_i the horizontal and V_i the vertical offset.
 class MultiBeamModel {
  public:
   MultiBeamModel() = default;

@@ -32,11 +32,11 @@ enum class StripFormat { same_as_input, las, laz };
 /// FileError, before anything is written, for raw CSV strips (they cannot be rewritten), two
 /// inputs with the same file name, or an output that would be one of the job's inputs
 /// (`jobInputPaths`) or of `also_inputs` (e.g. the result file read).
-/// `laser_elevation_rad` (by laser id, a result's intrinsics) turns each laser vector by its
-/// laser's elevation offset before georeferencing; it needs the job's `sensor.laser_field`.
+/// `lasers` (by laser id, a result's intrinsics) corrects each laser vector by its laser's
+/// intrinsics (correctLaserVector) before georeferencing; it needs the job's `sensor.laser_field`.
 /// `threads`: files rewritten at once (0: every core); each file's bytes do not depend on it.
 ApplyStats applyMounting(const Job& job, const MountingParameters& mounting, const std::string& out_dir,
-                         std::size_t chunk_points = 1u << 20, const std::vector<double>& laser_elevation_rad = {},
+                         std::size_t chunk_points = 1u << 20, const LaserCorrections& lasers = {},
                          StripFormat format = StripFormat::same_as_input, const std::vector<std::string>& also_inputs = {},
                          int threads = 0);
 

@@ -27,7 +27,7 @@ struct ResultEvaluation {
 /// `discrepancy` (or in a job with per-point poses, whose strips are passes over one object)
 /// also the pass-to-pass discrepancy of every strip pair. `any()` is false when there is none.
 ResultEvaluation evaluateJob(const Job& job, const LoadedJob& loaded, const MountingParameters& mounting, bool discrepancy = false,
-                             const std::vector<double>& laser_elevation_rad = {});
+                             const LaserCorrections& lasers = {});
 
 /// The result file of SPEC §4 as JSON text: the keys of SPEC §4 for every method (`ties` and
 /// `residuals` hold the tie section, empty without VTPM), `methods`, `kinds`, and one section
@@ -51,13 +51,16 @@ JobCalibration calibrateJob(const Job& job, const LoadedJob& loaded, bool evalua
 /// must be supplied by the caller (it is a property of the job, not of the result).
 MountingParameters readResultMounting(const std::string& path, const Mat3& R_nom);
 
-/// The per-laser elevation offsets of a result file (`intrinsics.laser_elevation_offset_deg`,
-/// by laser id) in radians; empty when the result has none.
-std::vector<double> readResultLaserElevation(const std::string& path);
+/// The per-laser intrinsics of a result file (`intrinsics`: `laser_elevation_offset_deg`,
+/// `laser_azimuth_offset_deg`, `laser_range_offset_m`, `laser_vertical_offset_m`,
+/// `laser_horizontal_offset_m`, by laser id; a group that is absent is zero); empty when the
+/// result has none. Throws FileError naming the file and the field for arrays of other lengths,
+/// non-numbers, or values beyond ±10° / ±1 m.
+LaserCorrections readResultLaserCorrections(const std::string& path);
 
-/// Turns each laser vector of a strip with laser ids by its laser's elevation offset (SPEC §2
-/// multi-beam intrinsics; `offsets_rad` by laser id, empty: nothing) and clears the strips'
-/// x_m. Throws InvalidInput for a laser id beyond the offsets.
-void applyLaserElevation(CalibrationData* data, const std::vector<double>& offsets_rad);
+/// Corrects each laser vector of a strip with laser ids by its laser's intrinsics
+/// (correctLaserVector; `lasers` by laser id, empty: nothing) and clears the strips' x_m.
+/// Throws InvalidInput for a laser id beyond `lasers`.
+void applyLaserCorrections(CalibrationData* data, const LaserCorrections& lasers);
 
 }  // namespace mountcal

@@ -164,9 +164,9 @@ class MethodSection {
     return {};
   }
   virtual std::vector<PlanMark> planMarks() const { return {}; }
-  /// Per-laser elevation offsets the method estimated [rad], by laser id (empty: none); `apply`
-  /// and `evaluate` apply them with the mounting.
-  virtual std::vector<double> laserElevationOffsetsRad() const { return {}; }
+  /// Per-laser intrinsics the method estimated, by laser id (empty: none); `apply` and
+  /// `evaluate` apply them with the mounting.
+  virtual LaserCorrections laserCorrections() const { return {}; }
 };
 
 // ---- the module ---------------------------------------------------------------------------

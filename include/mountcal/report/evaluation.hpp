@@ -81,14 +81,14 @@ DiscrepancyStats pointToPlaneDiscrepancy(const std::vector<Vec3>& query, const s
                                          const DiscrepancyOptions& options = {});
 
 /// Every strip's points georeferenced with `mounting` (per-point poses or the trajectory).
-/// With `laser_elevation_rad` (by laser id, a result's intrinsics) each laser vector is first turned
-/// by its laser's elevation offset (elevateLaserVector), as `apply` writes the strips; InvalidInput
-/// for a laser id without one.
+/// With `lasers` (by laser id, a result's intrinsics) each laser vector is first corrected by its
+/// laser's intrinsics (correctLaserVector), as `apply` writes the strips; InvalidInput for a laser
+/// id without them.
 std::vector<std::vector<Vec3>> georeferencedStrips(const CalibrationData& data, const MountingParameters& mounting,
-                                                   const std::vector<double>& laser_elevation_rad = {});
+                                                   const LaserCorrections& lasers = {});
 /// One strip of `data` (`strip` is one of data.strips) as georeferencedStrips gives it.
 std::vector<Vec3> georeferencedStrip(const CalibrationData& data, const StripData& strip, const MountingParameters& mounting,
-                                     const std::vector<double>& laser_elevation_rad = {});
+                                     const LaserCorrections& lasers = {});
 
 /// Every strip pair of `data` georeferenced with `mounting` (per-point poses or the
 /// trajectory); pairs whose smaller strip has no point within reach of the larger are left out.

@@ -151,10 +151,10 @@ struct SwathQcResult {
 
 /// QC of `data` at `before` and `after` (the job's mounting and a result's; pass the same twice
 /// for one state). Per-point poses or the trajectory, as the data hold them. A result's per-laser
-/// elevation offsets (by laser id [rad]; its `intrinsics`) are applied to the "after" state, as
-/// `apply` writes it. Throws InvalidInput for invalid options or data without poses.
+/// intrinsics (by laser id; its `intrinsics`) are applied to the "after" state, as `apply` writes
+/// it. Throws InvalidInput for invalid options or data without poses.
 SwathQcResult swathQc(const CalibrationData& data, const MountingParameters& before, const MountingParameters& after,
-                      const SwathQcOptions& options = {}, const std::vector<double>& laser_elevation_after_rad = {});
+                      const SwathQcOptions& options = {}, const LaserCorrections& lasers_after = {});
 
 /// The same for strips already georeferenced (one point set per strip id, before and after), in
 /// the frame the rasters are to be in (a CRS job's strips converted to its CRS).

@@ -41,7 +41,8 @@ struct MultiBeamConfig {
   double rotation_hz = 10.0;   ///< spin rate, 5–20 Hz [Hz]
   double max_range_m = 100.0;  ///< returns beyond this are lost [m]
   /// Per laser id, how the real sensor differs from `model` (empty: not at all): the rays are
-  /// cast with elevation + δω, azimuth offset + δα, vertical offset + δz and range offset + δρ,
+  /// cast with elevation + δω, azimuth offset + δα, vertical offset + δz, range offset + δρ and
+  /// horizontal offset + δH,
   /// while the points are georeferenced with `model` — as a driver with a slightly wrong
   /// calibration file writes them. Sizes other than 0 or the laser count are refused; the
   /// firing offsets are not used. Tie picks see the true geometry.
@@ -49,11 +50,23 @@ struct MultiBeamConfig {
 };
 
 /// Per-laser errors of a spinning multi-beam sensor drawn from a seed: each laser's elevation,
-/// azimuth, vertical and range offsets normal with the given σ, then the mean over the lasers
-/// removed from each (a common elevation or azimuth offset is the boresight's, a common vertical
-/// offset the lever arm's, so a calibration cannot tell them from the mounting).
+/// azimuth, vertical, range and horizontal offsets normal with the given σ, then the mean over
+/// the lasers removed from elevation, azimuth and vertical (a common elevation or azimuth offset
+/// is the boresight's, a common vertical offset the lever arm's, so a calibration cannot tell
+/// them from the mounting).
 std::vector<LaserSpec> drawLaserErrors(int lasers, std::uint64_t seed, double elevation_sigma_rad, double azimuth_sigma_rad = 0.0,
-                                       double vertical_sigma_m = 0.0, double range_sigma_m = 0.0);
+                                       double vertical_sigma_m = 0.0, double range_sigma_m = 0.0, double horizontal_sigma_m = 0.0);
+
+/// The σ of drawLaserErrors for a factory laser table's residual errors.
+struct LaserErrorSigmas {
+  double elevation_rad = 0, azimuth_rad = 0, vertical_m = 0, range_m = 0, horizontal_m = 0;
+};
+/// The error presets "VLP-16" and "HDL-32E" (scenario key `"laser_errors": {"preset": …}`):
+/// assumed magnitudes, not measured ones — range σ a third of the manual's range accuracy
+/// (VLP-16 ±3 cm: 10 mm; HDL-32E ±2 cm: 7 mm), elevation and azimuth σ 0.05° (a twentieth of a
+/// VLP-16 channel spacing of 2°), vertical and horizontal origin σ 5 mm (the VLP-16 table's own
+/// vertical corrections reach 11.2 mm). Throws InvalidInput for another name.
+LaserErrorSigmas laserErrorPreset(const std::string& sensor_model);
 
 /// The laser table as the sensor really fires: `config.model` with `config.laser_errors` added to
 /// each laser's elevation, azimuth, vertical and range offsets (`config.model` itself when there
@@ -195,6 +208,14 @@ void keepOneHeight(SurveyConfig* config);
 /// strips hold more than max_points (each named with its figures).
 SimulatedSurvey simulate(const SurveyConfig& config, const Scene& scene);
 
+/// Per-laser errors of `sigmas` drawn from `seed` for the lasers that see the survey: a first
+/// flight of `config` (its laser errors left out) counts each laser's returns; a laser with fewer
+/// than `min_points` gets none, and the common elevation, azimuth and vertical parts are removed
+/// over the others — what a calibration that holds those means over the lasers it sees can
+/// recover. Throws what simulate() throws.
+std::vector<LaserSpec> drawLaserErrorsOnSeenLasers(const SurveyConfig& config, const Scene& scene, std::uint64_t seed,
+                                                   const LaserErrorSigmas& sigmas, int min_points = 2000);
+
 /// The survey as a calibrator sees it: the measured trajectory, the nominal mounting, every
 /// strip's raw vectors and georeferenced points, and the ties (or the check points when
 /// `use_check_points`), and the scene's plane regions. No file round trip, so no LAS
@@ -231,9 +252,10 @@ void makePreset(const std::string& name, std::uint64_t seed, SurveyConfig* confi
 /// Loads a scenario file: a preset with overrides. Fields (all but "preset" optional):
 /// `{"preset": NAME, "seed": N, "true_mounting": {"lever_arm_m": [..], "boresight_deg": [..]},
 ///   "nominal_mounting": {...}, "noise": "none" | "realistic" | {"range_sigma_m", ...},
-///   "roi_radius_m": R, "laser_errors": {"elevation_sigma_deg", "azimuth_sigma_deg",
-///   "vertical_sigma_m", "range_sigma_m", "seed"}}` (the last for a multi-beam preset: per-laser
-///   errors drawn by drawLaserErrors). Throws FileError naming the file and the field for
+///   "roi_radius_m": R, "laser_errors": {"preset", "elevation_sigma_deg", "azimuth_sigma_deg",
+///   "vertical_sigma_m", "range_sigma_m", "horizontal_sigma_m", "seed"}}` (the last for a
+///   multi-beam preset: per-laser errors drawn by drawLaserErrors, "preset" "VLP-16" or "HDL-32E"
+///   giving laserErrorPreset's σ for the keys not given). Throws FileError naming the file and the field for
 ///   anything unknown or malformed.
 void loadScenario(const std::string& path, SurveyConfig* config, Scene* scene);
 

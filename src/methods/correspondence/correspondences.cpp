@@ -15,9 +15,21 @@
 #include "methods/common/strip_geometry.hpp"
 #include "dense_matching.hpp"
 #include "core/parallel.hpp"
+#include "methods/common/section_format.hpp"
 #include "mountcal/core/error.hpp"
 
 namespace mountcal {
+
+std::array<double, 5> CorrespondenceOptions::laserPriorSigmas() const {
+  return {deg2rad(laser_elevation_sigma_deg), deg2rad(laser_azimuth_sigma_deg), laser_range_sigma_m, laser_vertical_sigma_m,
+          laser_horizontal_sigma_m};
+}
+
+bool CorrespondenceOptions::estimatesLaserIntrinsics() const {
+  for (double s : laserPriorSigmas())
+    if (s > 0) return true;
+  return false;
+}
 
 bool CorrespondenceOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& m) {
@@ -38,6 +50,10 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!(coarse_radius_m > 0 && coarse_radius_m <= 100)) return fail("coarse_radius_m must be in (0, 100]");
   if (!(thin_cell_m >= 0 && thin_cell_m <= 10)) return fail("thin_cell_m must be in [0, 10]");
   if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
+  if (!(laser_azimuth_sigma_deg >= 0 && laser_azimuth_sigma_deg <= 10)) return fail("laser_azimuth_sigma_deg must be in [0, 10]");
+  if (!(laser_range_sigma_m >= 0 && laser_range_sigma_m <= 1)) return fail("laser_range_sigma_m must be in [0, 1]");
+  if (!(laser_vertical_sigma_m >= 0 && laser_vertical_sigma_m <= 1)) return fail("laser_vertical_sigma_m must be in [0, 1]");
+  if (!(laser_horizontal_sigma_m >= 0 && laser_horizontal_sigma_m <= 1)) return fail("laser_horizontal_sigma_m must be in [0, 1]");
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
   if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
   if (!nonneg(sigma_m)) return fail("sigma_m must be finite and non-negative");
@@ -626,19 +642,16 @@ PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, con
 namespace {
 
 /// A prior on one laser's elevation offset (δ_i/σ), or on their mean (Σδ/(L σ)).
+/// A prior on the intrinsics block: the mean of the values at `indices` ~ N(0, σ) (one index: a
+/// value's own prior).
 struct LaserPrior {
-  int index, count;
+  std::vector<int> indices;
   double sigma;
-  bool mean;
   template <typename T>
   bool operator()(T const* const* p, T* r) const {
-    if (!mean) {
-      r[0] = p[0][index] / T(sigma);
-      return true;
-    }
     T s(0.0);
-    for (int i = 0; i < count; ++i) s += p[0][i];
-    r[0] = s / T(count * sigma);
+    for (int i : indices) s += p[0][i];
+    r[0] = s / T(static_cast<double>(indices.size()) * sigma);
     return true;
   }
 };
@@ -681,6 +694,11 @@ CorrespondenceObservations::CorrespondenceObservations(const CalibrationData& da
 
 bool CorrespondenceObservations::settled() const { return !options_.dense || !coarse_; }
 
+detail::LaserLayout CorrespondenceObservations::laserLayout() const {
+  if (!dense_ || laser_dl_.empty()) return {};
+  return detail::LaserLayout(dense_->laserCount(), options_.laserPriorSigmas());
+}
+
 void CorrespondenceObservations::solved(const AdjustmentProblem& problem) {
   // The next matching pairs the points where the adjustment now puts them: an estimated time
   // offset or trajectory correction moves them by decimetres (5 ms at 60 m/s: 0.3 m).
@@ -691,7 +709,8 @@ void CorrespondenceObservations::solved(const AdjustmentProblem& problem) {
 void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (!dense_) {
     dense_ = std::make_unique<detail::DenseMatcher>(data_, options_);
-    if (options_.laser_elevation_sigma_deg > 0) laser_dl_.assign(static_cast<std::size_t>(dense_->laserCount()), 0.0);
+    if (options_.estimatesLaserIntrinsics())
+      laser_dl_.assign(static_cast<std::size_t>(detail::LaserLayout(dense_->laserCount(), options_.laserPriorSigmas()).size), 0.0);
     coarse_ = true;
   }
   // Stage: coarse until the mounting stops moving (or for 15 rounds), then fine.
@@ -715,7 +734,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   constexpr int kMaxFineMatchings = 6;
   if (!coarse_) ++fine_rounds_;
   if (coarse_ || fine_rounds_ <= kMaxFineMatchings) {
-    dense_->place(mounting, laser_dl_, shifts_);
+    dense_->place(mounting, laserLayout().corrections(laser_dl_.data()), shifts_);
     set_ = dense_->match(coarse_, fine_gate_m_);
   }
   ++section_.rounds;
@@ -727,22 +746,38 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
     fine_gate_m_ = std::max(0.5 * set_.radius_m, std::min(fine_gate_m_, 10.0 * 1.4826 * d[d.size() / 2]));
   }
-  const int L = static_cast<int>(laser_dl_.size());
+  const detail::LaserLayout layout = laserLayout();
+  const int L = layout.lasers;
   laser_block_ = nullptr;
-  if (L > 0) {
-    laser_block_ = problem->addNuisanceBlock(L, laser_dl_.data(), nullptr, false);
-    // Priors: each offset N(0, σ_prior); their mean held at 0 (the boresight pitch's direction).
-    const double sp = deg2rad(options_.laser_elevation_sigma_deg);
-    for (int i = 0; i < L; ++i) {
-      auto* prior = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{i, L, sp, false});
-      prior->AddParameterBlock(L);
-      prior->SetNumResiduals(1);
-      problem->addResidualBlock(prior, 0.0, {laser_block_});
+  if (!layout.empty()) {
+    laser_block_ = problem->addNuisanceBlock(layout.size, laser_dl_.data(), nullptr, false);
+    // Priors: each value N(0, σ_prior of its group); the means of elevation (the boresight
+    // pitch's direction, by convention), azimuth (a boresight rotation about the spin axis) and
+    // vertical offsets (the lever arm along it) over the lasers this matching sees held at 0 (a
+    // laser no correspondence sees keeps its prior alone, and does not carry the others' mean).
+    const std::array<double, 5> sigma = options_.laserPriorSigmas();
+    auto prior = [&](std::vector<int> indices, double s) {
+      auto* cost = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{std::move(indices), s});
+      cost->AddParameterBlock(layout.size);
+      cost->SetNumResiduals(1);
+      problem->addResidualBlock(cost, 0.0, {laser_block_});
+    };
+    std::vector<bool> seen(static_cast<std::size_t>(L), false);
+    for (const Correspondence& c : set_.correspondences) {
+      if (dense_->laser(c.strip_a, c.point_a) >= 0) seen[static_cast<std::size_t>(dense_->laser(c.strip_a, c.point_a))] = true;
+      for (std::size_t j : c.points_b)
+        if (dense_->laser(c.strip_b, j) >= 0) seen[static_cast<std::size_t>(dense_->laser(c.strip_b, j))] = true;
     }
-    auto* mean = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{0, L, 1e-6, true});
-    mean->AddParameterBlock(L);
-    mean->SetNumResiduals(1);
-    problem->addResidualBlock(mean, 0.0, {laser_block_});
+    for (std::size_t g = 0; g < 5; ++g) {
+      const int o = layout.offset[g];
+      if (o < 0) continue;
+      std::vector<int> mean;
+      for (int i = 0; i < L; ++i) {
+        prior({o + i}, sigma[g]);
+        if (seen[static_cast<std::size_t>(i)]) mean.push_back(o + i);
+      }
+      if ((g == 0 || g == 1 || g == 3) && !mean.empty()) prior(mean, g == 3 ? 1e-7 : 1e-6);
+    }
   }
   const Mat3& R_nom = data_.mounting_used.R_nom;
   const double loss_scale = coarse_ ? 0.3 * set_.radius_m : -1.0;
@@ -767,16 +802,16 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
       q.p_m = dense_->p_m(s, i);
       q.R_mb = dense_->R_mb(s, i);
       q.r_s = data_.strips[static_cast<std::size_t>(s)].r_s[i];
-      q.laser = L > 0 ? dense_->laser(s, i) : -1;
+      q.laser = laser_block_ ? dense_->laser(s, i) : -1;
       q.weight = w;
       pts.push_back(q);
     };
     add(c.strip_a, c.point_a, 1.0);
     for (std::size_t j : c.points_b) add(c.strip_b, j, -1.0 / static_cast<double>(c.points_b.size()));
-    auto* cost = new detail::DenseResidual(pts, c.normal, R_nom, set_.sigma_m, L);
+    auto* cost = new detail::DenseResidual(pts, c.normal, R_nom, set_.sigma_m, layout);
     std::vector<double*> blocks = {problem->mounting(), problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_a)].id),
                                    problem->stripOffset(data_.strips[static_cast<std::size_t>(c.strip_b)].id)};
-    if (L > 0) blocks.push_back(laser_block_);
+    if (laser_block_) blocks.push_back(laser_block_);
     blocks_.push_back(loss_scale > 0 ? problem->addResidualBlock(cost, set_.sigma_m, blocks, loss_scale)
                                      : problem->addResidualBlock(cost, set_.sigma_m, blocks));
     // Trajectory errors in time: the point of A at its time, B's neighbourhood at its mean.
@@ -915,15 +950,27 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
     before.push_back(std::abs(c.normal.dot(dense_->x(c.strip_a, c.point_a) - cb)));
   }
   fillSection(adjustment, before);
-  // Per-laser elevation offsets: values, σ and correlation with the boresight (a-priori σ of
-  // the distances; the mounting's own σ in the summary eliminates these offsets).
-  const int L = static_cast<int>(laser_dl_.size());
-  if (L == 0 || !laser_block_) return;
-  section_.laser_elevation_deg.assign(static_cast<std::size_t>(L), 0.0);
-  section_.laser_elevation_sigma_deg.assign(static_cast<std::size_t>(L), std::nan(""));
-  section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), std::nan(""));
+  if (laser_block_) fillLaserSection(adjustment);
+}
+
+void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjustment) {
+  // Per-laser intrinsics: values, σ, correlation with the boresight and the screening (a-priori
+  // σ of the distances; the mounting's own σ in the summary eliminates these parameters).
+  const detail::LaserLayout layout = laserLayout();
+  const int L = layout.lasers;
+  static const char* const kKeys[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
+  static const char* const kMounting[6] = {"lever arm x", "lever arm y", "lever arm z", "roll", "pitch", "heading"};
+  double LaserCorrection::*const fields[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
+                                              &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
+  section_.laser_groups.clear();
+  for (std::size_t g = 0; g < 5; ++g)
+    if (layout.offset[g] >= 0) section_.laser_groups.push_back(kKeys[g]);
+  section_.lasers = layout.corrections(laser_block_);
+  const double nan = std::nan("");
+  section_.laser_sigma.assign(static_cast<std::size_t>(L), LaserCorrection{nan, nan, nan, nan, nan});
+  section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), nan);
   section_.laser_points.assign(static_cast<std::size_t>(L), 0);
-  for (int i = 0; i < L; ++i) section_.laser_elevation_deg[static_cast<std::size_t>(i)] = rad2deg(laser_block_[i]);
+  section_.laser_unseparated.clear();
   for (const Correspondence& c : set_.correspondences) {
     const int la = dense_->laser(c.strip_a, c.point_a);
     if (la >= 0) ++section_.laser_points[static_cast<std::size_t>(la)];
@@ -942,21 +989,39 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
   const bool mount_free = !problem.IsParameterBlockConstant(mount);
   if (mount_free) blocks.push_back({laser_block_, mount}), blocks.push_back({mount, mount});
   if (!cov.Compute(blocks, &problem)) return;
-  Eigen::MatrixXd C_ll(L, L);
+  const int n = layout.size;
+  Eigen::MatrixXd C_ll(n, n);
   cov.GetCovarianceBlock(laser_block_, laser_block_, C_ll.data());  // row-major, symmetric
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> C_lm(L, 6);
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> C_lm = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>::Zero(n, 6);
   Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C_mm = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>::Zero();
   if (mount_free) {
     cov.GetCovarianceBlock(laser_block_, mount, C_lm.data());
     cov.GetCovarianceBlock(mount, mount, C_mm.data());
   }
+  constexpr double kUnseparated = 0.95;
+  auto corr = [](double cab, double va, double vb) { return va > 0 && vb > 0 ? cab / std::sqrt(va * vb) : 0.0; };
   for (int i = 0; i < L; ++i) {
     if (section_.laser_points[static_cast<std::size_t>(i)] == 0) continue;
-    const double v = C_ll(i, i);
-    section_.laser_elevation_sigma_deg[static_cast<std::size_t>(i)] = rad2deg(std::sqrt(std::max(v, 0.0)));
     double rho = 0;
-    for (int j = 3; j < 6 && mount_free; ++j)
-      if (C_mm(j, j) > 0 && v > 0) rho = std::max(rho, std::abs(C_lm(i, j)) / std::sqrt(v * C_mm(j, j)));
+    for (std::size_t g = 0; g < 5; ++g) {
+      const int k = layout.offset[g] < 0 ? -1 : layout.offset[g] + i;
+      if (k < 0) continue;
+      const double v = C_ll(k, k);
+      section_.laser_sigma[static_cast<std::size_t>(i)].*fields[g] = std::sqrt(std::max(v, 0.0));
+      for (int j = 0; j < 6 && mount_free; ++j) {
+        const double r = corr(C_lm(k, j), v, C_mm(j, j));
+        if (j >= 3) rho = std::max(rho, std::abs(r));
+        if (std::abs(r) >= kUnseparated)
+          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ %s (%+.2f)", i, kKeys[g], kMounting[j], r));
+      }
+      for (std::size_t h = g + 1; h < 5; ++h) {
+        if (layout.offset[h] < 0) continue;
+        const int k2 = layout.offset[h] + i;
+        const double r = corr(C_ll(k, k2), v, C_ll(k2, k2));
+        if (std::abs(r) >= kUnseparated)
+          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ laser %d %s (%+.2f)", i, kKeys[g], i, kKeys[h], r));
+      }
+    }
     section_.laser_boresight_correlation[static_cast<std::size_t>(i)] = rho;
   }
 }

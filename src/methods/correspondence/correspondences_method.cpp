@@ -70,8 +70,101 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
           .number(
               "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
               "dense mode: prior sigma of per-laser elevation offsets; 0: not estimated")
+          .number(
+              "laser_azimuth_sigma_deg", [](T& o) -> double& { return o.laser_azimuth_sigma_deg; }, "deg", 0, 10,
+              "dense mode: prior sigma of per-laser azimuth offsets (mean held at 0); 0: not estimated")
+          .number(
+              "laser_range_sigma_m", [](T& o) -> double& { return o.laser_range_sigma_m; }, "m", 0, 1,
+              "dense mode: prior sigma of per-laser range offsets; 0: not estimated")
+          .number(
+              "laser_vertical_sigma_m", [](T& o) -> double& { return o.laser_vertical_sigma_m; }, "m", 0, 1,
+              "dense mode: prior sigma of per-laser vertical origin offsets (mean held at 0); 0: not estimated")
+          .number(
+              "laser_horizontal_sigma_m", [](T& o) -> double& { return o.laser_horizontal_sigma_m; }, "m", 0, 1,
+              "dense mode: prior sigma of per-laser horizontal origin offsets; 0: not estimated")
           .specs();
   return specs;
+}
+
+}  // namespace
+
+namespace {
+struct LaserGroup {
+  const char* key;  // as in CorrespondenceSection::laser_groups
+  const char* unit;
+  double scale;  // library unit → the file's
+  double LaserCorrection::*field;
+};
+const LaserGroup kLaserGroups[5] = {{"elevation", "deg", 180 / kPi, &LaserCorrection::elevation_rad},
+                                    {"azimuth", "deg", 180 / kPi, &LaserCorrection::azimuth_rad},
+                                    {"range", "m", 1, &LaserCorrection::range_m},
+                                    {"vertical", "m", 1, &LaserCorrection::vertical_m},
+                                    {"horizontal", "m", 1, &LaserCorrection::horizontal_m}};
+// Beyond these a per-laser correction is not a calibration residual of a working sensor: the
+// manufacturers' range accuracy is a few centimetres (VLP-16 ±3 cm, HDL-32E ±2 cm, their manuals).
+constexpr double kPlausibleRangeM = 0.10, kPlausibleOriginM = 0.05, kPlausibleAngleDeg = 1.0;
+
+auto laserFields(const CorrespondenceSection& s) {
+  return std::tie(s.laser_groups, s.lasers, s.laser_sigma, s.laser_boresight_correlation, s.laser_points, s.laser_unseparated);
+}
+
+std::vector<const LaserGroup*> estimatedGroups(const std::vector<std::string>& keys) {
+  std::vector<const LaserGroup*> out;
+  for (const LaserGroup& g : kLaserGroups)
+    if (std::find(keys.begin(), keys.end(), g.key) != keys.end()) out.push_back(&g);
+  return out;
+}
+
+std::string laserText(const CorrespondenceSection& section) {
+  const auto& [laser_groups, lasers, laser_sigma, laser_boresight_correlation, laser_points, laser_unseparated] = laserFields(section);
+  std::ostringstream r;
+  r << "Per-laser intrinsics (by laser id; added to the laser table; means of elevation, azimuth and vertical held at 0; sigma a\n"
+       "priori, the mounting's sigma above eliminates them):\n  laser";
+  const std::vector<const LaserGroup*> groups = estimatedGroups(laser_groups);
+  for (const LaserGroup* g : groups) r << detail::printfString("  %10s [%s] %9s", g->key, g->unit, "sigma");
+  r << "  max|corr| boresight  points\n";
+  for (std::size_t i = 0; i < lasers.size(); ++i) {
+    r << detail::printfString("  %5zu", i);
+    for (const LaserGroup* g : groups) {
+      const bool deg = g->scale != 1;
+      r << detail::printfString(deg ? "  %+16.4f %9.4f" : "  %+16.4f %9.4f", lasers[i].*g->field * g->scale,
+                                laser_sigma[i].*g->field * g->scale);
+    }
+    r << detail::printfString("  %19.2f  %6d\n", laser_boresight_correlation[i], laser_points[i]);
+  }
+  if (laser_unseparated.empty()) {
+    r << "  Correlation screening: every laser parameter separated from the others and from the mounting (|corr| < 0.95).\n";
+  } else {
+    r << "  Correlation screening: " << laser_unseparated.size() << " pair(s) the data do not separate (|corr| >= 0.95):";
+    for (std::size_t k = 0; k < laser_unseparated.size() && k < 12; ++k) r << (k ? "; " : " ") << laser_unseparated[k];
+    r << (laser_unseparated.size() > 12 ? "; ...\n" : "\n");
+  }
+  return r.str();
+}
+
+nlohmann::json laserJson(const CorrespondenceSection& section) {
+  const auto& [laser_groups, lasers, laser_sigma, laser_boresight_correlation, laser_points, laser_unseparated] = laserFields(section);
+  using nlohmann::json;
+  // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
+  json j = json::object();
+  for (const LaserGroup* g : estimatedGroups(laser_groups)) {
+    json v = json::array(), s = json::array();
+    for (std::size_t i = 0; i < lasers.size(); ++i) {
+      v.push_back(lasers[i].*g->field * g->scale);
+      s.push_back(detail::numOrNull(laser_sigma[i].*g->field * g->scale));
+    }
+    j[std::string("laser_") + g->key + "_offset_" + g->unit] = v;
+    j[std::string("laser_") + g->key + "_sigma_" + g->unit] = s;
+  }
+  json cor = json::array(), pts = json::array();
+  for (std::size_t i = 0; i < lasers.size(); ++i) {
+    cor.push_back(detail::numOrNull(laser_boresight_correlation[i]));
+    pts.push_back(laser_points[i]);
+  }
+  j["laser_boresight_correlation"] = cor;
+  j["laser_points"] = pts;
+  j["laser_unseparated"] = laser_unseparated;
+  return j;
 }
 
 }  // namespace
@@ -106,14 +199,7 @@ std::string CorrespondenceSection::text(const AdjustmentSummary&) const {
                               p.strip_b.c_str(), p.samples, p.kept, p.rejected_sparse, p.rejected_rough, p.rejected_far, p.rejected_normal,
                               p.rejected_mad, p.rejected_budget, p.median_before_m, p.median_after_m, p.rms_before_m, p.rms_after_m);
   }
-  if (!laser_elevation_deg.empty()) {
-    r << "Per-laser elevation offsets (by laser id; mean held at 0; sigma a priori, the mounting's sigma above eliminates them):\n"
-         "  laser  offset [deg]  sigma [deg]  max|corr| with boresight  points\n";
-    for (std::size_t i = 0; i < laser_elevation_deg.size(); ++i) {
-      r << detail::printfString("  %5zu  %+12.4f  %11.4f  %24.2f  %6d\n", i, laser_elevation_deg[i], laser_elevation_sigma_deg[i],
-                                laser_boresight_correlation[i], laser_points[i]);
-    }
-  }
+  if (!lasers.empty()) r << laserText(*this);
   return r.str();
 }
 
@@ -150,20 +236,7 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
                           {"search_time_s", search_time_s},
                           {"points_searched", points_searched},
                           {"pairs", list}};
-  if (!laser_elevation_deg.empty()) {
-    json off = json::array(), sig = json::array(), cor = json::array(), pts = json::array();
-    for (std::size_t i = 0; i < laser_elevation_deg.size(); ++i) {
-      off.push_back(laser_elevation_deg[i]);
-      sig.push_back(detail::numOrNull(laser_elevation_sigma_deg[i]));
-      cor.push_back(detail::numOrNull(laser_boresight_correlation[i]));
-      pts.push_back(laser_points[i]);
-    }
-    // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
-    j["intrinsics"] = {{"laser_elevation_offset_deg", off},
-                       {"laser_elevation_sigma_deg", sig},
-                       {"laser_boresight_correlation", cor},
-                       {"laser_points", pts}};
-  }
+  if (!lasers.empty()) j["intrinsics"] = laserJson(*this);
   return j.dump();
 }
 
@@ -186,12 +259,22 @@ std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
   return h.str();
 }
 
-std::vector<std::string> CorrespondenceSection::warnings() const { return {}; }
-
-std::vector<double> CorrespondenceSection::laserElevationOffsetsRad() const {
-  std::vector<double> out;
-  for (double d : laser_elevation_deg) out.push_back(deg2rad(d));
-  return out;
+std::vector<std::string> CorrespondenceSection::warnings() const {
+  std::vector<std::string> w;
+  for (std::size_t i = 0; i < lasers.size(); ++i) {
+    const LaserCorrection& l = lasers[i];
+    const double angle = std::max(std::abs(l.elevation_rad), std::abs(l.azimuth_rad)) * 180 / kPi;
+    if (std::abs(l.range_m) > kPlausibleRangeM || std::max(std::abs(l.vertical_m), std::abs(l.horizontal_m)) > kPlausibleOriginM ||
+        angle > kPlausibleAngleDeg) {
+      w.push_back(detail::printfString(
+          "laser %zu: intrinsics beyond a working sensor's (range %+.3f m, origin %+.3f / %+.3f m, angles up to %.2f deg; plausible "
+          "within %.2f m, %.2f m, %.1f deg): check the laser table, the laser ids and the data before using them",
+          i, l.range_m, l.vertical_m, l.horizontal_m, angle, kPlausibleRangeM, kPlausibleOriginM, kPlausibleAngleDeg));
+    }
+  }
+  return w;
 }
+
+LaserCorrections CorrespondenceSection::laserCorrections() const { return lasers; }
 
 }  // namespace mountcal

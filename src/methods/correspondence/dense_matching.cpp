@@ -55,9 +55,9 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
       R_mb_[s][i] = pose.R_mb;
     }
   }
-  if (options.laser_elevation_sigma_deg > 0 && !all_laser) {
-    throw InvalidInput(any_laser ? "per-laser elevation offsets: some strips have laser ids and some do not"
-                                 : "per-laser elevation offsets need each point's laser id (job key sensor.laser_field)");
+  if (options.estimatesLaserIntrinsics() && !all_laser) {
+    throw InvalidInput(any_laser ? "per-laser intrinsics: some strips have laser ids and some do not"
+                                 : "per-laser intrinsics need each point's laser id (job key sensor.laser_field)");
   }
   if (n && !p_m_[0].empty()) origin_ = p_m_[0][0];
   // A strip denser than thin_cell_m is thinned to one point per cubic cell of that size (the
@@ -82,21 +82,43 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
   }
 }
 
-void DenseMatcher::place(const std::array<double, 6>& m, const std::vector<double>& dl, const PointShifts& shifts) {
+LaserLayout::LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas) : lasers(laser_count) {
+  for (std::size_t g = 0; g < 5; ++g) {
+    if (!(prior_sigmas[g] > 0) || laser_count <= 0) continue;
+    offset[g] = size;
+    size += laser_count;
+  }
+}
+
+LaserCorrection LaserLayout::correction(const double* block, int laser) const {
+  LaserCorrection c;
+  double LaserCorrection::*const fields[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
+                                              &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
+  for (std::size_t g = 0; g < 5; ++g)
+    if (offset[g] >= 0) c.*fields[g] = block[offset[g] + laser];
+  return c;
+}
+
+LaserCorrections LaserLayout::corrections(const double* block) const {
+  LaserCorrections out;
+  if (empty()) return out;
+  for (int l = 0; l < lasers; ++l) out.push_back(correction(block, l));
+  return out;
+}
+
+void DenseMatcher::place(const std::array<double, 6>& m, const LaserCorrections& lasers, const PointShifts& shifts) {
   const MountingParameters& used = data_.mounting_used;
   const Mat3 R_bs = R_zyx(Vec3(m[3], m[4], m[5])) * used.R_nom;
   const Vec3 a(m[0], m[1], m[2]);
-  std::vector<double> c(dl.size()), sn(dl.size());
-  for (std::size_t l = 0; l < dl.size(); ++l) c[l] = std::cos(dl[l]), sn[l] = std::sin(dl[l]);
+  const std::vector<LaserCorrector> correct = laserCorrectors(lasers);
   for (std::size_t s = 0; s < x_.size(); ++s) {
     const StripData& st = data_.strips[s];
     x_[s].resize(st.r_s.size());
-    const bool turn = !dl.empty() && !st.laser.empty();
+    const bool turn = !lasers.empty() && !st.laser.empty();
     const PointShifts::Strip shift = shifts.strip(st.id);
     const bool shifted = !shifts.empty();
     for (std::size_t i : keep_[s]) {
-      // elevateLaserVector with the laser's cos δ, sin δ computed once
-      const Vec3 r = turn ? Vec3(c[st.laser[i]] * st.r_s[i] + sn[st.laser[i]] * elevationTangent(st.r_s[i])) : st.r_s[i];
+      const Vec3 r = turn ? correct[st.laser[i]](st.r_s[i]) : st.r_s[i];
       const Vec3 u = R_mb_[s][i] * (R_bs * r + a);
       x_[s][i] = p_m_[s][i] + u;  // SPEC §2 eq. (1)
       if (shifted) x_[s][i] += shift.at(st.time_s[i], u);
@@ -249,13 +271,19 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   return out;
 }
 
-DenseResidual::DenseResidual(const std::vector<Point>& points, const Vec3& normal, const Mat3& R_nom, double sigma_m, int lasers)
-    : n_(normal), R_nom_(R_nom), inv_sigma_(1.0 / sigma_m), lasers_(lasers) {
+DenseResidual::DenseResidual(const std::vector<Point>& points, const Vec3& normal, const Mat3& R_nom, double sigma_m,
+                             const LaserLayout& layout)
+    : n_(normal), R_nom_(R_nom), inv_sigma_(1.0 / sigma_m), layout_(layout) {
+  const bool rays = !layout_.empty() && !layout_.elevationOnly();
   for (const Point& q : points) {
     const Vec3 nR = q.R_mb.transpose() * n_;
     c_ += q.weight * n_.dot(q.p_m);
     h_ += q.weight * nR;
-    const int l = lasers_ > 0 ? q.laser : -1;
+    const int l = layout_.empty() ? -1 : q.laser;
+    if (rays && l >= 0) {  // corrected point by point (the general per-laser model)
+      rays_.push_back(RayTerm{l, q.weight * nR, LaserRay(q.r_s)});
+      continue;
+    }
     auto it = std::find_if(terms_.begin(), terms_.end(), [l](const LaserTerm& t) { return t.laser == l; });
     if (it == terms_.end()) it = terms_.insert(terms_.end(), LaserTerm{l, Mat3::Zero(), Mat3::Zero()});
     it->G += q.weight * nR * (R_nom_ * q.r_s).transpose();
@@ -265,7 +293,30 @@ DenseResidual::DenseResidual(const std::vector<Point>& points, const Vec3& norma
   mutable_parameter_block_sizes()->push_back(6);
   mutable_parameter_block_sizes()->push_back(3);
   mutable_parameter_block_sizes()->push_back(3);
-  if (lasers_ > 0) mutable_parameter_block_sizes()->push_back(lasers_);
+  if (!layout_.empty()) mutable_parameter_block_sizes()->push_back(layout_.size);
+}
+
+// Σ_q (w R_mbᵀ n)ᵀ R_b R_nom r'_q added to *v, its derivatives to jm (boresight part, 6) and
+// jl (the intrinsics block, divided by σ; may be null).
+bool DenseResidual::evaluateRays(const double* intrinsics, const Mat3& Rb, const std::array<Mat3, 3>& dR, double* v, double* jm,
+                                 double* jl) const {
+  Eigen::Matrix<double, 3, 5> J;
+  int last = -1;
+  LaserCorrector correct;
+  static constexpr int kGroups = 5;
+  for (const RayTerm& t : rays_) {
+    if (t.laser != last) correct = LaserCorrector(layout_.correction(intrinsics, t.laser)), last = t.laser;
+    const Vec3 z = R_nom_ * correct.apply(t.ray, (jm || jl) ? &J : nullptr);
+    const Vec3 y = Rb.transpose() * t.nR;  // so that nRᵀ R_b R_nom r' = yᵀ R_nom r'
+    *v += y.dot(z);
+    if (jm)
+      for (int k = 0; k < 3; ++k) jm[3 + k] += t.nR.dot(dR[static_cast<std::size_t>(k)] * z);
+    if (!jl) continue;
+    const Eigen::Matrix<double, 1, 5> yJ = (R_nom_.transpose() * y).transpose() * J;
+    for (int g = 0; g < kGroups; ++g)
+      if (layout_.offset[static_cast<std::size_t>(g)] >= 0) jl[layout_.offset[static_cast<std::size_t>(g)] + t.laser] += yJ(g) * inv_sigma_;
+  }
+  return true;
 }
 
 bool DenseResidual::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
@@ -280,13 +331,14 @@ bool DenseResidual::Evaluate(double const* const* parameters, double* residuals,
     dR = dRzyx(b);
     cached_b = b;
   }
-  const double* dl = lasers_ > 0 ? parameters[3] : nullptr;
+  const double* dl = layout_.empty() ? nullptr : parameters[3];
   const bool jac = jacobians != nullptr;
+  double* jl = (jac && dl) ? jacobians[3] : nullptr;
   double v = c_ + h_.dot(a);
   Eigen::Matrix<double, 1, 6> jm = Eigen::Matrix<double, 1, 6>::Zero();
   if (jac) jm.head<3>() = h_.transpose();
-  if (jac && dl && jacobians[3]) std::fill(jacobians[3], jacobians[3] + lasers_, 0.0);
-  for (const LaserTerm& t : terms_) {
+  if (jl) std::fill(jl, jl + layout_.size, 0.0);
+  for (const LaserTerm& t : terms_) {  // elevation offsets alone, or points without a laser
     const double d = (dl && t.laser >= 0) ? dl[t.laser] : 0.0;
     const double cd = std::cos(d), sd = std::sin(d);
     const double g = t.G.cwiseProduct(Rb).sum(), u = t.U.cwiseProduct(Rb).sum();
@@ -296,8 +348,9 @@ bool DenseResidual::Evaluate(double const* const* parameters, double* residuals,
       const Mat3& D = dR[static_cast<std::size_t>(k)];
       jm(3 + k) += cd * t.G.cwiseProduct(D).sum() + sd * t.U.cwiseProduct(D).sum();
     }
-    if (dl && t.laser >= 0 && jacobians[3]) jacobians[3][t.laser] += (-sd * g + cd * u) * inv_sigma_;
+    if (dl && t.laser >= 0 && jl) jl[t.laser] += (-sd * g + cd * u) * inv_sigma_;
   }
+  if (!rays_.empty()) evaluateRays(dl, Rb, dR, &v, jac ? jm.data() : nullptr, jl);
   // Strip offsets: + n·o_A − n·o_B (the B points' weights sum to −1).
   const double* oa = parameters[1];
   const double* ob = parameters[2];

@@ -15,6 +15,21 @@
 
 namespace mountcal::detail {
 
+/// Where the per-laser intrinsics sit in their parameter block: the estimated groups in
+/// LaserCorrection's order (elevation, azimuth, range, vertical, horizontal), each one value per
+/// laser (group g's value of laser l at offset[g] + l).
+struct LaserLayout {
+  int lasers = 0;
+  std::array<int, 5> offset{{-1, -1, -1, -1, -1}};  // −1: the group is not estimated
+  int size = 0;
+  LaserLayout() = default;
+  LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas);
+  bool empty() const { return size == 0; }
+  bool elevationOnly() const { return size > 0 && size == lasers && offset[0] == 0; }
+  LaserCorrection correction(const double* block, int laser) const;
+  LaserCorrections corrections(const double* block) const;
+};
+
 /// A correspondence found by DenseMatcher and the index of its strip pair's statistics.
 struct DenseCandidate {
   Correspondence c;
@@ -30,7 +45,7 @@ class DenseMatcher {
 
   /// The positions of every point at mounting m (MountingIndex order) and laser offsets dl,
   /// moved by the last solve's strip offsets, corrections and time offset.
-  void place(const std::array<double, 6>& m, const std::vector<double>& dl, const PointShifts& shifts);
+  void place(const std::array<double, 6>& m, const LaserCorrections& lasers, const PointShifts& shifts);
   const Vec3& x(int s, std::size_t i) const { return x_[static_cast<std::size_t>(s)][i]; }
   const Mat3& R_mb(int s, std::size_t i) const { return R_mb_[static_cast<std::size_t>(s)][i]; }
   const Vec3& p_m(int s, std::size_t i) const { return p_m_[static_cast<std::size_t>(s)][i]; }
@@ -59,9 +74,10 @@ class DenseMatcher {
   std::vector<std::vector<std::size_t>> keep_;  // each strip's points after thinning
 };
 
-/// r = n · [(x_A + o_A) − mean_j (x_Bj + o_B)] / σ with x = p_m + R_mb (R_zyx(b) R_nom r(δ) + a),
-/// exact, with analytic derivatives. Parameter blocks: mounting (6), o_A (3), o_B (3), and the
-/// per-laser elevation offsets (L) when estimated.
+/// r = n · [(x_A + o_A) − mean_j (x_Bj + o_B)] / σ with x = p_m + R_mb (R_zyx(b) R_nom r'(θ_l) + a),
+/// r' the laser vector corrected by its laser's intrinsics θ_l (LaserCorrector), exact, with
+/// analytic derivatives. Parameter blocks: mounting (6), o_A (3), o_B (3), and the per-laser
+/// intrinsics (LaserLayout) when estimated.
 class DenseResidual final : public ceres::CostFunction {
  public:
   struct Point {
@@ -70,24 +86,33 @@ class DenseResidual final : public ceres::CostFunction {
     int laser = -1;
     double weight = 1.0;  // 1 for A, −1/k for each of B's k points
   };
-  DenseResidual(const std::vector<Point>& points, const Vec3& normal, const Mat3& R_nom, double sigma_m, int lasers);
+  DenseResidual(const std::vector<Point>& points, const Vec3& normal, const Mat3& R_nom, double sigma_m, const LaserLayout& layout);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   // Σ w n·x = c + h·a + Σ_l [cos δ_l tr(G_lᵀ R_b) + sin δ_l tr(U_lᵀ R_b)], exactly, with
   // c = Σ w n·p_m, h = Σ w R_mbᵀ n, and per laser l (δ = 0 for points without one)
-  // G_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom r)ᵀ, U_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom u)ᵀ (u: elevationTangent).
+  // G_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom r)ᵀ, U_l = Σ_{q∈l} w (R_mbᵀ n)(R_nom u)ᵀ (u: elevationTangent)
+  // — with elevation offsets alone (or none). With other groups each point is corrected in turn:
+  // Σ_q (w R_mbᵀ n)ᵀ R_b R_nom r'_q(θ_l).
   struct LaserTerm {
     int laser = -1;
     Mat3 G = Mat3::Zero(), U = Mat3::Zero();
   };
+  struct RayTerm {
+    int laser = -1;
+    Vec3 nR = Vec3::Zero();  // w R_mbᵀ n
+    LaserRay ray{Vec3::Zero()};
+  };
+  bool evaluateRays(const double* intrinsics, const Mat3& Rb, const std::array<Mat3, 3>& dR, double* v, double* jm, double* jl) const;
   double c_ = 0.0;
   Vec3 h_ = Vec3::Zero();
   std::vector<LaserTerm> terms_;
+  std::vector<RayTerm> rays_;
   Vec3 n_;
   Mat3 R_nom_;
   double inv_sigma_;
-  int lasers_;
+  LaserLayout layout_;
 };
 
 }  // namespace mountcal::detail

@@ -165,6 +165,9 @@ class Summary:
     @property
     def laser_elevation_offsets_deg(self) -> F64: ...
     @property
+    def laser_intrinsics(self) -> Dict[str, F64]:
+        """Per-laser intrinsics by laser id (arrays; zero for a group not estimated; empty: none)."""
+    @property
     def kinds(self) -> Dict[str, Dict[str, int]]: ...
     @property
     def residuals(self) -> Dict[str, Any]:

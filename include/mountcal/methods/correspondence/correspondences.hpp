@@ -33,6 +33,7 @@ namespace mountcal {
 namespace detail {
 class Matcher;
 class DenseMatcher;
+struct LaserLayout;
 }  // namespace detail
 
 /// Settings of the correspondence search. Every length has a default derived from the point
@@ -84,6 +85,19 @@ struct CorrespondenceOptions {
   /// offset per laser (SPEC §2 "per-laser elevation offsets"), each with a prior of this σ and
   /// their mean held at zero (a common offset is the boresight pitch's); 0: not estimated [deg].
   double laser_elevation_sigma_deg = 0.0;
+  /// Dense mode, the other per-laser intrinsics (LaserCorrection; Glennie & Lichti 2010), each
+  /// group with a prior of this σ per laser; 0: not estimated. The azimuth offsets' mean is held
+  /// at zero (a common one is a boresight rotation about the spin axis), and so is the vertical
+  /// offsets' (a common one is the lever arm along the spin axis); range and horizontal offsets
+  /// keep their common part.
+  double laser_azimuth_sigma_deg = 0.0;
+  double laser_range_sigma_m = 0.0;       ///< [m]
+  double laser_vertical_sigma_m = 0.0;    ///< [m]
+  double laser_horizontal_sigma_m = 0.0;  ///< [m]
+  /// The five groups' prior σ in LaserCorrection's order (elevation, azimuth [rad]; range,
+  /// vertical, horizontal [m]); 0: not estimated.
+  std::array<double, 5> laserPriorSigmas() const;
+  bool estimatesLaserIntrinsics() const;
   bool IsValid(std::string* error) const;
 };
 
@@ -199,7 +213,7 @@ struct CorrespondenceSection : MethodSection {
   std::string resultJson(const AdjustmentSummary& summary) const override;
   std::string html(const AdjustmentSummary& summary) const override;
   std::vector<std::string> warnings() const override;
-  std::vector<double> laserElevationOffsetsRad() const override;
+  LaserCorrections laserCorrections() const override;
   int used = 0;
   int rounds = 0;  ///< matchings
   double radius_m = 0.0, sigma_m = 0.0, spacing_m = 0.0;
@@ -207,11 +221,18 @@ struct CorrespondenceSection : MethodSection {
   double median_before_m = 0, rms_before_m = 0, median_after_m = 0, rms_after_m = 0;  ///< |distance| [m]
   double search_time_s = 0;                                                           ///< all matchings [s]
   std::size_t points_searched = 0;
-  /// Dense mode with laser_elevation_sigma_deg > 0: per laser id, the estimated elevation
-  /// offset and its σ [deg] (σ NaN for a laser no used correspondence saw), and the largest
-  /// |correlation| of each with a boresight angle.
-  std::vector<double> laser_elevation_deg, laser_elevation_sigma_deg, laser_boresight_correlation;
+  /// Dense mode with per-laser intrinsics: the groups estimated (keys of the result file's
+  /// `intrinsics`, LaserCorrection's order), per laser id the estimates and their σ (NaN for a
+  /// group not estimated or a laser no used correspondence saw), and each laser's largest
+  /// |correlation| of a parameter with a boresight angle.
+  std::vector<std::string> laser_groups;
+  LaserCorrections lasers, laser_sigma;
+  std::vector<double> laser_boresight_correlation;
   std::vector<int> laser_points;  ///< used correspondences' points per laser (A's and B's)
+  /// Correlation screening (Glennie: laser parameters are highly correlated): each pair of one
+  /// laser's parameters, or of a laser parameter and a mounting parameter, that the data do not
+  /// separate (|correlation| ≥ 0.95), as "laser 3 range ~ laser 3 vertical (0.97)".
+  std::vector<std::string> laser_unseparated;
 };
 
 class CorrespondenceObservations final : public ObservationSource {
@@ -239,14 +260,16 @@ class CorrespondenceObservations final : public ObservationSource {
   std::vector<int> blocks_;
   std::unique_ptr<detail::Matcher> matcher_;
   std::unique_ptr<detail::DenseMatcher> dense_;
-  double* laser_block_ = nullptr;  // this round's per-laser elevation block (dense mode)
-  std::vector<double> laser_dl_;   // its values, carried from solve to solve [rad]
+  double* laser_block_ = nullptr;  // this round's per-laser intrinsics block (dense mode; detail::LaserLayout)
+  std::vector<double> laser_dl_;   // its values, carried from solve to solve [rad, m]
   PointShifts shifts_;             // the last solve's strip offsets, corrections and time offset
   bool coarse_ = true;
   std::array<double, 6> last_{};
   double fine_gate_m_ = 0.0;
   int fine_rounds_ = 0;
   void addDenseBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem);
+  detail::LaserLayout laserLayout() const;  // of the dense matcher's lasers and the options
+  void fillLaserSection(const AdjustmentProblem& problem);
   void finishDense(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
                    const AnalysisOptions& analysis);
   // The section's distances: before as given (each correspondence's at the mounting used),

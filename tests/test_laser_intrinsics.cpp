@@ -1,0 +1,245 @@
+// Issue 28: the per-laser model of spinning multi-beam scanners (LaserCorrection, Glennie & Lichti
+// 2010 eq. (1)) — the correction against a hand derivation, its derivatives against central
+// differences, the georeferencing's table model with the corrections written into it, and the
+// dense correspondences recovering injected errors of every group on simulated VLP-16 and
+// HDL-32E surveys.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include "mountcal/core/sensor_model.hpp"
+#include "mountcal/job/result.hpp"
+#include "mountcal/mounting_calibrator.hpp"
+#include "mountcal/methods/correspondence/correspondences.hpp"
+#include "mountcal/simulation/survey.hpp"
+#include "sanitizer_build.hpp"
+#include "support.hpp"
+
+using namespace mountcal;
+using namespace mountcal::simulation;
+
+using mountcal_tests::kDeg;
+
+// By hand: a laser at elevation 0 and azimuth 0 sees (0, 10, 0). Turned 90° in azimuth (to +x),
+// 0.5 m longer, its origin 0.1 m across the beam (H (−cos α, sin α, 0) at α = 90°: +y) and 0.2 m
+// up: (10.5, 0.1, 0.2).
+TEST(LaserIntrinsics, CorrectionByHand) {
+  LaserCorrection c;
+  c.azimuth_rad = 90 * kDeg;
+  c.range_m = 0.5;
+  c.horizontal_m = 0.1;
+  c.vertical_m = 0.2;
+  EXPECT_LT((correctLaserVector(Vec3(0, 10, 0), c) - Vec3(10.5, 0.1, 0.2)).norm(), 1e-12);
+  // Elevation: (0, 10, 0) raised by 30° is 10 (0, cos 30°, sin 30°).
+  LaserCorrection e;
+  e.elevation_rad = 30 * kDeg;
+  EXPECT_LT((correctLaserVector(Vec3(0, 10, 0), e) - Vec3(0, 10 * std::sqrt(3.0) / 2, 5)).norm(), 1e-12);
+  EXPECT_EQ(correctLaserVector(Vec3(1, 2, 3), LaserCorrection{}), Vec3(1, 2, 3));
+}
+
+// The analytic ∂r'/∂(δω, δα, δρ, δV, δH) against central differences.
+TEST(LaserIntrinsics, JacobianMatchesCentralDifferences) {
+  const Vec3 r_s(12.3, -4.5, -3.1);
+  LaserCorrection c{deg2rad(0.3), deg2rad(-0.7), 0.04, -0.01, 0.02};
+  Eigen::Matrix<double, 3, 5> J;
+  const LaserRay ray(r_s);
+  LaserCorrector(c).apply(ray, &J);
+  double LaserCorrection::*const fields[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
+                                              &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
+  for (int g = 0; g < 5; ++g) {
+    const double h = 1e-6;
+    LaserCorrection p = c, m = c;
+    p.*fields[g] += h;
+    m.*fields[g] -= h;
+    const Vec3 d = (LaserCorrector(p).apply(ray) - LaserCorrector(m).apply(ray)) / (2 * h);
+    EXPECT_LT((d - J.col(g)).norm(), 1e-7) << "group " << g;
+  }
+}
+
+// The georeferencing's table model (SPEC §2 multi-beam, Glennie's eq. (1) with H and V) and the
+// correction are one model: a laser table with a correction written into it gives the corrected
+// vector of the table without it (the table's own origin offsets zero: exact), and inverse()
+// recovers azimuth and range with a horizontal offset.
+TEST(LaserIntrinsics, TableWithTheCorrectionEqualsTheCorrectedVector) {
+  const MultiBeamModel nominal = MultiBeamModel::HDL32E();
+  const LaserCorrection c{deg2rad(0.2), deg2rad(-0.3), 0.015, 0.008, -0.012};
+  MultiBeamModel fired = nominal;
+  for (LaserSpec& l : fired.lasers()) {
+    l.elevation_rad += c.elevation_rad;
+    l.azimuth_offset_rad += c.azimuth_rad;
+    l.range_offset_m += c.range_m;
+    l.vertical_offset_m += c.vertical_m;
+    l.horizontal_offset_m += c.horizontal_m;
+  }
+  for (int laser : {0, 7, 31})
+    for (double az : {0.1, 1.9, 4.4}) {
+      const Vec3 want = fired.vector(laser, az, 23.4);
+      EXPECT_LT((correctLaserVector(nominal.vector(laser, az, 23.4), c) - want).norm(), 1e-11) << laser << " " << az;
+      double a = 0, rho = 0;
+      fired.inverse(want, laser, &a, &rho);
+      EXPECT_NEAR(a, az, 1e-12);
+      EXPECT_NEAR(rho, 23.4, 1e-11);
+    }
+}
+
+namespace {
+
+/// A UAV survey of the VLP-16 preset's field (the centre line both ways at 50 m and once at 80 m,
+/// 4 m around each target) flown with `model`'s laser table off by the preset's errors of `seed`.
+struct IntrinsicsSurvey {
+  SurveyConfig config;
+  Scene scene;
+  SimulatedSurvey survey;
+};
+
+std::unique_ptr<IntrinsicsSurvey> intrinsicsSurvey(const std::string& model, std::uint64_t seed, bool noise) {
+  auto p = std::make_unique<IntrinsicsSurvey>();
+  mountcal_tests::uavThreePasses(seed, &p->config, &p->scene);
+  if (model == "HDL-32E") p->config.multibeam.model = MultiBeamModel::HDL32E();
+  if (!noise) p->config.noise = NoiseModel::none();
+  // The preset's errors on the lasers that see the targets' surroundings.
+  const std::vector<LaserSpec> errors = drawLaserErrorsOnSeenLasers(p->config, p->scene, 100 + seed, laserErrorPreset(model));
+  p->config.multibeam.laser_errors = errors;
+  p->survey = simulate(p->config, p->scene);
+  return p;
+}
+
+MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const LaserErrorSigmas& prior) {
+  MountingCalibrator::Options o = mountcal_tests::uavDenseOptions();
+  CorrespondenceOptions& c = o.method<CorrespondenceOptions>();
+  c.laser_elevation_sigma_deg = rad2deg(prior.elevation_rad);
+  c.laser_azimuth_sigma_deg = rad2deg(prior.azimuth_rad);
+  c.laser_range_sigma_m = prior.range_m;
+  c.laser_vertical_sigma_m = prior.vertical_m;
+  c.laser_horizontal_sigma_m = prior.horizontal_m;
+  return calibrate(toCalibrationData(s.survey), o);
+}
+
+}  // namespace
+
+namespace {
+
+/// Each estimated laser parameter against the truth: the worst error of each group among the
+/// parameters the data determine (the correlation screening calls them separated, and the laser
+/// has kDeterminingPoints correspondence points or more), and the worst |error|/σ of all.
+constexpr int kDeterminingPoints = 500;
+
+struct Recovery {
+  std::array<double, 5> worst_separated{};  // elevation, azimuth [deg]; range, vertical, horizontal [m]
+  double worst_ratio = 0;                   // max |error| / σ over every seen laser's parameters
+  double worst_boresight_deg = 0, worst_boresight_ratio = 0;
+  int parameters = 0, within_2sigma = 0;
+  double sum_ratio2 = 0;
+};
+
+Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& S) {
+  const CorrespondenceSection& c = S.section<CorrespondenceSection>();
+  const std::vector<LaserSpec>& truth = s.config.multibeam.laser_errors;
+  double LaserCorrection::*const est[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
+                                           &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
+  double LaserSpec::*const tru[5] = {&LaserSpec::elevation_rad, &LaserSpec::azimuth_offset_rad, &LaserSpec::range_offset_m,
+                                     &LaserSpec::vertical_offset_m, &LaserSpec::horizontal_offset_m};
+  const char* const keys[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
+  Recovery r;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    if (c.laser_points[i] == 0) continue;
+    for (std::size_t g = 0; g < 5; ++g) {
+      const double err = std::abs(c.lasers[i].*est[g] - truth[i].*tru[g]), sigma = c.laser_sigma[i].*est[g];
+      EXPECT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i << " " << keys[g];
+      const double ratio = err / sigma;
+      r.worst_ratio = std::max(r.worst_ratio, ratio);
+      ++r.parameters;
+      r.within_2sigma += ratio <= 2;
+      r.sum_ratio2 += ratio * ratio;
+      const std::string tag = "laser " + std::to_string(i) + " " + keys[g];
+      bool separated = true;
+      for (const std::string& u : c.laser_unseparated)
+        if (u.compare(0, tag.size(), tag) == 0 || u.find("~ " + tag + " ") != std::string::npos) separated = false;
+      // Determined: separated, and seen by enough correspondences that the data, not the prior, decide.
+      if (separated && c.laser_points[i] >= kDeterminingPoints)
+        r.worst_separated[g] = std::max(r.worst_separated[g], g < 2 ? err / kDeg : err);
+    }
+  }
+  const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
+  for (int j = 3; j < 6; ++j) {
+    r.worst_boresight_deg = std::max(r.worst_boresight_deg, std::abs(e[j] - t[j]) / kDeg);
+    r.worst_boresight_ratio = std::max(r.worst_boresight_ratio, std::abs(e[j] - t[j]) / S.sigma[j]);
+  }
+  return r;
+}
+
+/// The preset's σ, doubled, as the calibration's priors.
+LaserErrorSigmas priorsFor(const std::string& model) {
+  LaserErrorSigmas p = laserErrorPreset(model);
+  p.elevation_rad *= 2, p.azimuth_rad *= 2, p.range_m *= 2, p.vertical_m *= 2, p.horizontal_m *= 2;
+  return p;
+}
+
+}  // namespace
+
+// Issue 28's Done-when, noise-free: VLP-16 and HDL-32E surveys flown with the preset's errors in
+// all five groups on every laser that sees the field; the dense correspondences estimate all
+// five groups and the boresight. Elevation and azimuth within 0.005°, range within 2 mm for every
+// parameter the data determine (the others — elevation with vertical, azimuth with horizontal, as
+// Glennie found, named by the screening; lasers that barely reach the overlap, here 10 and 78
+// points, whose σ of 0.03–0.06° says that their prior decides — are held to 3σ); every parameter
+// within 3σ; the passes meet to 0.1 mm. Measured (2026-11-27): VLP-16 elevation 1.6e-3°, azimuth
+// 3.5e-4°, range 0.4 mm, boresight 4.6e-4°; HDL-32E 2.3e-3°, 8.4e-4°, 0.4 mm, 4.5e-4°.
+TEST(LaserIntrinsics, DenseCorrespondencesRecoverEveryGroupNoiseFree) {
+  // The sanitizer build runs the general per-laser residual on the VLP-16 survey (3 min there)
+  // and checks the recovery in the Release suite.
+  for (const char* model : {"VLP-16", "HDL-32E"}) {
+    if (mountcal_tests::kSanitizerBuild && std::string(model) == "HDL-32E") break;
+    const auto s = intrinsicsSurvey(model, 1, false);
+    const auto S = calibrateIntrinsics(*s, priorsFor(model));
+    ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
+    const Recovery r = recovery(*s, S);
+    const CorrespondenceSection& c = S.section<CorrespondenceSection>();
+    std::printf(
+        "%s noise-free: separated worst elevation %.2e deg, azimuth %.2e deg, range %.2e m, vertical %.2e m, horizontal %.2e m; "
+        "worst |error|/sigma %.2f; boresight %.2e deg; %zu pairs not separated; median after %.2e m\n",
+        model, r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4], r.worst_ratio,
+        r.worst_boresight_deg, c.laser_unseparated.size(), c.median_after_m);
+    if (mountcal_tests::kSanitizerBuild) continue;
+    EXPECT_LE(r.worst_separated[0], 0.005) << model;
+    EXPECT_LE(r.worst_separated[1], 0.005) << model;
+    EXPECT_LE(r.worst_separated[2], 0.002) << model;
+    EXPECT_LE(r.worst_ratio, 3.0) << model;
+    EXPECT_LE(r.worst_boresight_deg, 0.002) << model;
+    EXPECT_LT(c.median_after_m, 1e-4) << model;
+  }
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the HDL-32E survey and the recovery's tolerances");
+}
+
+// A result file's intrinsics by group and unit (degrees, metres), groups absent read as zero, and
+// arrays of other lengths or values beyond a laser table's refused with the file and the field.
+TEST(LaserIntrinsics, ResultFileIntrinsicsAreReadByGroupAndChecked) {
+  const std::string path = testing::TempDir() + "mountcal_intrinsics_result.json";
+  std::ofstream(path) << R"({"mounting": {"lever_arm_m": [0, 0, 0], "boresight_deg": [0, 0, 0]},
+      "intrinsics": {"laser_elevation_offset_deg": [0.1, -0.1], "laser_azimuth_offset_deg": [0.5, -0.5],
+                     "laser_range_offset_m": [0.012, -0.003], "laser_horizontal_offset_m": [0.004, 0.0],
+                     "laser_points": [10, 20]}})";
+  const LaserCorrections l = readResultLaserCorrections(path);
+  ASSERT_EQ(l.size(), 2u);
+  EXPECT_DOUBLE_EQ(l[0].elevation_rad, deg2rad(0.1));
+  EXPECT_DOUBLE_EQ(l[1].azimuth_rad, deg2rad(-0.5));
+  EXPECT_DOUBLE_EQ(l[0].range_m, 0.012);
+  EXPECT_EQ(l[1].vertical_m, 0.0);
+  EXPECT_DOUBLE_EQ(l[0].horizontal_m, 0.004);
+  std::ofstream(path) << R"({"intrinsics": {"laser_elevation_offset_deg": [0.1, -0.1], "laser_range_offset_m": [0.01]}})";
+  try {
+    readResultLaserCorrections(path);
+    FAIL() << "one range offset for two lasers";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("intrinsics.laser_range_offset_m"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << R"({"intrinsics": {"laser_vertical_offset_m": [0.0, 2.5]}})";
+  EXPECT_THROW(readResultLaserCorrections(path), FileError);  // 2.5 m: not a laser's origin
+  std::remove(path.c_str());
+}
