@@ -23,6 +23,7 @@
 #include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
 #include "mountcal/simulation/survey.hpp"
+#include "sanitizer_build.hpp"
 #include "scatter.hpp"
 #include "support.hpp"
 
@@ -388,4 +389,61 @@ TEST(FeatureMethod, CommandRunsTheSimulatedJobAndAJobWrittenByHand) {
   ASSERT_EQ(runCliLog("calibrate " + (dir / "my_job.json").string(), &out), 0) << out;
   check(result, "job written by hand", 7);
   fs::remove_all(dir);
+}
+
+// Issue 28: the features method takes per-laser elevation offsets. A noise-free VLP-16 survey whose
+// lasers fire 0.1° (σ) off their table. Nine 1.5 m targets seen by two or three lasers each barely
+// determine sixteen offsets: measured (2026-11-28) σ 0.02–0.17° per laser (NaN for the three
+// lasers no target view holds), every offset within 0.15° of the truth (about the seen lasers'
+// mean), the boresight within 3σ, its worst error 0.0163° with the offsets against 0.0136° without
+// — no gain on this survey, where the dense correspondences recover the same errors to 1e-4°.
+// **Missed:** honest σ for the offsets — two well-seen lasers are 3.8σ and 5.2σ off (worst |error|/σ
+// printed): the outline's sampling error, systematic per laser, is not in their σ.
+TEST(FeatureMethod, PerLaserElevationOffsetsAreEstimatedWithTheBoresight) {
+  auto s = std::make_unique<Uav>();
+  makePreset("uav-vlp16", 1, &s->config, &s->scene);
+  s->config.noise = NoiseModel::none();
+  s->config.multibeam.laser_errors = drawLaserErrors(16, 11, deg2rad(0.1));
+  s->survey = simulate(s->config, s->scene);
+  const CalibrationData data = toCalibrationData(s->survey);
+  const MountingParameters& truth = s->config.true_mounting;
+  MountingCalibrator::Options o = featureOptions(true);
+  o.method<FeatureOptions>().laser_elevation_sigma_deg = 0.2;
+  const auto with = calibrate(data, o);
+  ASSERT_TRUE(with.IsSolutionUsable()) << with.FullReport();
+  const FeatureSection& F = with.section<FeatureSection>();
+  ASSERT_EQ(F.lasers.size(), 16u);
+  ASSERT_EQ(with.laserCorrections().size(), 16u);  // what apply and evaluate take
+  // The offsets are estimated about their mean over the lasers the views hold: the truth likewise.
+  int seen = 0;
+  double mean = 0, worst_ratio = 0, sum_ratio2 = 0;
+  for (std::size_t i = 0; i < 16; ++i)
+    if (F.laser_points[i] > 0) mean += s->config.multibeam.laser_errors[i].elevation_rad / kDeg, ++seen;
+  mean /= std::max(seen, 1);
+  for (std::size_t i = 0; i < 16; ++i) {
+    const double t = s->config.multibeam.laser_errors[i].elevation_rad / kDeg - mean, e = F.lasers[i].elevation_rad / kDeg;
+    if (F.laser_points[i] == 0) {
+      EXPECT_TRUE(std::isnan(F.laser_elevation_sigma_deg[i])) << "laser " << i;
+      continue;
+    }
+    EXPECT_GT(F.laser_elevation_sigma_deg[i], 0.005) << "laser " << i;
+    const double ratio = std::abs(e - t) / F.laser_elevation_sigma_deg[i];
+    worst_ratio = std::max(worst_ratio, ratio);
+    sum_ratio2 += ratio * ratio;
+    EXPECT_LT(std::abs(e - t), 0.15) << "laser " << i;  // within the truth's own spread (0.1° σ, 0.16° the largest)
+  }
+  std::printf("features: per-laser offsets, worst |error|/sigma %.1f, RMS %.1f over %d lasers\n", worst_ratio, std::sqrt(sum_ratio2 / seen),
+              seen);
+  EXPECT_GE(seen, 10);
+  for (int a = 0; a < 3; ++a) EXPECT_LT(angleError(with.mounting, truth, a) * kDeg, 3 * with.sigma[3 + a]) << "angle " << a;
+  EXPECT_NE(with.FullReport().find("Per-laser elevation offsets"), std::string::npos);
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the comparison with the solve without the offsets");
+  const auto without = calibrate(data, featureOptions(true));
+  double worst_without = 0, worst_with = 0;
+  for (int a = 0; a < 3; ++a) {
+    worst_without = std::max(worst_without, angleError(without.mounting, truth, a));
+    worst_with = std::max(worst_with, angleError(with.mounting, truth, a));
+  }
+  std::printf("features, lasers 0.1 deg off: boresight worst %.4f deg without the offsets, %.4f deg with\n", worst_without, worst_with);
+  EXPECT_LT(worst_with, 0.03);  // the rigorous method's noise-free limit on this survey (pitch, above)
 }

@@ -15,6 +15,7 @@
 #include "methods/common/strip_geometry.hpp"
 #include "dense_matching.hpp"
 #include "core/parallel.hpp"
+#include "methods/common/laser_prior.hpp"
 #include "methods/common/section_format.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -642,20 +643,6 @@ PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, con
 namespace {
 
 /// A prior on one laser's elevation offset (δ_i/σ), or on their mean (Σδ/(L σ)).
-/// A prior on the intrinsics block: the mean of the values at `indices` ~ N(0, σ) (one index: a
-/// value's own prior).
-struct LaserPrior {
-  std::vector<int> indices;
-  double sigma;
-  template <typename T>
-  bool operator()(T const* const* p, T* r) const {
-    T s(0.0);
-    for (int i : indices) s += p[0][i];
-    r[0] = s / T(static_cast<double>(indices.size()) * sigma);
-    return true;
-  }
-};
-
 /// One correspondence: r = n·((x_A(M) + o_A) − (x̄_B(M) + o_B))/σ, every point moved from its
 /// position at the mounting used by SPEC §2 eq. (1) differenced, R_mb (ΔR_bs r_s + Δa_b). With n
 /// held, n·R_mb ΔR_bs r_s = Σ_kl (nᵀR_mb)_k r_l ΔR_kl: the sums over A's point and B's k
@@ -757,10 +744,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     // laser no correspondence sees keeps its prior alone, and does not carry the others' mean).
     const std::array<double, 5> sigma = options_.laserPriorSigmas();
     auto prior = [&](std::vector<int> indices, double s) {
-      auto* cost = new ceres::DynamicAutoDiffCostFunction<LaserPrior>(new LaserPrior{std::move(indices), s});
-      cost->AddParameterBlock(layout.size);
-      cost->SetNumResiduals(1);
-      problem->addResidualBlock(cost, 0.0, {laser_block_});
+      detail::addLaserPrior(problem, laser_block_, layout.size, std::move(indices), s);
     };
     std::vector<bool> seen(static_cast<std::size_t>(L), false);
     for (const Correspondence& c : set_.correspondences) {

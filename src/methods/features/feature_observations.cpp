@@ -13,6 +13,7 @@
 
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
+#include "methods/common/laser_prior.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -40,6 +41,7 @@ bool FeatureOptions::IsValid(std::string* error) const {
   if (!(icp_tolerance_m > 0) || icp_tolerance_m > 1) return fail("icp_tolerance_m must be in (0, 1]");
   if (!(direction_tolerance_deg > 0 && direction_tolerance_deg < 90)) return fail("direction_tolerance_deg must be in (0, 90)");
   if (!(min_height_spread > 0) || min_height_spread > 10) return fail("min_height_spread must be in (0, 10]");
+  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
   return true;
 }
 
@@ -574,15 +576,25 @@ FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pair
 
 namespace {
 
-/// One strip's view of a target: r = W^½ (c0 + K vec(ΔR_bs) + R̄ Δa + o − X).
+/// One strip's view of a target: r = W^½ (c0 + K vec(ΔR_bs) + R̄ Δa + o − X), with per-laser
+/// elevation offsets δ (a fourth block) + Σ_l [(cos δ_l − 1) K_r,l + sin δ_l K_u,l] vec(R_bs(M)).
 struct FeatureViewResidual {
   const FeatureObservations::View* v;
   const MountingParameters* used;
   Mat3 R_bs_used;
-  bool operator()(const double* m, const double* X, const double* o, double* r) const {
+  bool operator()(double const* const* p, double* r) const {
+    const double *m = p[0], *X = p[1], *o = p[2];
     const Mat3 dR = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m).dR_bs;
     const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vecR(dR.data());
-    const Vec3 c = v->c0_rel + v->K * vecR + v->R_bar * (Vec3(m[0], m[1], m[2]) - used->a_b);
+    Vec3 c = v->c0_rel + v->K * vecR + v->R_bar * (Vec3(m[0], m[1], m[2]) - used->a_b);
+    if (!v->lasers.empty()) {
+      const Mat3 R_bs = R_bs_used + dR;
+      const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vecRbs(R_bs.data());
+      for (const auto& t : v->lasers) {
+        const double d = p[3][t.laser];
+        c += ((std::cos(d) - 1.0) * t.K_r + std::sin(d) * t.K_u) * vecRbs;
+      }
+    }
     const Vec3 e = c + Vec3(o[0], o[1], o[2]) - Vec3(X[0], X[1], X[2]);
     Eigen::Map<Vec3> out(r);
     out = v->sqrt_info * e;
@@ -603,6 +615,15 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
     : options_(options), used_(data.mounting_used) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("features options: " + why);
+  if (options.laser_elevation_sigma_deg > 0) {
+    for (const StripData& s : data.strips) {
+      if (s.laser.size() != s.r_s.size())
+        throw InvalidInput("features: per-laser elevation offsets need each point's laser id (job key sensor.laser_field); strip '" + s.id +
+                           "' has none");
+      for (std::uint16_t id : s.laser) lasers_ = std::max(lasers_, static_cast<int>(id) + 1);
+    }
+    laser_dl_.assign(static_cast<std::size_t>(lasers_), 0.0);
+  }
   auto clock = [] { return std::chrono::steady_clock::now(); };
   const auto t0 = clock();
   const Clouds clouds = makeClouds(data);
@@ -629,6 +650,7 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
       for (std::uint32_t i : idx[k]) {
         vp.R_mb.push_back(data.pose(strip, i, strip.poses.empty() ? &cursor : nullptr).R_mb);
         vp.r_s.push_back(strip.r_s[i]);
+        if (options_.laser_elevation_sigma_deg > 0) vp.laser.push_back(strip.laser[i]);
         vp.x0.push_back(clouds.x0[s][i]);
         vp.time_s += strip.time_s[i] / static_cast<double>(idx[k].size());
       }
@@ -735,6 +757,19 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
         for (int b = 0; b < 3; ++b)
           for (int a = 0; a < 3; ++a) V.K.col(3 * b + a) += WR.col(a) * vp.r_s[j](b);
         V.R_bar += WR;
+        if (vp.laser.empty()) continue;
+        auto t = std::find_if(V.lasers.begin(), V.lasers.end(), [&](const View::LaserTerm& x) { return x.laser == vp.laser[j]; });
+        if (t == V.lasers.end()) {
+          View::LaserTerm fresh;  // K_r, K_u zero
+          fresh.laser = vp.laser[j];
+          t = V.lasers.insert(V.lasers.end(), fresh);
+        }
+        const Vec3 u = elevationTangent(vp.r_s[j]);
+        for (int b = 0; b < 3; ++b)
+          for (int a = 0; a < 3; ++a) {
+            t->K_r.col(3 * b + a) += WR.col(a) * vp.r_s[j](b);
+            t->K_u.col(3 * b + a) += WR.col(a) * u(b);
+          }
       }
       V.c0_rel = c0;
       V.sqrt_info = sqrtInformation(planeCovariance(oc.n, sigma_n_, sigma_t_));
@@ -751,20 +786,44 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
   ceres::NumericDiffOptions nd;
   nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.assign(targets_.size(), {});
+  addLaserBlock(problem);
   for (std::size_t k = 0; k < targets_.size(); ++k) {
     Target& T = targets_[k];
     const double zero[3] = {0, 0, 0};
     T.block = problem->addNuisanceBlock(3, zero);
     for (const View& v : T.views) {
-      auto* cost = new ceres::NumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL, 3, 6, 3, 3>(
-          new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, 3, nd);
-      blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, {problem->mounting(), T.block, problem->stripOffset(v.strip_id)}));
+      auto* cost = new ceres::DynamicNumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL>(
+          new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, nd);
+      for (int size : {6, 3, 3}) cost->AddParameterBlock(size);
+      std::vector<double*> blocks = {problem->mounting(), T.block, problem->stripOffset(v.strip_id)};
+      if (laser_block_) cost->AddParameterBlock(lasers_), blocks.push_back(laser_block_);
+      cost->SetNumResiduals(3);
+      blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, blocks));
       problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m, options_.sigma_in_plane_m <= 0);
     }
   }
 }
 
+void FeatureObservations::addLaserBlock(AdjustmentProblem* problem) {
+  laser_block_ = nullptr;
+  if (lasers_ == 0) return;
+  laser_block_ = problem->addNuisanceBlock(lasers_, laser_dl_.data(), nullptr, false);
+  // Priors: each offset N(0, σ); their mean over the lasers the outlines use held at 0 (the
+  // boresight pitch's direction, as in the dense correspondences).
+  std::vector<bool> seen(static_cast<std::size_t>(lasers_), false);
+  for (const Target& T : targets_)
+    for (const View& v : T.views)
+      for (const View::LaserTerm& t : v.lasers) seen[static_cast<std::size_t>(t.laser)] = true;
+  std::vector<int> mean;
+  for (int i = 0; i < lasers_; ++i) {
+    detail::addLaserPrior(problem, laser_block_, lasers_, {i}, deg2rad(options_.laser_elevation_sigma_deg));
+    if (seen[static_cast<std::size_t>(i)]) mean.push_back(i);
+  }
+  if (!mean.empty()) detail::addLaserPrior(problem, laser_block_, lasers_, mean, 1e-6);
+}
+
 void FeatureObservations::solved(const AdjustmentProblem& problem) {
+  if (laser_block_) std::copy(laser_block_, laser_block_ + lasers_, laser_dl_.begin());
   settled_ = true;
   if (options_.sigma_in_plane_m > 0) return;
   // Variance components (after Förstner): σ² = Σ r² / redundancy per component, the redundancy
@@ -819,6 +878,30 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     section_.rms_before_m = (ss_before / n).cwiseSqrt();
     section_.rms_after_m = (ss_after / n).cwiseSqrt();
   }
+  if (laser_block_) finishLasers(problem);
+}
+
+void FeatureObservations::finishLasers(const AdjustmentProblem& adjustment) {
+  const std::size_t L = static_cast<std::size_t>(lasers_);
+  section_.lasers.assign(L, LaserCorrection{});
+  section_.laser_elevation_sigma_deg.assign(L, std::nan(""));
+  section_.laser_points.assign(L, 0);
+  for (std::size_t i = 0; i < L; ++i) section_.lasers[i].elevation_rad = laser_block_[i];
+  for (const auto& vps : points_)
+    for (const ViewPoints& vp : vps)
+      for (int l : vp.laser) ++section_.laser_points[static_cast<std::size_t>(l)];
+  ceres::Problem& problem = const_cast<AdjustmentProblem&>(adjustment).ceresProblem();
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;
+  ceres::Covariance cov(co);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{laser_block_, laser_block_}};
+  if (!cov.Compute(blocks, &problem)) return;
+  Eigen::MatrixXd C(lasers_, lasers_);
+  cov.GetCovarianceBlock(laser_block_, laser_block_, C.data());
+  for (std::size_t i = 0; i < L; ++i)
+    if (section_.laser_points[i] > 0)
+      section_.laser_elevation_sigma_deg[i] = rad2deg(std::sqrt(std::max(C(static_cast<long>(i), static_cast<long>(i)), 0.0)));
 }
 
 }  // namespace mountcal

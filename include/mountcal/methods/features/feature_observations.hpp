@@ -70,6 +70,10 @@ struct FeatureOptions {
   /// The closed form separates pitch from the along-track lever arm only when the opposite
   /// pairs' heights above the targets differ by at least this fraction of their mean [-].
   double min_height_spread = 0.2;
+  /// Multi-beam strips with laser ids (StripData::laser): estimate one elevation offset per laser
+  /// in the rigorous adjustment (as the dense correspondences do: a prior of this σ each, their
+  /// mean over the lasers the targets' outlines use held at zero); 0: not estimated [deg].
+  double laser_elevation_sigma_deg = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -156,6 +160,13 @@ struct FeatureSection : MethodSection {
   double sigma_normal_m = 0.0, sigma_in_plane_m = 0.0;
   bool sigma_estimated = false;
   double extraction_time_s = 0.0, matching_time_s = 0.0;  ///< [s]
+  /// With laser_elevation_sigma_deg > 0: per laser id the estimated elevation offset (in
+  /// LaserCorrection), its σ [deg] (NaN for a laser no target view holds) and each laser's points
+  /// in the targets' views.
+  LaserCorrections lasers;
+  std::vector<double> laser_elevation_sigma_deg;
+  std::vector<int> laser_points;
+  LaserCorrections laserCorrections() const override { return lasers; }
 };
 
 /// Step 1 for one region: every strip's feature (the rest rejected with reasons, appended to
@@ -214,6 +225,13 @@ class FeatureObservations final : public ObservationSource {
     Mat3 sqrt_info = Mat3::Identity();  ///< W^½ [1/m]
     double time_s = 0.0;                ///< mean time of the view's points [s]
     Vec3 u_m = Vec3::Zero();            ///< mean IMU → point vector, mapping frame [m]
+    /// Per laser l of the outline's points: c gains [(cos δ_l − 1) K_r + sin δ_l K_u] vec(R_bs(M))
+    /// (r(ω + δ) = cos δ r + sin δ u, exactly), K_r, K_u as K with r and u = ∂r/∂ω.
+    struct LaserTerm {
+      int laser = 0;
+      Eigen::Matrix<double, 3, 9> K_r = Eigen::Matrix<double, 3, 9>::Zero(), K_u = Eigen::Matrix<double, 3, 9>::Zero();
+    };
+    std::vector<LaserTerm> lasers;
   };
   struct Target {
     std::string id;
@@ -228,6 +246,7 @@ class FeatureObservations final : public ObservationSource {
     std::string strip_id;
     std::vector<Vec3> x0, r_s;
     std::vector<Mat3> R_mb;
+    std::vector<int> laser;  ///< each point's laser id (per-laser elevation offsets only)
     Vec3 normal = Vec3::UnitZ();
     double time_s = 0.0;  ///< mean time of the points [s]
   };
@@ -241,6 +260,11 @@ class FeatureObservations final : public ObservationSource {
   std::vector<Target> targets_;
   std::vector<std::vector<int>> blocks_;
   FeatureSection section_;
+  int lasers_ = 0;                 // laser ids 0..lasers_−1 (per-laser elevation offsets; 0: none)
+  std::vector<double> laser_dl_;   // their values, carried from solve to solve [rad]
+  double* laser_block_ = nullptr;  // this round's block
+  void addLaserBlock(AdjustmentProblem* problem);
+  void finishLasers(const AdjustmentProblem& problem);
 };
 
 /// Step 3 alone, from matched pairs: the closed form (SPEC §2) at `mounting_used`.
