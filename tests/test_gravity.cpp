@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include "real_data.hpp"
+#include "sanitizer_build.hpp"
 #include "support.hpp"
 
 #include <algorithm>
@@ -354,6 +355,9 @@ TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
   const std::string path = untunedJob(c.name);
   const Job untuned = readJob(path);
   fs::remove(path);
+  // The three sets run the same code; the sanitizer build calibrates Truck's alone.
+  if (mountcal_tests::kSanitizerBuild && std::string(c.name) != "truck")
+    GTEST_SKIP() << "sanitizer build: the untuned calibration runs under the sanitizers on Truck; Car and Tent in the Release suite";
   EXPECT_TRUE(untuned.options.method<CorrespondenceOptions>().dense) << "a multi-beam sensor matches densely";
   EXPECT_EQ(untuned.options.strip_offset_sigma_m, 0.0) << "two parts of one recording";
   EXPECT_EQ(untuned.options.loss, LossType::kCauchy);

@@ -117,6 +117,7 @@ MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const
   c.laser_range_sigma_m = prior.range_m;
   c.laser_vertical_sigma_m = prior.vertical_m;
   c.laser_horizontal_sigma_m = prior.horizontal_m;
+  if (mountcal_tests::kSanitizerBuild) c.budget = 300;  // the code under the sanitizers, on fewer samples
   return calibrate(toCalibrationData(s.survey), o);
 }
 
