@@ -112,6 +112,11 @@ def test_calibrate_on_loaded_data_equals_the_job_call(examples):
     assert summary.kinds["correspondences"]["residuals"] > 100
     assert summary.residuals["correspondences"]["rms_after_m"] < summary.residuals["correspondences"]["rms_before_m"]
     assert summary.laser_elevation_offsets_deg.shape == (32,)
+    lasers = summary.laser_intrinsics  # the job estimates the elevation group alone
+    assert set(lasers) == {"elevation_deg", "azimuth_deg", "range_m", "vertical_m", "horizontal_m"}
+    assert np.array_equal(lasers["elevation_deg"], summary.laser_elevation_offsets_deg)
+    assert np.allclose(lasers["elevation_deg"], result["intrinsics"]["laser_elevation_offset_deg"], rtol=1e-12, atol=0)
+    assert not lasers["azimuth_deg"].any() and not lasers["range_m"].any() and lasers["horizontal_m"].shape == (32,)
     assert "Verdict" in summary.report() or "verdict" in summary.report()
 
 

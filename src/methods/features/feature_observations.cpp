@@ -758,10 +758,11 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
           for (int a = 0; a < 3; ++a) V.K.col(3 * b + a) += WR.col(a) * vp.r_s[j](b);
         V.R_bar += WR;
         if (vp.laser.empty()) continue;
-        auto t = std::find_if(V.lasers.begin(), V.lasers.end(), [&](const View::LaserTerm& x) { return x.laser == vp.laser[j]; });
+        const int id = vp.laser[j];  // (a structured binding cannot be captured in C++17)
+        auto t = std::find_if(V.lasers.begin(), V.lasers.end(), [id](const View::LaserTerm& x) { return x.laser == id; });
         if (t == V.lasers.end()) {
           View::LaserTerm fresh;  // K_r, K_u zero
-          fresh.laser = vp.laser[j];
+          fresh.laser = id;
           t = V.lasers.insert(V.lasers.end(), fresh);
         }
         const Vec3 u = elevationTangent(vp.r_s[j]);
