@@ -245,31 +245,24 @@ LaserCorrections readResultLaserCorrections(const std::string& path) {
   if (!j.is_object() || !j.contains("intrinsics") || j["intrinsics"].is_null()) return out;
   const json& intrinsics = j["intrinsics"];
   if (!intrinsics.is_object()) throw FileError(path, "field 'intrinsics'", "expected an object of per-laser arrays");
-  struct Group {
-    const char* key;
-    double limit, scale;  // |value| ≤ limit in the file's unit; × scale to the library's
-    double LaserCorrection::*field;
-  };
-  const Group groups[] = {{"laser_elevation_offset_deg", 10, kPi / 180, &LaserCorrection::elevation_rad},
-                          {"laser_azimuth_offset_deg", 10, kPi / 180, &LaserCorrection::azimuth_rad},
-                          {"laser_range_offset_m", 1, 1, &LaserCorrection::range_m},
-                          {"laser_vertical_offset_m", 1, 1, &LaserCorrection::vertical_m},
-                          {"laser_horizontal_offset_m", 1, 1, &LaserCorrection::horizontal_m}};
-  for (const Group& g : groups) {
-    if (!intrinsics.contains(g.key)) continue;
-    const json& a = intrinsics[g.key];
-    const std::string field = std::string("field 'intrinsics.") + g.key + "'";
+  for (const LaserGroup& g : kLaserGroups) {
+    const std::string key = std::string("laser_") + g.name + "_offset_" + g.unit;
+    const bool angle = g.to_unit != 1;
+    const double limit = angle ? 10 : 1;  // |value| ≤ limit in the file's unit: degrees, metres
+    if (!intrinsics.contains(key)) continue;
+    const json& a = intrinsics[key];
+    const std::string field = "field 'intrinsics." + key + "'";
     if (!a.is_array() || a.empty() || a.size() > 4096) throw FileError(path, field, "expected an array of numbers, one per laser");
     if (!out.empty() && a.size() != out.size())
       throw FileError(path, field,
                       std::to_string(a.size()) + " lasers, where another group of the intrinsics has " + std::to_string(out.size()));
     out.resize(a.size());
     for (std::size_t i = 0; i < a.size(); ++i) {
-      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()) || std::abs(a[i].get<double>()) > g.limit) {
+      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()) || std::abs(a[i].get<double>()) > limit) {
         throw FileError(path, field + " laser " + std::to_string(i),
-                        std::string("expected a number within ±") + (g.scale == 1 ? "1 m" : "10 degrees"));
+                        std::string("expected a number within ±") + (angle ? "10 degrees" : "1 m"));
       }
-      out[i].*g.field = a[i].get<double>() * g.scale;
+      out[i].*g.field = angle ? deg2rad(a[i].get<double>()) : a[i].get<double>();
     }
   }
   return out;

@@ -69,6 +69,23 @@ struct LaserCorrection {
 /// One correction per laser id; empty: none.
 using LaserCorrections = std::vector<LaserCorrection>;
 
+/// One group of LaserCorrection: its member, its name (as in the result file's
+/// `laser_<name>_offset_<unit>`), the unit a file writes it in, and the factor from the library's
+/// unit (rad, m) to that one.
+struct LaserGroup {
+  double LaserCorrection::*field;
+  const char* name;
+  const char* unit;
+  double to_unit;
+};
+/// The five groups in LaserCorrection's order: elevation, azimuth [deg]; range, vertical,
+/// horizontal [m].
+inline constexpr LaserGroup kLaserGroups[5] = {{&LaserCorrection::elevation_rad, "elevation", "deg", 180 / kPi},
+                                               {&LaserCorrection::azimuth_rad, "azimuth", "deg", 180 / kPi},
+                                               {&LaserCorrection::range_m, "range", "m", 1},
+                                               {&LaserCorrection::vertical_m, "vertical", "m", 1},
+                                               {&LaserCorrection::horizontal_m, "horizontal", "m", 1}};
+
 /// A measured laser vector split into what the corrections act on (taken from the scanner's
 /// origin: the table's own origin offsets v_i, H_i enter only to second order, |v_i| δ ≤ 0.2 mm
 /// for |v_i| ≤ 0.1 m and δ ≤ 0.1°): the beam r, its elevation tangent u = ∂r/∂ω (|u| = |r|),

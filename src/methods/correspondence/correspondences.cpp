@@ -643,6 +643,19 @@ PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, con
 namespace {
 
 /// A prior on one laser's elevation offset (δ_i/σ), or on their mean (Σδ/(L σ)).
+/// The points of `set`'s correspondences (A's and B's) per laser id, lasers 0..L−1.
+std::vector<int> laserPoints(const CorrespondenceSet& set, const detail::DenseMatcher& dense, int L) {
+  std::vector<int> n(static_cast<std::size_t>(L), 0);
+  auto count = [&](int laser) {
+    if (laser >= 0 && laser < L) ++n[static_cast<std::size_t>(laser)];
+  };
+  for (const Correspondence& c : set.correspondences) {
+    count(dense.laser(c.strip_a, c.point_a));
+    for (std::size_t j : c.points_b) count(dense.laser(c.strip_b, j));
+  }
+  return n;
+}
+
 /// One correspondence: r = n·((x_A(M) + o_A) − (x̄_B(M) + o_B))/σ, every point moved from its
 /// position at the mounting used by SPEC §2 eq. (1) differenced, R_mb (ΔR_bs r_s + Δa_b). With n
 /// held, n·R_mb ΔR_bs r_s = Σ_kl (nᵀR_mb)_k r_l ΔR_kl: the sums over A's point and B's k
@@ -746,19 +759,14 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
     auto prior = [&](std::vector<int> indices, double s) {
       detail::addLaserPrior(problem, laser_block_, layout.size, std::move(indices), s);
     };
-    std::vector<bool> seen(static_cast<std::size_t>(L), false);
-    for (const Correspondence& c : set_.correspondences) {
-      if (dense_->laser(c.strip_a, c.point_a) >= 0) seen[static_cast<std::size_t>(dense_->laser(c.strip_a, c.point_a))] = true;
-      for (std::size_t j : c.points_b)
-        if (dense_->laser(c.strip_b, j) >= 0) seen[static_cast<std::size_t>(dense_->laser(c.strip_b, j))] = true;
-    }
+    const std::vector<int> seen = laserPoints(set_, *dense_, L);
     for (std::size_t g = 0; g < 5; ++g) {
       const int o = layout.offset[g];
       if (o < 0) continue;
       std::vector<int> mean;
       for (int i = 0; i < L; ++i) {
         prior({o + i}, sigma[g]);
-        if (seen[static_cast<std::size_t>(i)]) mean.push_back(o + i);
+        if (seen[static_cast<std::size_t>(i)] > 0) mean.push_back(o + i);
       }
       if ((g == 0 || g == 1 || g == 3) && !mean.empty()) prior(mean, g == 3 ? 1e-7 : 1e-6);
     }
@@ -942,27 +950,16 @@ void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjus
   // σ of the distances; the mounting's own σ in the summary eliminates these parameters).
   const detail::LaserLayout layout = laserLayout();
   const int L = layout.lasers;
-  static const char* const kKeys[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
   static const char* const kMounting[6] = {"lever arm x", "lever arm y", "lever arm z", "roll", "pitch", "heading"};
-  double LaserCorrection::*const fields[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
-                                              &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
   section_.laser_groups.clear();
   for (std::size_t g = 0; g < 5; ++g)
-    if (layout.offset[g] >= 0) section_.laser_groups.push_back(kKeys[g]);
+    if (layout.offset[g] >= 0) section_.laser_groups.push_back(kLaserGroups[g].name);
   section_.lasers = layout.corrections(laser_block_);
   const double nan = std::nan("");
   section_.laser_sigma.assign(static_cast<std::size_t>(L), LaserCorrection{nan, nan, nan, nan, nan});
   section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), nan);
-  section_.laser_points.assign(static_cast<std::size_t>(L), 0);
+  section_.laser_points = laserPoints(set_, *dense_, L);
   section_.laser_unseparated.clear();
-  for (const Correspondence& c : set_.correspondences) {
-    const int la = dense_->laser(c.strip_a, c.point_a);
-    if (la >= 0) ++section_.laser_points[static_cast<std::size_t>(la)];
-    for (std::size_t j : c.points_b) {
-      const int lb = dense_->laser(c.strip_b, j);
-      if (lb >= 0) ++section_.laser_points[static_cast<std::size_t>(lb)];
-    }
-  }
   ceres::Problem& problem = const_cast<AdjustmentProblem&>(adjustment).ceresProblem();
   double* mount = const_cast<AdjustmentProblem&>(adjustment).mounting();
   ceres::Covariance::Options co;
@@ -991,19 +988,20 @@ void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjus
       const int k = layout.offset[g] < 0 ? -1 : layout.offset[g] + i;
       if (k < 0) continue;
       const double v = C_ll(k, k);
-      section_.laser_sigma[static_cast<std::size_t>(i)].*fields[g] = std::sqrt(std::max(v, 0.0));
+      section_.laser_sigma[static_cast<std::size_t>(i)].*kLaserGroups[g].field = std::sqrt(std::max(v, 0.0));
       for (int j = 0; j < 6 && mount_free; ++j) {
         const double r = corr(C_lm(k, j), v, C_mm(j, j));
         if (j >= 3) rho = std::max(rho, std::abs(r));
         if (std::abs(r) >= kUnseparated)
-          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ %s (%+.2f)", i, kKeys[g], kMounting[j], r));
+          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ %s (%+.2f)", i, kLaserGroups[g].name, kMounting[j], r));
       }
       for (std::size_t h = g + 1; h < 5; ++h) {
         if (layout.offset[h] < 0) continue;
         const int k2 = layout.offset[h] + i;
         const double r = corr(C_ll(k, k2), v, C_ll(k2, k2));
         if (std::abs(r) >= kUnseparated)
-          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ laser %d %s (%+.2f)", i, kKeys[g], i, kKeys[h], r));
+          section_.laser_unseparated.push_back(
+              detail::printfString("laser %d %s ~ laser %d %s (%+.2f)", i, kLaserGroups[g].name, i, kLaserGroups[h].name, r));
       }
     }
     section_.laser_boresight_correlation[static_cast<std::size_t>(i)] = rho;

@@ -89,17 +89,6 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
 }  // namespace
 
 namespace {
-struct LaserGroup {
-  const char* key;  // as in CorrespondenceSection::laser_groups
-  const char* unit;
-  double scale;  // library unit → the file's
-  double LaserCorrection::*field;
-};
-const LaserGroup kLaserGroups[5] = {{"elevation", "deg", 180 / kPi, &LaserCorrection::elevation_rad},
-                                    {"azimuth", "deg", 180 / kPi, &LaserCorrection::azimuth_rad},
-                                    {"range", "m", 1, &LaserCorrection::range_m},
-                                    {"vertical", "m", 1, &LaserCorrection::vertical_m},
-                                    {"horizontal", "m", 1, &LaserCorrection::horizontal_m}};
 // Beyond these a per-laser correction is not a calibration residual of a working sensor: the
 // manufacturers' range accuracy is a few centimetres (VLP-16 ±3 cm, HDL-32E ±2 cm, their manuals).
 constexpr double kPlausibleRangeM = 0.10, kPlausibleOriginM = 0.05, kPlausibleAngleDeg = 1.0;
@@ -111,7 +100,7 @@ auto laserFields(const CorrespondenceSection& s) {
 std::vector<const LaserGroup*> estimatedGroups(const std::vector<std::string>& keys) {
   std::vector<const LaserGroup*> out;
   for (const LaserGroup& g : kLaserGroups)
-    if (std::find(keys.begin(), keys.end(), g.key) != keys.end()) out.push_back(&g);
+    if (std::find(keys.begin(), keys.end(), g.name) != keys.end()) out.push_back(&g);
   return out;
 }
 
@@ -121,15 +110,12 @@ std::string laserText(const CorrespondenceSection& section) {
   r << "Per-laser intrinsics (by laser id; added to the laser table; means of elevation, azimuth and vertical held at 0; sigma a\n"
        "priori, the mounting's sigma above eliminates them):\n  laser";
   const std::vector<const LaserGroup*> groups = estimatedGroups(laser_groups);
-  for (const LaserGroup* g : groups) r << detail::printfString("  %10s [%s] %9s", g->key, g->unit, "sigma");
+  for (const LaserGroup* g : groups) r << detail::printfString("  %10s [%s] %9s", g->name, g->unit, "sigma");
   r << "  max|corr| boresight  points\n";
   for (std::size_t i = 0; i < lasers.size(); ++i) {
     r << detail::printfString("  %5zu", i);
-    for (const LaserGroup* g : groups) {
-      const bool deg = g->scale != 1;
-      r << detail::printfString(deg ? "  %+16.4f %9.4f" : "  %+16.4f %9.4f", lasers[i].*g->field * g->scale,
-                                laser_sigma[i].*g->field * g->scale);
-    }
+    for (const LaserGroup* g : groups)
+      r << detail::printfString("  %+16.4f %9.4f", lasers[i].*g->field * g->to_unit, laser_sigma[i].*g->field * g->to_unit);
     r << detail::printfString("  %19.2f  %6d\n", laser_boresight_correlation[i], laser_points[i]);
   }
   if (laser_unseparated.empty()) {
@@ -150,11 +136,11 @@ nlohmann::json laserJson(const CorrespondenceSection& section) {
   for (const LaserGroup* g : estimatedGroups(laser_groups)) {
     json v = json::array(), s = json::array();
     for (std::size_t i = 0; i < lasers.size(); ++i) {
-      v.push_back(lasers[i].*g->field * g->scale);
-      s.push_back(detail::numOrNull(laser_sigma[i].*g->field * g->scale));
+      v.push_back(lasers[i].*g->field * g->to_unit);
+      s.push_back(detail::numOrNull(laser_sigma[i].*g->field * g->to_unit));
     }
-    j[std::string("laser_") + g->key + "_offset_" + g->unit] = v;
-    j[std::string("laser_") + g->key + "_sigma_" + g->unit] = s;
+    j[std::string("laser_") + g->name + "_offset_" + g->unit] = v;
+    j[std::string("laser_") + g->name + "_sigma_" + g->unit] = s;
   }
   json cor = json::array(), pts = json::array();
   for (std::size_t i = 0; i < lasers.size(); ++i) {

@@ -92,10 +92,8 @@ LaserLayout::LaserLayout(int laser_count, const std::array<double, 5>& prior_sig
 
 LaserCorrection LaserLayout::correction(const double* block, int laser) const {
   LaserCorrection c;
-  double LaserCorrection::*const fields[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
-                                              &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
   for (std::size_t g = 0; g < 5; ++g)
-    if (offset[g] >= 0) c.*fields[g] = block[offset[g] + laser];
+    if (offset[g] >= 0) c.*kLaserGroups[g].field = block[offset[g] + laser];
   return c;
 }
 
