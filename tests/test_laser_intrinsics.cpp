@@ -109,14 +109,28 @@ std::unique_ptr<IntrinsicsSurvey> intrinsicsSurvey(const std::string& model, std
   return p;
 }
 
-MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const LaserErrorSigmas& prior) {
+/// `as_flown`: the survey's navigation noise stated to the calibration (strip offsets of the
+/// GNSS's 2 cm; TrajectoryAccuracy of its Gauss–Markov position and attitude errors), `budget`
+/// samples per pair (0: uavDenseOptions').
+MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const LaserErrorSigmas& prior, bool as_flown = false,
+                                                int budget = 0) {
   MountingCalibrator::Options o = mountcal_tests::uavDenseOptions();
+  if (as_flown) {
+    const NoiseModel& n = s.config.noise;
+    o.strip_offset_sigma_m = n.gnss_sigma_m;
+    o.trajectory.position_sigma_m = n.gnss_sigma_m;
+    o.trajectory.position_correlation_s = n.gnss_correlation_s;
+    o.trajectory.roll_pitch_sigma_deg = rad2deg(n.attitude_sigma_rad);
+    o.trajectory.heading_sigma_deg = 2 * rad2deg(n.attitude_sigma_rad);  // the simulator's heading: twice roll/pitch
+    o.trajectory.attitude_correlation_s = n.attitude_correlation_s;
+  }
   CorrespondenceOptions& c = o.method<CorrespondenceOptions>();
   c.laser_elevation_sigma_deg = rad2deg(prior.elevation_rad);
   c.laser_azimuth_sigma_deg = rad2deg(prior.azimuth_rad);
   c.laser_range_sigma_m = prior.range_m;
   c.laser_vertical_sigma_m = prior.vertical_m;
   c.laser_horizontal_sigma_m = prior.horizontal_m;
+  if (budget > 0) c.budget = budget;
   if (mountcal_tests::kSanitizerBuild) c.budget = 300;  // the code under the sanitizers, on fewer samples
   return calibrate(toCalibrationData(s.survey), o);
 }
@@ -134,7 +148,7 @@ struct Recovery {
   std::array<double, 5> worst_separated{};  // elevation, azimuth [deg]; range, vertical, horizontal [m]
   double worst_ratio = 0;                   // max |error| / σ over every seen laser's parameters
   double worst_boresight_deg = 0, worst_boresight_ratio = 0;
-  int parameters = 0, within_2sigma = 0;
+  int parameters = 0, within_2sigma = 0, within_3sigma = 0;
   double sum_ratio2 = 0;
 };
 
@@ -156,6 +170,7 @@ Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& 
       r.worst_ratio = std::max(r.worst_ratio, ratio);
       ++r.parameters;
       r.within_2sigma += ratio <= 2;
+      r.within_3sigma += ratio <= 3;
       r.sum_ratio2 += ratio * ratio;
       const std::string tag = "laser " + std::to_string(i) + " " + keys[g];
       bool separated = true;
@@ -243,4 +258,46 @@ TEST(LaserIntrinsics, ResultFileIntrinsicsAreReadByGroupAndChecked) {
   std::ofstream(path) << R"({"intrinsics": {"laser_vertical_offset_m": [0.0, 2.5]}})";
   EXPECT_THROW(readResultLaserCorrections(path), FileError);  // 2.5 m: not a laser's origin
   std::remove(path.c_str());
+}
+
+// Issue 28's Done-when under noise: the same surveys with the UAV preset's noise — range 3 cm,
+// GNSS 2 cm (Gauss–Markov, 100 s), attitude 0.01° roll/pitch and 0.02° heading (Gauss–Markov,
+// 0.1 s: correlated over a revolution of the scanner, so thousands of distances share one error) —
+// ten seeds per sensor, every group estimated, the navigation's accuracy stated as flown. The
+// laser parameters' σ are the adjustment's (AdjustmentProblem::reportCovariance: formal plus the
+// trajectory errors in time over the mounting and the laser block together), no longer the
+// formal σ of independent distances (RMS of error/σ 1.0–2.2, worst 6–8σ, the boresight 3.3–3.5σ).
+// Every seed's boresight within 3σ; over the seeds' laser parameters the RMS of error/σ within
+// 0.6–1.4 (too large a σ is not honest either), at least 90 % within 2σ and 98 % within 3σ (the
+// tail is heavier than a Gaussian's 0.27 %: docs/real-data-gravity.md names the seeds). 300
+// samples per pair keep it to a few seconds per seed.
+TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: the laser block's covariance with the trajectory errors in time runs under the sanitizers in "
+                    "Sets/GravityCalibration.* (per-laser offsets, TrajectoryAccuracy's defaults); its statistics over ten seeds per "
+                    "sensor are checked in the Release suite";
+  for (const char* model : {"VLP-16", "HDL-32E"}) {
+    int parameters = 0, within2 = 0, within3 = 0;
+    double sum_ratio2 = 0, worst = 0, worst_boresight = 0;
+    for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+      const auto s = intrinsicsSurvey(model, seed, true);
+      const auto S = calibrateIntrinsics(*s, priorsFor(model), true, 300);
+      ASSERT_TRUE(S.IsSolutionUsable()) << model << " seed " << seed << "\n" << S.FullReport();
+      EXPECT_EQ(S.sigma_model, "formal + trajectory errors in time");
+      const Recovery r = recovery(*s, S);
+      EXPECT_LE(r.worst_boresight_ratio, 3.0) << model << " seed " << seed;
+      parameters += r.parameters, within2 += r.within_2sigma, within3 += r.within_3sigma;
+      sum_ratio2 += r.sum_ratio2;
+      worst = std::max(worst, r.worst_ratio), worst_boresight = std::max(worst_boresight, r.worst_boresight_ratio);
+    }
+    const double rms = std::sqrt(sum_ratio2 / parameters), share2 = double(within2) / parameters, share3 = double(within3) / parameters;
+    std::printf(
+        "%s, 10 seeds with the preset's noise: %d laser parameters, RMS of |error|/sigma %.2f, %.1f %% within 2 sigma, %.1f %% within "
+        "3 sigma, worst %.1f; boresight worst %.2f sigma\n",
+        model, parameters, rms, 100 * share2, 100 * share3, worst, worst_boresight);
+    EXPECT_GE(rms, 0.6) << model;
+    EXPECT_LE(rms, 1.4) << model;
+    EXPECT_GE(share2, 0.90) << model;
+    EXPECT_GE(share3, 0.98) << model;
+  }
 }

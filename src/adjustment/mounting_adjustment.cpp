@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace mountcal {
 
@@ -309,6 +310,19 @@ void AdjustmentProblem::addRandomEffectPriors() {
   source_ = src;
 }
 
+void AdjustmentProblem::reportCovariance(const double* block) {
+  const auto it = std::find_if(nuisance_.begin(), nuisance_.end(), [block](const Block& b) { return b.values == block; });
+  if (it == nuisance_.end() || it->manifold)
+    throw std::invalid_argument("AdjustmentProblem::reportCovariance: not a nuisance block of this problem without a manifold");
+  if (std::find(reported_.begin(), reported_.end(), block) == reported_.end()) reported_.push_back(block);
+}
+
+const Eigen::MatrixXd& AdjustmentProblem::reportedCovariance(const double* block) const {
+  static const Eigen::MatrixXd kNone;
+  const auto it = reported_covariance_.find(block);
+  return it == reported_covariance_.end() ? kNone : it->second;
+}
+
 Vec3 AdjustmentProblem::stripOffsetValue(const std::string& strip_id) const {
   auto it = offsets_.find(strip_id);
   if (it == offsets_.end()) return Vec3::Zero();
@@ -511,12 +525,20 @@ struct Columns {
 
 Columns columnsOf(const AdjustmentProblem& problem) {
   Columns c;
-  for (const auto& b : problem.nuisanceBlocks()) {
+  auto add = [&c](const AdjustmentProblem::Block& b) {
     const int t = b.manifold ? b.manifold->TangentSize() : b.size;
     c.col[b.values] = {c.n, t};
     if (b.manifold) c.manifold[b.values] = b.manifold;
     c.n += t;
-  }
+  };
+  // The blocks a source asked the covariance of (reportCovariance) first, in the order asked:
+  // columns 6… of reducedSystem() when it keeps them.
+  const std::vector<const double*>& reported = problem.reportedBlocks();
+  for (const double* r : reported)
+    for (const auto& b : problem.nuisanceBlocks())
+      if (b.values == r) add(b);
+  for (const auto& b : problem.nuisanceBlocks())
+    if (std::find(reported.begin(), reported.end(), b.values) == reported.end()) add(b);
   if (problem.stripOffsetSigma() > 0) {
     for (const auto& entry : problem.stripOffsets()) {
       c.col[entry.second] = {c.n, 3};
@@ -569,16 +591,17 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
   }
 }
 
-/// Reduced normal matrix of the full mounting block — every nuisance block (the sources'
-/// blocks and the strip offsets) eliminated by a Schur complement — and the unreduced
-/// diagonal, from the Jacobians of every residual block at the current values (SPEC §3 step 5:
-/// rank and condition). Nuisance blocks on a manifold enter in their tangent space.
-/// `X` (optional): N_nn⁻¹ N_nm, the nuisance's response to the mounting (rows: columns 6.. of
-/// `cols`), for the reduced Jacobian J_m − J_n X of any residual.
-void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Eigen::MatrixXd* X_out = nullptr,
-                         Columns* cols_out = nullptr) {
+/// Reduced normal matrix of the first `kept` columns — the mounting's 6, then (kept > 6) the
+/// blocks asked for by reportCovariance — every other nuisance block (the sources' blocks and the
+/// strip offsets) eliminated by a Schur complement, and the unreduced diagonal, from the
+/// Jacobians of every residual block at the current values (SPEC §3 step 5: rank and
+/// condition). Nuisance blocks on a manifold enter in their tangent space. `X` (optional):
+/// N_ee⁻¹ N_ek, the eliminated blocks' response to the kept ones (rows: columns `kept`… of
+/// `cols`), for the reduced Jacobian J_k − J_e X of any residual.
+void reducedSystem(AdjustmentProblem& problem, int kept, Eigen::MatrixXd* N_red, Eigen::VectorXd* diag, Eigen::MatrixXd* X_out = nullptr,
+                   Columns* cols_out = nullptr) {
   const Columns cols = columnsOf(problem);
-  const int n = cols.n;
+  const int n = cols.n, k = kept;
   std::vector<Eigen::Triplet<double>> trip;
   int row = 0;
   const double* m = problem.mounting();
@@ -592,30 +615,40 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Ei
   Js.setFromTriplets(trip.begin(), trip.end());
   const Eigen::SparseMatrix<double> Jt_s = Js.transpose();
   const Eigen::SparseMatrix<double> N = Jt_s * Js;
-  const Eigen::MatrixXd Nmm = Eigen::MatrixXd(N.topLeftCorner(6, 6));
-  *diag = Nmm.diagonal();
+  const Eigen::MatrixXd Nkk = Eigen::MatrixXd(N.topLeftCorner(k, k));
+  *diag = Nkk.diagonal();
   if (cols_out) *cols_out = cols;
-  if (n == 6) {
-    *N_red = Nmm;
-    if (X_out) X_out->resize(0, 6);
+  if (n == k) {
+    *N_red = Nkk;
+    if (X_out) X_out->resize(0, k);
     return;
   }
-  const Eigen::SparseMatrix<double> Nnn = N.bottomRightCorner(n - 6, n - 6);
-  const Eigen::MatrixXd Nnm = Eigen::MatrixXd(N.bottomLeftCorner(n - 6, 6));
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Nnn);
+  const Eigen::SparseMatrix<double> Nee = N.bottomRightCorner(n - k, n - k);
+  const Eigen::MatrixXd Nek = Eigen::MatrixXd(N.bottomLeftCorner(n - k, k));
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Nee);
   Eigen::MatrixXd X;
-  if (ldlt.info() == Eigen::Success) X = ldlt.solve(Nnm);
+  if (ldlt.info() == Eigen::Success) X = ldlt.solve(Nek);
   if (ldlt.info() != Eigen::Success || !X.allFinite()) {
     // A nuisance direction the data leave free (it cannot couple to the mounting): regularise.
-    Eigen::SparseMatrix<double> R = Nnn;
-    const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(Nnn.diagonal()).cwiseAbs().maxCoeff());
-    for (int i = 0; i < n - 6; ++i) R.coeffRef(i, i) += eps;
+    Eigen::SparseMatrix<double> R = Nee;
+    const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(Nee.diagonal()).cwiseAbs().maxCoeff());
+    for (int i = 0; i < n - k; ++i) R.coeffRef(i, i) += eps;
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> reg(R);
-    X = reg.solve(Nnm);
+    X = reg.solve(Nek);
   }
-  *N_red = Nmm - Nnm.transpose() * X;
+  *N_red = Nkk - Nek.transpose() * X;
   *N_red = 0.5 * (*N_red + N_red->transpose());
   if (X_out) *X_out = std::move(X);
+}
+
+/// reducedSystem() of the mounting block alone (every nuisance block eliminated).
+void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Eigen::MatrixXd* X_out = nullptr,
+                         Columns* cols_out = nullptr) {
+  Eigen::MatrixXd N;
+  Eigen::VectorXd d;
+  reducedSystem(problem, 6, &N, &d, X_out, cols_out);
+  *N_red = N;
+  *diag = d;
 }
 
 /// The trajectory errors' part of the mounting's covariance, in normal-matrix units (the
@@ -625,28 +658,35 @@ void reducedNormalMatrix(AdjustmentProblem& problem, Mat6* N_red, Vec6* diag, Ei
 ///
 /// Ĵ = J_m − J_n X the residual block's reduced Jacobian (its nuisance eliminated), J_c its
 /// Jacobian with respect to the strip's position (the offset block) or attitude (the offset's
-/// times −[u]×). Epochs are binned at τ/20 (correlation > 0.95 within a bin); bins further apart
-/// than 10 τ (correlation < 5e-5) are skipped. Position and attitude separately; attitude only
+/// times −[u]×). Epochs are binned at τ/20 (correlation > 0.95 within a bin); the double sum over bins runs
+/// as the exponential kernel's recursion (linear in the bins). Position and attitude separately; attitude only
 /// when `attitude` (not already estimated as PulseNoise's random effect).
 ///
 /// An epoch whose own variance is in its block's estimated σ (Epoch::in_sigma) holds there only
 /// the part of its trajectory error that the strip's estimated terms do not absorb (the offset,
 /// the corrections' polynomials: residualShare); that part is returned as `self`, to be taken
 /// off M (the correlations stay).
+///
+/// Over the first `kept` columns of reducedSystem() (the mounting's 6, or with the blocks asked
+/// for by reportCovariance): Rows = 6 for the mounting alone (fixed-size), Eigen::Dynamic else.
+template <int Rows>
 struct TrajectoryTerm {
-  Mat6 M = Mat6::Zero();     ///< every epoch's error, own variances included
-  Mat6 self = Mat6::Zero();  ///< Σ share · h C hᵀ of the in_sigma epochs
+  using Mat = Eigen::Matrix<double, Rows, Rows>;
+  Mat M, self;  ///< every epoch's error, own variances included; Σ share · h C hᵀ of the in_sigma epochs
 };
 
-TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude) {
-  Mat6 N_red;
-  Vec6 diag;
-  Eigen::MatrixXd X;
+template <int Rows>
+TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude, int kept = 6) {
+  using Mat = typename TrajectoryTerm<Rows>::Mat;
+  Eigen::MatrixXd N_red, X;
+  Eigen::VectorXd diag;
   Columns cols;
-  reducedNormalMatrix(problem, &N_red, &diag, &X, &cols);
-  using Mat63 = Eigen::Matrix<double, 6, 3>;
+  reducedSystem(problem, kept, &N_red, &diag, &X, &cols);
+  using Mat63 = Eigen::Matrix<double, Rows, 3>;
+  const Mat zero = Mat::Zero(kept, kept);
+  const Mat63 zero3 = Mat63::Zero(kept, 3);
   struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ and its count
-    Mat6 hch = Mat6::Zero();
+    Mat hch;
     double count = 0;
   };
   struct Group {
@@ -660,7 +700,7 @@ TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryA
   Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}, {}, {}};
   Group att{acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, Vec3(t * t, t * t, k * k), {}, {}, {}};
   const bool use_pos = p > 0, use_att = attitude && (t > 0 || k > 0);
-  TrajectoryTerm out;
+  TrajectoryTerm<Rows> out{zero, zero};
   if (!use_pos && !use_att) return out;
   const TrajectoryCorrections& corr = problem.corrections();
   for (int d = 0; d <= corr.position_degree; ++d) pos.absorbed.push_back(d);
@@ -669,14 +709,19 @@ TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryA
   for (const auto& rec : problem.records()) {
     if (rec.epochs.empty()) continue;
     const std::vector<RowMat> J = blockJacobians(rec, cols);
-    Eigen::MatrixXd Jr = Eigen::MatrixXd::Zero(rec.cost->num_residuals(), 6);  // reduced Jacobian Ĵ
+    Eigen::MatrixXd Jr = Eigen::MatrixXd::Zero(rec.cost->num_residuals(), kept);  // reduced Jacobian Ĵ
     for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
       if (rec.blocks[b] == m) {
-        Jr += J[b];
+        Jr.leftCols(6) += J[b];
         continue;
       }
       auto it = cols.col.find(rec.blocks[b]);
-      if (it != cols.col.end()) Jr -= J[b] * X.middleRows(it->second.first - 6, it->second.second);
+      if (it == cols.col.end()) continue;
+      const auto [first, size] = it->second;
+      if (first < kept)
+        Jr.middleCols(first, size) += J[b];
+      else
+        Jr -= J[b] * X.middleRows(first - kept, size);
     }
     for (const auto& e : rec.epochs) {
       const Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
@@ -684,9 +729,9 @@ TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryA
       for (auto [g, h, on] : {std::tuple<Group*, const Mat63*, bool>{&pos, &hp, use_pos}, {&att, &ha, use_att}}) {
         if (!on) continue;
         const long long bin = std::llround(e.time_s / g->bin);
-        g->H[e.offset].try_emplace(bin, Mat63::Zero()).first->second += *h;
+        g->H[e.offset].try_emplace(bin, zero3).first->second += *h;
         if (!e.in_sigma) continue;
-        Own& o = g->own[e.offset][bin];
+        Own& o = g->own[e.offset].try_emplace(bin, Own{zero, 0.0}).first->second;
         o.hch += *h * g->var.asDiagonal() * h->transpose();
         o.count += 1;
       }
@@ -708,15 +753,17 @@ TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryA
     }
     for (const auto& [strip, bins] : g->H) {
       (void)strip;
-      const std::vector<std::pair<long long, Mat63>> v(bins.begin(), bins.end());
-      for (std::size_t i = 0; i < v.size(); ++i) {
-        out.M += v[i].second * C * v[i].second.transpose();
-        for (std::size_t j = i + 1; j < v.size(); ++j) {
-          const double dt = static_cast<double>(v[j].first - v[i].first) * g->bin;
-          if (dt > 10.0 * g->tau) break;
-          const Mat6 term = std::exp(-dt / g->tau) * v[i].second * C * v[j].second.transpose();
-          out.M += term + term.transpose();
-        }
+      // Σ_u Σ_v exp(−|t_u − t_v| / τ) H_u C H_vᵀ by the exponential kernel's recursion over the
+      // sorted bins: T_u = Σ_{v<u} exp(−(t_u − t_v) / τ) H_v = exp(−(t_u − t_{u−1}) / τ) (T_{u−1} + H_{u−1}).
+      Mat63 T = zero3;
+      const Mat63* previous = nullptr;
+      long long previous_bin = 0;
+      for (const auto& [bin, H] : bins) {
+        if (previous) T = std::exp(-static_cast<double>(bin - previous_bin) * g->bin / g->tau) * (T + *previous);
+        const Mat cross = H * C * T.transpose();
+        out.M += H * C * H.transpose() + cross + cross.transpose();
+        previous = &H;
+        previous_bin = bin;
       }
     }
   }
@@ -728,10 +775,11 @@ TrajectoryTerm trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryA
 /// What the estimated σ hold cannot exceed what they state: `self` scaled down, when needed,
 /// so that self ≤ 0.9 N (N the reduced normal matrix of the estimated parameters) — the white
 /// part left in every estimated σ at least a tenth of its variance.
-Mat6 boundedSelf(const Mat6& self, const Mat6& N, const std::array<bool, 6>& est) {
+template <typename Mat>
+Mat boundedSelf(const Mat& self, const Mat& N, const std::vector<bool>& est) {
   std::vector<int> idx;
-  for (int j = 0; j < 6; ++j)
-    if (est[static_cast<std::size_t>(j)]) idx.push_back(j);
+  for (std::size_t j = 0; j < est.size(); ++j)
+    if (est[j]) idx.push_back(static_cast<int>(j));
   const Eigen::Index n = static_cast<Eigen::Index>(idx.size());
   if (n == 0) return self;
   Eigen::MatrixXd S(n, n), A(n, n);
@@ -743,7 +791,7 @@ Mat6 boundedSelf(const Mat6& self, const Mat6& N, const std::array<bool, 6>& est
   Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> ges(S, A);
   if (ges.info() != Eigen::Success) return self;
   const double lambda = ges.eigenvalues().maxCoeff();
-  return lambda > 0.9 ? Mat6(self * (0.9 / lambda)) : self;
+  return lambda > 0.9 ? Mat(self * (0.9 / lambda)) : self;
 }
 
 /// The time offset δt beside the mounting: SPEC §2 eq. (1) at t + δt gives ∂x/∂δt = v + ω × u
@@ -809,13 +857,13 @@ TimeOffsetSystem timeOffsetSystem(AdjustmentProblem& problem) {
   return out;
 }
 
-/// The (pseudo-)inverse of the estimated parameters' block of a 6 × 6 normal matrix, placed
-/// back at their indices (zero elsewhere).
-Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
+/// The (pseudo-)inverse of the estimated parameters' block of a normal matrix, placed back at
+/// their indices (zero elsewhere).
+Eigen::MatrixXd inverseOnEstimated(const Eigen::MatrixXd& N, const std::vector<bool>& est) {
   std::vector<int> idx;
-  for (int j = 0; j < 6; ++j)
-    if (est[j]) idx.push_back(j);
-  Mat6 out = Mat6::Zero();
+  for (std::size_t j = 0; j < est.size(); ++j)
+    if (est[j]) idx.push_back(static_cast<int>(j));
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(N.rows(), N.cols());
   if (idx.empty()) return out;
   Eigen::MatrixXd Nn(idx.size(), idx.size());
   for (std::size_t a = 0; a < idx.size(); ++a)
@@ -824,6 +872,10 @@ Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
   for (std::size_t a = 0; a < idx.size(); ++a)
     for (std::size_t b = 0; b < idx.size(); ++b) out(idx[a], idx[b]) = inv(a, b);
   return out;
+}
+
+Mat6 inverseOnEstimated(const Mat6& N, const std::array<bool, 6>& est) {
+  return inverseOnEstimated(Eigen::MatrixXd(N), std::vector<bool>(est.begin(), est.end()));
 }
 
 /// A σ for the report: [m] or [deg] as given, three significant digits.
@@ -1222,6 +1274,7 @@ class Estimation {
   /// Ceres cannot compute it (the same marginal covariance in exact arithmetic).
   void covariance(const std::array<bool, 6>& est, const Mat6& N_red) {
     const double scale = o_.scale_covariance_by_variance_factor && S_.degrees_of_freedom > 0 ? S_.variance_factor : 1.0;
+    reported_formal_.clear();
     Mat6 cov = Mat6::Constant(std::nan(""));
     int n_est = 0;
     for (bool e : est) n_est += e;
@@ -1237,11 +1290,14 @@ class Estimation {
         blocks.emplace_back(mb, extra[a]);
         for (std::size_t b = a; b < extra.size(); ++b) blocks.emplace_back(extra[a], extra[b]);
       }
+      const std::vector<const double*> reported = variableReported();
+      for (const double* r : reported) blocks.emplace_back(mb, r), blocks.emplace_back(r, r);
       Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
       if (covariance.Compute(blocks, &P_->ceresProblem()) && covariance.GetCovarianceBlock(mb, mb, c.data())) {
         cov = c * scale;
         S_.covariance_source = "ceres::Covariance";
         nuisanceCovariance(covariance, extra, scale);
+        reportedFormal(covariance, reported, scale);
       } else {
         const Mat6 inv = inverseOnEstimated(N_red, est);
         for (int a = 0; a < 6; ++a)
@@ -1254,9 +1310,9 @@ class Estimation {
     S_.sigma_model = "formal";
     if (n_est > 0 && o_.trajectory.any()) {
       // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
-      const TrajectoryTerm term = trajectoryErrorTerm(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
+      const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
       const Mat6 Pinv = inverseOnEstimated(N_red, est);
-      const Mat6 extra = Pinv * (term.M - boundedSelf(term.self, N_red, est)) * Pinv;
+      const Mat6 extra = Pinv * (term.M - boundedSelf(term.self, N_red, std::vector<bool>(est.begin(), est.end()))) * Pinv;
       if (extra.allFinite() && extra.norm() > 0) {
         for (int a = 0; a < 6; ++a)
           for (int b = 0; b < 6; ++b)
@@ -1276,6 +1332,7 @@ class Estimation {
         S_.sigma_model += " + time offset";
       }
     }
+    reportedCovariances(est, scale);
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
@@ -1389,6 +1446,72 @@ class Estimation {
       S_.observability_report += buf;
     }
     S_.observability_report += ": at one speed it acts as an along-track lever arm (v·δt); fly the lines at two speeds.\n";
+  }
+
+  /// The blocks a source asked the covariance of (AdjustmentProblem::reportCovariance) that the
+  /// solve estimated (a constant block has none).
+  std::vector<const double*> variableReported() const {
+    std::vector<const double*> out;
+    for (const double* r : P_->reportedBlocks())
+      if (!P_->ceresProblem().IsParameterBlockConstant(const_cast<double*>(r))) out.push_back(r);
+    return out;
+  }
+
+  /// The formal joint covariance of the mounting and each reported block, scaled as the
+  /// mounting's, from the computed ceres::Covariance (reportedCovariances adds the rest).
+  void reportedFormal(const ceres::Covariance& covariance, const std::vector<const double*>& reported, double scale) {
+    using RM = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const double* mb = P_->mounting();
+    for (const double* r : reported) {
+      const int n = P_->ceresProblem().ParameterBlockSize(r);
+      RM mm(6, 6), mr(6, n), rr(n, n);
+      if (!covariance.GetCovarianceBlock(mb, mb, mm.data()) || !covariance.GetCovarianceBlock(mb, r, mr.data()) ||
+          !covariance.GetCovarianceBlock(r, r, rr.data()))
+        continue;
+      Eigen::MatrixXd C(6 + n, 6 + n);
+      C << mm, mr, mr.transpose(), rr;
+      reported_formal_[r] = C * scale;
+    }
+  }
+
+  /// The joint covariance of the mounting and each reported block in the mounting's stochastic
+  /// model: the formal part (reportedFormal; else the reduced system's inverse, scaled alike)
+  /// plus the trajectory errors in time, C = N⁻¹ + N⁻¹ M N⁻¹ over the mounting and every
+  /// reported block kept together (trajectoryErrorTerm with their columns). Held mounting
+  /// parameters: NaN rows and columns.
+  void reportedCovariances(const std::array<bool, 6>& est, double scale) {
+    const std::vector<const double*> reported = variableReported();
+    if (reported.empty()) return;
+    const Columns cols = columnsOf(*P_);
+    int kept = 6;
+    for (const double* r : reported) kept += cols.col.at(r).second;
+    Eigen::MatrixXd N_red;
+    Eigen::VectorXd diag;
+    reducedSystem(*P_, kept, &N_red, &diag);
+    std::vector<bool> keep(static_cast<std::size_t>(kept), true);
+    for (std::size_t j = 0; j < 6; ++j) keep[j] = est[j];
+    const Eigen::MatrixXd Pinv = inverseOnEstimated(N_red, keep);
+    Eigen::MatrixXd consider = Eigen::MatrixXd::Zero(kept, kept);
+    if (o_.trajectory.any()) {
+      const TrajectoryTerm<Eigen::Dynamic> term =
+          trajectoryErrorTerm<Eigen::Dynamic>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), kept);
+      const Eigen::MatrixXd extra = Pinv * (term.M - boundedSelf(term.self, N_red, keep)) * Pinv;
+      if (extra.allFinite()) consider = extra;
+    }
+    for (const double* r : reported) {
+      const int first = cols.col.at(r).first, n = cols.col.at(r).second;
+      std::vector<int> idx{0, 1, 2, 3, 4, 5};
+      for (int i = 0; i < n; ++i) idx.push_back(first + i);
+      Eigen::MatrixXd C(6 + n, 6 + n);
+      const auto formal = reported_formal_.find(r);
+      for (int a = 0; a < 6 + n; ++a)
+        for (int b = 0; b < 6 + n; ++b) {
+          const double f = formal != reported_formal_.end() ? formal->second(a, b) : scale * Pinv(idx[a], idx[b]);
+          const bool held = (a < 6 && !est[a]) || (b < 6 && !est[b]);
+          C(a, b) = held ? std::nan("") : f + consider(idx[a], idx[b]);
+        }
+      P_->setReportedCovariance(r, std::move(C));
+    }
   }
 
   /// The nuisance blocks estimated beside the mounting whose covariance the summary reports:
@@ -1528,9 +1651,10 @@ class Estimation {
   bool first_ = true;
   std::ostringstream report_;
   TimeOffsetSystem time_;
-  bool without_corrections_ = false;  ///< estimate()'s first stage (see there)
-  Eigen::MatrixXd nuisance_cov_;      ///< nuisanceCovariance(): mounting, then estimatedNuisance()
-  std::vector<int> nuisance_first_;   ///< first column of each estimated nuisance block there
+  bool without_corrections_ = false;                          ///< estimate()'s first stage (see there)
+  Eigen::MatrixXd nuisance_cov_;                              ///< nuisanceCovariance(): mounting, then estimatedNuisance()
+  std::vector<int> nuisance_first_;                           ///< first column of each estimated nuisance block there
+  std::map<const double*, Eigen::MatrixXd> reported_formal_;  ///< reportedFormal(): mounting, then the block
 };
 
 }  // namespace

@@ -391,6 +391,21 @@ class AdjustmentProblem {
   /// error — only its correlation with the other observations is added.
   void setEpoch(int record, const std::string& strip_id, double time_s, const Vec3& u_m, bool in_sigma = false);
 
+  /// Asks the adjustment for nuisance block `block`'s covariance in the mounting's stochastic
+  /// model — the formal part scaled as the mounting's, plus the trajectory errors in time
+  /// (TrajectoryAccuracy) over the mounting and this block together — instead of a formal one
+  /// that treats correlated observations as independent. `block` is one of this problem's
+  /// nuisance blocks without a manifold; read the result in ObservationSource::finish with
+  /// reportedCovariance(). The time offset's consider term is not in it (the mounting's only).
+  void reportCovariance(const double* block);
+  const std::vector<const double*>& reportedBlocks() const { return reported_; }
+  /// The joint covariance of the mounting (rows and columns 0–5; NaN where a mounting parameter
+  /// is held) and a block asked for by reportCovariance (6…), after the solve; empty when it was
+  /// not asked for or could not be computed.
+  const Eigen::MatrixXd& reportedCovariance(const double* block) const;
+  /// Set by MountingAdjustment after the solve.
+  void setReportedCovariance(const double* block, Eigen::MatrixXd covariance) { reported_covariance_[block] = std::move(covariance); }
+
   /// Residual vector of block `index` at the current parameter values (unweighted by loss).
   Eigen::VectorXd residual(int index) const;
   int residualBlockCount() const { return static_cast<int>(records_.size()); }
@@ -452,6 +467,8 @@ class AdjustmentProblem {
   std::vector<StripCorrection> corrections_blocks_;
   double* time_offset_block_ = nullptr;
   bool committed_ = false;
+  std::vector<const double*> reported_;
+  std::map<const double*, Eigen::MatrixXd> reported_covariance_;
   void attachCorrections(bool corrections, bool time_offset);
 };
 

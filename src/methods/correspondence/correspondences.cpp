@@ -751,6 +751,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   laser_block_ = nullptr;
   if (!layout.empty()) {
     laser_block_ = problem->addNuisanceBlock(layout.size, laser_dl_.data(), nullptr, false);
+    problem->reportCovariance(laser_block_);  // σ with the trajectory errors in time, as the mounting's
     // Priors: each value N(0, σ_prior of its group); the means of elevation (the boresight
     // pitch's direction, by convention), azimuth (a boresight rotation about the spin axis) and
     // vertical offsets (the lever arm along it) over the lasers this matching sees held at 0 (a
@@ -946,8 +947,7 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
 }
 
 void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjustment) {
-  // Per-laser intrinsics: values, σ, correlation with the boresight and the screening (a-priori
-  // σ of the distances; the mounting's own σ in the summary eliminates these parameters).
+  // Per-laser intrinsics: values, σ, correlation with the boresight and the screening.
   const detail::LaserLayout layout = laserLayout();
   const int L = layout.lasers;
   static const char* const kMounting[6] = {"lever arm x", "lever arm y", "lever arm z", "roll", "pitch", "heading"};
@@ -960,25 +960,12 @@ void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjus
   section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), nan);
   section_.laser_points = laserPoints(set_, *dense_, L);
   section_.laser_unseparated.clear();
-  ceres::Problem& problem = const_cast<AdjustmentProblem&>(adjustment).ceresProblem();
-  double* mount = const_cast<AdjustmentProblem&>(adjustment).mounting();
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;
-  ceres::Covariance cov(co);
-  std::vector<std::pair<const double*, const double*>> blocks = {{laser_block_, laser_block_}};
-  const bool mount_free = !problem.IsParameterBlockConstant(mount);
-  if (mount_free) blocks.push_back({laser_block_, mount}), blocks.push_back({mount, mount});
-  if (!cov.Compute(blocks, &problem)) return;
+  // The joint covariance of the mounting and the laser block in the mounting's stochastic model
+  // (AdjustmentProblem::reportCovariance): formal, scaled alike, plus the trajectory errors in time.
+  const Eigen::MatrixXd& joint = adjustment.reportedCovariance(laser_block_);
   const int n = layout.size;
-  Eigen::MatrixXd C_ll(n, n);
-  cov.GetCovarianceBlock(laser_block_, laser_block_, C_ll.data());  // row-major, symmetric
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> C_lm = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>::Zero(n, 6);
-  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> C_mm = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>::Zero();
-  if (mount_free) {
-    cov.GetCovarianceBlock(laser_block_, mount, C_lm.data());
-    cov.GetCovarianceBlock(mount, mount, C_mm.data());
-  }
+  if (joint.rows() != 6 + n) return;
+  const Eigen::MatrixXd C_ll = joint.bottomRightCorner(n, n), C_lm = joint.bottomLeftCorner(n, 6), C_mm = joint.topLeftCorner(6, 6);
   constexpr double kUnseparated = 0.95;
   auto corr = [](double cab, double va, double vb) { return va > 0 && vb > 0 ? cab / std::sqrt(va * vb) : 0.0; };
   for (int i = 0; i < L; ++i) {
@@ -989,7 +976,8 @@ void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjus
       if (k < 0) continue;
       const double v = C_ll(k, k);
       section_.laser_sigma[static_cast<std::size_t>(i)].*kLaserGroups[g].field = std::sqrt(std::max(v, 0.0));
-      for (int j = 0; j < 6 && mount_free; ++j) {
+      for (int j = 0; j < 6; ++j) {
+        if (!std::isfinite(C_mm(j, j))) continue;  // a held mounting parameter
         const double r = corr(C_lm(k, j), v, C_mm(j, j));
         if (j >= 3) rho = std::max(rho, std::abs(r));
         if (std::abs(r) >= kUnseparated)

@@ -809,6 +809,7 @@ void FeatureObservations::addLaserBlock(AdjustmentProblem* problem) {
   laser_block_ = nullptr;
   if (lasers_ == 0) return;
   laser_block_ = problem->addNuisanceBlock(lasers_, laser_dl_.data(), nullptr, false);
+  problem->reportCovariance(laser_block_);  // σ with the trajectory errors in time, as the mounting's
   // Priors: each offset N(0, σ); their mean over the lasers the outlines use held at 0 (the
   // boresight pitch's direction, as in the dense correspondences).
   std::vector<bool> seen(static_cast<std::size_t>(lasers_), false);
@@ -891,15 +892,10 @@ void FeatureObservations::finishLasers(const AdjustmentProblem& adjustment) {
   for (const auto& vps : points_)
     for (const ViewPoints& vp : vps)
       for (int l : vp.laser) ++section_.laser_points[static_cast<std::size_t>(l)];
-  ceres::Problem& problem = const_cast<AdjustmentProblem&>(adjustment).ceresProblem();
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;
-  ceres::Covariance cov(co);
-  const std::vector<std::pair<const double*, const double*>> blocks = {{laser_block_, laser_block_}};
-  if (!cov.Compute(blocks, &problem)) return;
-  Eigen::MatrixXd C(lasers_, lasers_);
-  cov.GetCovarianceBlock(laser_block_, laser_block_, C.data());
+  // In the mounting's stochastic model (AdjustmentProblem::reportCovariance).
+  const Eigen::MatrixXd& joint = adjustment.reportedCovariance(laser_block_);
+  if (joint.rows() != 6 + lasers_) return;
+  const Eigen::MatrixXd C = joint.bottomRightCorner(lasers_, lasers_);
   for (std::size_t i = 0; i < L; ++i)
     if (section_.laser_points[i] > 0)
       section_.laser_elevation_sigma_deg[i] = rad2deg(std::sqrt(std::max(C(static_cast<long>(i), static_cast<long>(i)), 0.0)));
