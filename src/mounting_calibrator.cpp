@@ -30,6 +30,18 @@ bool MountingCalibrator::Options::IsValid(std::string* error) const {
     const std::any defaults = m->defaultOptions();
     if (!validateMethodOptions(*m, method_options.at(m->name(), defaults), error)) return false;
   }
+  // One block of per-laser intrinsics per calibration (Method::estimatesLaserIntrinsics).
+  std::vector<std::string> laser_methods;
+  for (const std::string& name : methods) {
+    const Method* m = findMethod(name);
+    const std::any defaults = m->defaultOptions();
+    if (m->estimatesLaserIntrinsics(method_options.at(name, defaults))) laser_methods.push_back(name);
+  }
+  if (laser_methods.size() > 1)
+    return fail("methods '" + laser_methods[0] + "' and '" + laser_methods[1] +
+                "' would each estimate per-laser offsets (their laser_*_sigma options; a multi-beam job's correspondences have "
+                "laser_elevation_sigma_deg 0.15 by default): one calibration holds one set of laser corrections — set one "
+                "method's laser_*_sigma options to 0");
   return true;
 }
 

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <functional>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "mountcal/mountcal.hpp"
@@ -432,7 +433,8 @@ TEST(PerPointPoses, ApplyWritesWhatCalibrateEvaluated) {
 
 // Where Car's discrepancy lies (issue 28): `evaluate` prints the breakdown by laser, place along
 // the pass, range and surface tilt, and the library gives each of the HDL-32E's lasers that the
-// overlap reaches its class — with every used point in one class of each grouping.
+// overlap reaches its class — with every used point in one class of each grouping; the report
+// shows the plan-view map of the discrepancy before and after.
 TEST(PerPointPoses, EvaluatePrintsWhereTheDiscrepancyLies) {
   REQUIRE_DATA("gravity/Car.las");
   const Job job = readJob(exampleJob("car"));
@@ -455,11 +457,24 @@ TEST(PerPointPoses, EvaluatePrintsWhereTheDiscrepancyLies) {
   const Vec3 a = job.mounting_used.a_b, e = job.mounting_used.boresightDeg();
   std::ofstream(result) << "{\"mounting\": {\"lever_arm_m\": [" << a.x() << ", " << a.y() << ", " << a.z() << "], \"boresight_deg\": ["
                         << e.x() << ", " << e.y() << ", " << e.z() << "]}}";
-  const mountcal_tests::CommandRun r = mountcal_tests::runCli("evaluate " + exampleJob("car") + " --result " + result.string());
+  // The residual map: cells over the overlap, the median of all used points as in the pooled statistics.
+  ASSERT_FALSE(b.map.empty());
+  int cells = 0;
+  for (float v : b.map.median_m) cells += !std::isnan(v);
+  EXPECT_GT(cells, 100);
+  const fs::path report = result.string() + ".html";
+  const mountcal_tests::CommandRun r =
+      mountcal_tests::runCli("evaluate " + exampleJob("car") + " --result " + result.string() + " --report " + report.string());
   fs::remove(result);
   EXPECT_EQ(r.code, 0) << r.err;
   for (const char* s : {"where the discrepancy lies", "by laser:", "by place along the pass:", "by range:", "by surface tilt:"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s << "\n" << r.out;
+  std::ifstream in(report);
+  const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  fs::remove(report);
+  const std::size_t at = html.find("Map of the discrepancy");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_NE(html.find("<svg", at), std::string::npos);
 }
 
 // ARMO's LAZ originals (SPEC §5 laz/) calibrate and apply exactly as the LAS files: the same

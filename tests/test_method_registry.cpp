@@ -81,7 +81,9 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
   // A job naming every method's every option with a value other than its default.
   json j = minimalJob();
   j["targets"] = "targets.csv";
-  j["method"] = {"vtpm", "planes", "correspondences", "features"};
+  // Features' options are read and written back without the method being named: named beside the
+  // dense correspondences, both would estimate per-laser offsets, which one calibration refuses.
+  j["method"] = {"vtpm", "planes", "correspondences"};
   j["planes"] = {{"regions", "auto"}};
   std::map<std::string, std::map<std::string, double>> given;
   for (const auto& m : registeredMethods()) {

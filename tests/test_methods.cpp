@@ -624,6 +624,44 @@ TEST(DiscrepancyBreakdown, SinglesOutTheLaserWhoseTableEntryIsWrong) {
   }
 }
 
+// The map of the discrepancy (issue 28: "a map of the residual discrepancy"), against a hand-built
+// pair: a 20 m square of flat ground seen twice (every 0.1 m, and every 0.2 m at half a step), the
+// second pass 5 cm high over one 4 m square. Per-point poses at the origin, a zero mounting: the
+// laser vectors are the points. The cells over the raised square hold 0.05 m, the others 0.
+TEST(DiscrepancyBreakdown, MapShowsWhereThePassesDisagree) {
+  CalibrationData d;
+  d.mounting_used = MountingParameters{};
+  auto strip = [&](const std::string& id, double step, double shift, bool raised) {
+    StripData s;
+    s.id = id;
+    for (double x = shift; x < 20.0; x += step)
+      for (double y = shift; y < 20.0; y += step) {
+        const bool bump = raised && x > 12 && x < 16 && y > 4 && y < 8;
+        s.r_s.emplace_back(x, y, bump ? 0.05 : 0.0);
+        s.time_s.push_back(static_cast<double>(s.time_s.size()) * 1e-4);
+        s.poses.push_back(Pose{});
+      }
+    return s;
+  };
+  d.strips = {strip("ground", 0.1, 0.0, false), strip("raised", 0.2, 0.05, true)};
+  const DiscrepancyMap& m = discrepancyReport(d, d.mounting_used).breakdown.map;
+  ASSERT_FALSE(m.empty());
+  EXPECT_LE(std::max(m.nx, m.ny), DiscrepancyMap::kMaxCells);
+  EXPECT_NEAR(m.cell_m, 19.85 / DiscrepancyMap::kMaxCells, 0.01);
+  EXPECT_EQ(m.median_m.size(), static_cast<std::size_t>(m.nx) * static_cast<std::size_t>(m.ny));
+  EXPECT_NEAR(m.at(14.0, 6.0), 0.05, 1e-6);  // the raised square's middle
+  EXPECT_NEAR(m.at(13.0, 5.0), 0.05, 1e-6);
+  EXPECT_NEAR(m.at(5.0, 15.0), 0.0, 1e-6);  // level ground
+  EXPECT_NEAR(m.at(18.0, 2.0), 0.0, 1e-6);
+  EXPECT_TRUE(std::isnan(m.at(25.0, 5.0)));  // beyond the data
+  EXPECT_NEAR(m.median_all_m, 0.0, 1e-6);    // most of the ground agrees
+  int raised = 0;
+  for (float v : m.median_m) raised += v > 0.04f;
+  // The 4 m square in cells of ~0.25 m: about 16 × 16, less the cells its edges cut.
+  EXPECT_GT(raised, 150);
+  EXPECT_LT(raised, 290);
+}
+
 TEST(SimulatedLaserErrors, AreZeroMeanDrawnFromTheSeedAndRefusedWhenTheyDoNotFit) {
   const std::vector<LaserSpec> e = drawLaserErrors(16, 11, deg2rad(0.1), deg2rad(0.05), 0.002, 0.01);
   ASSERT_EQ(e.size(), 16u);

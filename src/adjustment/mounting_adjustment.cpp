@@ -310,7 +310,13 @@ void AdjustmentProblem::addRandomEffectPriors() {
   source_ = src;
 }
 
-void AdjustmentProblem::reportCovariance(const double* block) {
+std::string AdjustmentProblem::reportedName(const double* block) const {
+  const auto it = reported_names_.find(block);
+  return it == reported_names_.end() ? std::string() : it->second;
+}
+
+void AdjustmentProblem::reportCovariance(const double* block, const std::string& name) {
+  if (!name.empty()) reported_names_[block] = name;
   const auto it = std::find_if(nuisance_.begin(), nuisance_.end(), [block](const Block& b) { return b.values == block; });
   if (it == nuisance_.end() || it->manifold)
     throw std::invalid_argument("AdjustmentProblem::reportCovariance: not a nuisance block of this problem without a manifold");
@@ -1332,12 +1338,12 @@ class Estimation {
         S_.sigma_model += " + time offset";
       }
     }
-    reportedCovariances(est, scale);
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
+    reportedCovariances(est, scale);
   }
 
   /// The mounting's first-order move when a free lever arm (estimated, no prior) is held at its
@@ -1510,8 +1516,34 @@ class Estimation {
           const bool held = (a < 6 && !est[a]) || (b < 6 && !est[b]);
           C(a, b) = held ? std::nan("") : f + consider(idx[a], idx[b]);
         }
+      reportedSensitivity(r, C, est);
       P_->setReportedCovariance(r, std::move(C));
     }
+  }
+
+  /// A named reported block held at 0 instead of estimated: the mounting's first-order move
+  /// −C_mb C_bb⁻¹ b̂ (its conditional mean given b = 0) against its σ, and how strongly the data
+  /// reject b = 0 (χ² = b̂ᵀ C_bb⁻¹ b̂ with as many degrees of freedom as values, as a normal
+  /// deviate: Wilson–Hilferty) — as for the trajectory corrections.
+  void reportedSensitivity(const double* block, const Eigen::MatrixXd& C, const std::array<bool, 6>& est) {
+    const std::string name = P_->reportedName(block);
+    const int n = static_cast<int>(C.rows()) - 6;
+    if (name.empty() || n <= 0) return;
+    const Eigen::VectorXd b = Eigen::Map<const Eigen::VectorXd>(block, n);
+    const Eigen::MatrixXd Cbb = C.bottomRightCorner(n, n);
+    if (!Cbb.allFinite()) return;
+    const Eigen::VectorXd z = Cbb.completeOrthogonalDecomposition().solve(b);
+    AdjustmentSummary::ModelSensitivity ms;
+    ms.change = name + " held at 0 instead of estimated";
+    const double chi2 = std::max(b.dot(z), 0.0), h = 2.0 / (9.0 * n);
+    ms.rejected_in_sigma = std::max(0.0, (std::cbrt(chi2 / n) - (1.0 - h)) / std::sqrt(h));
+    for (int j = 0; j < 6; ++j) {
+      if (!est[j] || !(S_.sigma[j] > 0)) continue;
+      const double shift = -C.row(j).tail(n).dot(z);
+      ms.shift[static_cast<std::size_t>(j)] = shift;
+      ms.shift_in_sigma[static_cast<std::size_t>(j)] = std::abs(shift) / S_.sigma[j];
+    }
+    S_.model_sensitivity.push_back(ms);
   }
 
   /// The nuisance blocks estimated beside the mounting whose covariance the summary reports:

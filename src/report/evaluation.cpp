@@ -271,10 +271,14 @@ class BreakdownBuilder {
     }
   }
 
-  /// A pair whose query strip is `strip`: its examined points (every `stride`-th of `queries`) and its used ones.
-  void add(std::size_t strip, const std::vector<Used>& used, std::size_t queries, std::size_t stride) {
+  /// A pair whose query strip is `strip` (georeferenced: `x`): its examined points (every
+  /// `stride`-th of `queries`) and its used ones.
+  void add(std::size_t strip, const std::vector<Vec3>& x, const std::vector<Used>& used, std::size_t queries, std::size_t stride) {
     for (std::size_t k = 0; k < queries; ++k) examined_.push_back({strip, k * stride, 0.0, 0.0});
-    for (const Used& u : used) used_.push_back({strip, u.q, u.d, u.tilt_deg});
+    for (const Used& u : used) {
+      used_.push_back({strip, u.q, u.d, u.tilt_deg});
+      xy_.emplace_back(x[u.q].x(), x[u.q].y());
+    }
   }
 
   DiscrepancyBreakdown finish() const {
@@ -310,6 +314,7 @@ class BreakdownBuilder {
     if (!ranges.empty()) b.by_range = classes(rangeClass, rangeLabel);
     auto tiltClass = [](const Point& p) { return std::min(5, static_cast<int>(p.tilt_deg / 15.0)); };
     b.by_tilt = classes(tiltClass, tiltLabel, false);  // a tilt needs a plane: only used points have one
+    b.map = map();
     return b;
   }
 
@@ -352,9 +357,34 @@ class BreakdownBuilder {
     return out;
   }
 
+  /// The used points' medians in plan-view cells (DiscrepancyMap).
+  DiscrepancyMap map() const {
+    DiscrepancyMap m;
+    if (used_.empty()) return m;
+    double x0 = xy_[0].first, x1 = x0, y0 = xy_[0].second, y1 = y0;
+    for (const auto& [x, y] : xy_) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    m.cell_m = std::max(0.05, std::max(x1 - x0, y1 - y0) / DiscrepancyMap::kMaxCells);
+    m.nx = std::max(1, static_cast<int>(std::ceil((x1 - x0) / m.cell_m)));
+    m.ny = std::max(1, static_cast<int>(std::ceil((y1 - y0) / m.cell_m)));
+    m.x0_m = x0, m.y1_m = y1;
+    std::vector<std::vector<double>> cells(static_cast<std::size_t>(m.nx) * static_cast<std::size_t>(m.ny));
+    std::vector<double> all;
+    for (std::size_t k = 0; k < used_.size(); ++k) {
+      const int cx = std::min(m.nx - 1, static_cast<int>((xy_[k].first - x0) / m.cell_m));
+      const int cy = std::min(m.ny - 1, static_cast<int>((y1 - xy_[k].second) / m.cell_m));
+      cells[static_cast<std::size_t>(cy) * static_cast<std::size_t>(m.nx) + static_cast<std::size_t>(cx)].push_back(used_[k].d);
+      all.push_back(used_[k].d);
+    }
+    m.median_m.reserve(cells.size());
+    for (std::vector<double>& c : cells) m.median_m.push_back(c.empty() ? NAN : static_cast<float>(statsOf(std::move(c), 0).median_m));
+    m.median_all_m = statsOf(std::move(all), 0).median_m;
+    return m;
+  }
+
   const CalibrationData& data_;
   std::vector<std::pair<double, double>> span_;  // each strip's time span (0, 0: none)
   std::vector<Point> examined_, used_;
+  std::vector<std::pair<double, double>> xy_;  // of each used point, in used_'s order
 };
 
 }  // namespace
@@ -375,15 +405,22 @@ std::vector<PairDiscrepancy> pairsOf(const CalibrationData& data, const Mounting
   std::string why;
   if (!opts.IsValid(&why)) throw InvalidInput("discrepancy options: " + why);
   std::vector<PairDiscrepancy> out;
-  forEachPair(georeferencedStrips(data, m), opts,
-              [&](std::size_t q, std::size_t r, std::vector<Used> used, std::size_t queries, std::size_t stride) {
-                if (used.empty()) return;
-                if (breakdown) breakdown->add(q, used, queries, stride);
-                out.push_back({data.strips[q].id, data.strips[r].id, statsOf(distancesOf(used), queries)});
-              });
+  const std::vector<std::vector<Vec3>> x = georeferencedStrips(data, m);
+  forEachPair(x, opts, [&](std::size_t q, std::size_t r, std::vector<Used> used, std::size_t queries, std::size_t stride) {
+    if (used.empty()) return;
+    if (breakdown) breakdown->add(q, x[q], used, queries, stride);
+    out.push_back({data.strips[q].id, data.strips[r].id, statsOf(distancesOf(used), queries)});
+  });
   return out;
 }
 }  // namespace
+
+double DiscrepancyMap::at(double x_m, double y_m) const {
+  if (empty()) return NAN;
+  const double fx = (x_m - x0_m) / cell_m, fy = (y1_m - y_m) / cell_m;
+  if (!(fx >= 0 && fy >= 0 && fx < nx && fy < ny)) return NAN;
+  return median_m[static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(fx)];
+}
 
 std::vector<PairDiscrepancy> passDiscrepancies(const CalibrationData& data, const MountingParameters& m, const DiscrepancyOptions& opts) {
   return pairsOf(data, m, opts, nullptr);

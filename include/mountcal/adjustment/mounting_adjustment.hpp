@@ -397,7 +397,11 @@ class AdjustmentProblem {
   /// that treats correlated observations as independent. `block` is one of this problem's
   /// nuisance blocks without a manifold; read the result in ObservationSource::finish with
   /// reportedCovariance(). The time offset's consider term is not in it (the mounting's only).
-  void reportCovariance(const double* block);
+  /// `name` (e.g. "the per-laser offsets"), when given: the summary's model_sensitivity also
+  /// states how far the mounting would move with the block held at 0 instead of estimated.
+  void reportCovariance(const double* block, const std::string& name = "");
+  /// The name given with a reported block ("" when none).
+  std::string reportedName(const double* block) const;
   const std::vector<const double*>& reportedBlocks() const { return reported_; }
   /// The joint covariance of the mounting (rows and columns 0–5; NaN where a mounting parameter
   /// is held) and a block asked for by reportCovariance (6…), after the solve; empty when it was
@@ -468,6 +472,7 @@ class AdjustmentProblem {
   double* time_offset_block_ = nullptr;
   bool committed_ = false;
   std::vector<const double*> reported_;
+  std::map<const double*, std::string> reported_names_;
   std::map<const double*, Eigen::MatrixXd> reported_covariance_;
   void attachCorrections(bool corrections, bool time_offset);
 };

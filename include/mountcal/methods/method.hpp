@@ -241,6 +241,14 @@ class Method {
     (void)options, (void)error;
     return true;
   }
+  /// True when these options estimate per-laser intrinsics (a laser block in the adjustment).
+  /// One calibration holds one such block: MountingCalibrator::Options::IsValid refuses two
+  /// methods that each would estimate one (their corrections would disagree, and `apply` could
+  /// carry only one).
+  virtual bool estimatesLaserIntrinsics(const std::any& options) const {
+    (void)options;
+    return false;
+  }
   /// A planner's noise: sets the method's observation σ from it.
   virtual void adoptNoise(const NoiseHint& noise, std::any* options) const { (void)noise, (void)options; }
   /// Ground control points (by id) that this method observes itself (the ties with a GCP's

@@ -113,8 +113,24 @@ struct DiscrepancyClass {
 ///   in 15° classes.
 /// A class's `queries` counts its examined query points (for tilt, which needs a plane, its used
 /// points). Classes with no examined point are left out.
+/// A plan-view map of the discrepancy: the used query points' |distance| in square cells of the
+/// mapping frame's x, y, the median per cell (NaN where no used point lies). At most
+/// kMaxCells cells along the longer side, none smaller than 0.05 m.
+struct DiscrepancyMap {
+  static constexpr int kMaxCells = 80;
+  double x0_m = 0, y1_m = 0;  ///< west and north edges [m]
+  double cell_m = 0;          ///< [m]
+  int nx = 0, ny = 0;
+  std::vector<float> median_m;  ///< ny × nx, row-major from the north [m]
+  double median_all_m = NAN;    ///< of every used point [m]
+  bool empty() const { return nx == 0 || ny == 0; }
+  /// The cell value at (x, y) [m] (NaN outside or where no point lies).
+  double at(double x_m, double y_m) const;
+};
+
 struct DiscrepancyBreakdown {
   std::vector<DiscrepancyClass> by_laser, by_place, by_range, by_tilt;
+  DiscrepancyMap map;  ///< where in plan view (the residual map of the report)
 };
 
 /// One class of a group, before and after a calibration.

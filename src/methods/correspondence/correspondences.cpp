@@ -751,7 +751,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   laser_block_ = nullptr;
   if (!layout.empty()) {
     laser_block_ = problem->addNuisanceBlock(layout.size, laser_dl_.data(), nullptr, false);
-    problem->reportCovariance(laser_block_);  // σ with the trajectory errors in time, as the mounting's
+    problem->reportCovariance(laser_block_, "the per-laser offsets");  // σ with the trajectory errors in time, as the mounting's
     // Priors: each value N(0, σ_prior of its group); the means of elevation (the boresight
     // pitch's direction, by convention), azimuth (a boresight rotation about the spin axis) and
     // vertical offsets (the lever arm along it) over the lasers this matching sees held at 0 (a

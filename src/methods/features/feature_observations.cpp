@@ -809,7 +809,7 @@ void FeatureObservations::addLaserBlock(AdjustmentProblem* problem) {
   laser_block_ = nullptr;
   if (lasers_ == 0) return;
   laser_block_ = problem->addNuisanceBlock(lasers_, laser_dl_.data(), nullptr, false);
-  problem->reportCovariance(laser_block_);  // σ with the trajectory errors in time, as the mounting's
+  problem->reportCovariance(laser_block_, "the per-laser elevation offsets");  // σ with the trajectory errors in time, as the mounting's
   // Priors: each offset N(0, σ); their mean over the lasers the outlines use held at 0 (the
   // boresight pitch's direction, as in the dense correspondences).
   std::vector<bool> seen(static_cast<std::size_t>(lasers_), false);
