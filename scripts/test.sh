@@ -29,7 +29,9 @@ if [ "${1:-}" = "--sanitize" ]; then
   build="$root/build-asan"; kind=sanitize
   args=(-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DMOUNTCAL_SANITIZE=ON
         -DCMAKE_UNITY_BUILD=ON -DMOUNTCAL_BUILD_BENCHMARKS=OFF -DMOUNTCAL_BUILD_EXAMPLES=OFF "-DMOUNTCAL_CCACHE=${MOUNTCAL_CCACHE:-ON}")
-  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  # malloc_context_size=5: ASan records 5 frames of each allocation's and free's stack, not 30 —
+  # 6 % less time on two heavy tests (32.6 → 30.7 s, 2026-11-28); an error's own stack stays whole.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:malloc_context_size=5 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 fi
 jobs="$(nproc)"
 mapfile -t generator < <(mountcal_generator "$build")
