@@ -243,6 +243,17 @@ void bindGeometry(py::module_& m) {
             return py::make_tuple(vec3(p.p_m), mat(p.R_mb));
           },
           py::arg("time_s"), "(p_m (3,), R_mb (3, 3)) at a time; TimeOutOfRange outside the trajectory.");
+  m.def(
+      "read_trajectory",
+      [](const std::string& path, double time_offset_s, const std::string& interp) {
+        if (interp != "linear" && interp != "cubic") throw py::value_error("interpolation: expected 'linear' or 'cubic'");
+        const PositionInterpolation kind = interp == "cubic" ? PositionInterpolation::kCubic : PositionInterpolation::kLinear;
+        py::gil_scoped_release release;
+        return std::make_shared<Trajectory>(io::readTrajectoryCsv(path, time_offset_s, kind));
+      },
+      py::arg("path"), py::arg("time_offset_s") = 0.0, py::arg("interpolation") = "linear",
+      "A local-frame trajectory CSV (SPEC §4: time,x,y,z,roll_deg,pitch_deg,heading_deg), time_offset_s added to every time; "
+      "FileError with the file and line. Geodetic trajectories (SBET) need the job's frame: load_job_trajectory.");
 }
 
 /// georeference, inverse_georeference and apply on (n, 3) arrays.

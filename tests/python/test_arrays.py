@@ -185,3 +185,27 @@ def test_the_stub_states_every_public_name_and_member():
         if not issubclass(real, BaseException):
             public = {k for k in dir(real) if not k.startswith("_")}
             assert public <= members, f"{cls.name}: {sorted(public - members)} are not in the stub"
+
+
+def test_a_trajectory_file_is_read_with_its_poses_and_a_bad_line_named(tmp_path):
+    """read_trajectory: SPEC §4's local trajectory CSV; the pose halfway between two samples by hand
+    (linear position; heading 0° → 90°, so 45° at the middle)."""
+    path = tmp_path / "trajectory.csv"
+    path.write_text("time,x,y,z,roll_deg,pitch_deg,heading_deg\n10.0,0,0,100,0,0,0\n12.0,20,-4,102,0,0,90\n")
+    tr = mountcal.read_trajectory(str(path))
+    assert len(tr) == 2 and tr.start_time == 10.0 and tr.end_time == 12.0
+    p, R = tr.pose(11.0)
+    np.testing.assert_allclose(p, [10.0, -2.0, 101.0], atol=1e-12)
+    # SPEC §2: R_mb = R_mn R_nb, n = north-east-down, heading clockwise from north, the mapping
+    # frame east-north-up. At heading 45°: body x (forward) to the north-east, body y (right) to
+    # the south-east, body z (down) down.
+    s = np.sqrt(0.5)
+    np.testing.assert_allclose(R, [[s, s, 0], [s, -s, 0], [0, 0, -1]], atol=1e-12)
+    shifted = mountcal.read_trajectory(str(path), time_offset_s=5.0, interpolation="cubic")
+    assert shifted.start_time == 15.0
+    path.write_text("time,x,y,z,roll_deg,pitch_deg,heading_deg\n10.0,0,0,100,0,0,0\n9.0,1,1,1,0,0,0\n")
+    with pytest.raises(mountcal.FileError) as e:
+        mountcal.read_trajectory(str(path))
+    assert e.value.path == str(path) and e.value.location
+    with pytest.raises(ValueError, match="interpolation"):
+        mountcal.read_trajectory(str(path), interpolation="spline")

@@ -40,11 +40,12 @@ from ._mountcal import (  # noqa: F401
     read_job,
     read_las_header,
     read_strip,
+    read_trajectory,
     simulate,
 )
 
 __all__ = [
     "CalibrationData", "Error", "FileError", "InvalidInput", "Job", "Mounting", "Options", "Summary",
     "TimeOutOfRange", "Trajectory", "__version__", "apply", "calibrate", "calibrate_job", "georeference",
-    "inverse_georeference", "load_job_data", "load_job_trajectory", "presets", "read_job", "read_las_header", "read_strip", "simulate",
+    "inverse_georeference", "load_job_data", "load_job_trajectory", "presets", "read_job", "read_las_header", "read_strip", "read_trajectory", "simulate",
 ]

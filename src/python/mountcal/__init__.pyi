@@ -115,6 +115,9 @@ class CalibrationData:
 
 def load_job_data(job: Job) -> CalibrationData: ...
 
+def read_trajectory(path: str, time_offset_s: float = 0.0, interpolation: str = "linear") -> Trajectory:
+    """A local-frame trajectory CSV (SPEC §4: time,x,y,z,roll_deg,pitch_deg,heading_deg); FileError with the file and line."""
+
 def load_job_trajectory(job: Job) -> Trajectory:
     """The job's trajectory alone (no strips), in its computation frame; InvalidInput for a job with per-point poses."""
 
