@@ -155,3 +155,28 @@ def test_errors_carry_the_file_and_the_place(tmp_path):
         mountcal.simulate("no-such-preset", out=str(tmp_path / "sim"))
     with pytest.raises(ValueError):  # not JSON: refused before the library sees it
         mountcal.calibrate_job(str(bad), solver=float("nan"))
+
+
+def test_laser_consistency_compares_each_lasers_offsets_between_results_against_their_sigma(tmp_path):
+    """scripts/laser_consistency.py by hand: two lasers, two results. Elevation: z = 0.3 / √(0.1² + 0.1²) = 2.121 and 0,
+    RMS √(2.121² / 2) = 1.5, none beyond 3σ. Range: z = 0.05 / √(2 · 0.01²) = 3.54 and 0, RMS 2.5, one beyond 3σ.
+    Azimuth, missing from one result, is left out."""
+    import pathlib
+    import sys
+
+    a = {"intrinsics": {"laser_elevation_offset_deg": [0.3, 0.1], "laser_elevation_sigma_deg": [0.1, 0.1],
+                        "laser_range_offset_m": [0.05, 0.0], "laser_range_sigma_m": [0.01, 0.01],
+                        "laser_azimuth_offset_deg": [0.0, 0.0], "laser_azimuth_sigma_deg": [0.1, 0.1]}}
+    b = {"intrinsics": {"laser_elevation_offset_deg": [0.0, 0.1], "laser_elevation_sigma_deg": [0.1, 0.1],
+                        "laser_range_offset_m": [0.0, 0.0], "laser_range_sigma_m": [0.01, 0.01]}}
+    pa, pb = tmp_path / "a.json", tmp_path / "b.json"
+    pa.write_text(json.dumps(a))
+    pb.write_text(json.dumps(b))
+    script = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "laser_consistency.py"
+    out = subprocess.run([sys.executable, str(script), str(pa), str(pb)], capture_output=True, text=True, check=True).stdout
+    lines = {line.split()[0]: line.split() for line in out.splitlines()}
+    assert set(lines) == {"elevation", "range"}
+    assert lines["elevation"][2] == "2" and float(lines["elevation"][6]) == pytest.approx(1.5, abs=0.005)
+    assert lines["elevation"][10] == "0"
+    assert float(lines["range"][6]) == pytest.approx(0.05 / (2 ** 0.5 * 0.01) / 2 ** 0.5, abs=0.005)
+    assert lines["range"][10] == "1"
