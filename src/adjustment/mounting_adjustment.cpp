@@ -316,11 +316,11 @@ std::string AdjustmentProblem::reportedName(const double* block) const {
 }
 
 void AdjustmentProblem::reportCovariance(const double* block, const std::string& name) {
-  if (!name.empty()) reported_names_[block] = name;
   const auto it = std::find_if(nuisance_.begin(), nuisance_.end(), [block](const Block& b) { return b.values == block; });
   if (it == nuisance_.end() || it->manifold)
     throw std::invalid_argument("AdjustmentProblem::reportCovariance: not a nuisance block of this problem without a manifold");
   if (std::find(reported_.begin(), reported_.end(), block) == reported_.end()) reported_.push_back(block);
+  if (!name.empty()) reported_names_[block] = name;
 }
 
 const Eigen::MatrixXd& AdjustmentProblem::reportedCovariance(const double* block) const {
@@ -681,13 +681,16 @@ struct TrajectoryTerm {
   Mat M, self;  ///< every epoch's error, own variances included; Σ share · h C hᵀ of the in_sigma epochs
 };
 
+/// `N_red_out` (optional): the reduced normal matrix of the kept columns it worked with.
 template <int Rows>
-TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude, int kept = 6) {
+TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude, int kept = 6,
+                                         Eigen::MatrixXd* N_red_out = nullptr) {
   using Mat = typename TrajectoryTerm<Rows>::Mat;
   Eigen::MatrixXd N_red, X;
   Eigen::VectorXd diag;
   Columns cols;
   reducedSystem(problem, kept, &N_red, &diag, &X, &cols);
+  if (N_red_out) *N_red_out = N_red;
   using Mat63 = Eigen::Matrix<double, Rows, 3>;
   const Mat zero = Mat::Zero(kept, kept);
   const Mat63 zero3 = Mat63::Zero(kept, 3);
@@ -1280,7 +1283,7 @@ class Estimation {
   /// Ceres cannot compute it (the same marginal covariance in exact arithmetic).
   void covariance(const std::array<bool, 6>& est, const Mat6& N_red) {
     const double scale = o_.scale_covariance_by_variance_factor && S_.degrees_of_freedom > 0 ? S_.variance_factor : 1.0;
-    reported_formal_.clear();
+    std::map<const double*, Eigen::MatrixXd> reported_formal;  // reportedFormal(): mounting, then the block
     Mat6 cov = Mat6::Constant(std::nan(""));
     int n_est = 0;
     for (bool e : est) n_est += e;
@@ -1303,7 +1306,7 @@ class Estimation {
         cov = c * scale;
         S_.covariance_source = "ceres::Covariance";
         nuisanceCovariance(covariance, extra, scale);
-        reportedFormal(covariance, reported, scale);
+        reported_formal = reportedFormal(covariance, reported, scale);
       } else {
         const Mat6 inv = inverseOnEstimated(N_red, est);
         for (int a = 0; a < 6; ++a)
@@ -1343,7 +1346,7 @@ class Estimation {
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
-    reportedCovariances(est, scale);
+    reportedCovariances(est, scale, reported_formal);
   }
 
   /// The mounting's first-order move when a free lever arm (estimated, no prior) is held at its
@@ -1465,8 +1468,10 @@ class Estimation {
 
   /// The formal joint covariance of the mounting and each reported block, scaled as the
   /// mounting's, from the computed ceres::Covariance (reportedCovariances adds the rest).
-  void reportedFormal(const ceres::Covariance& covariance, const std::vector<const double*>& reported, double scale) {
+  std::map<const double*, Eigen::MatrixXd> reportedFormal(const ceres::Covariance& covariance, const std::vector<const double*>& reported,
+                                                          double scale) const {
     using RM = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    std::map<const double*, Eigen::MatrixXd> out;
     const double* mb = P_->mounting();
     for (const double* r : reported) {
       const int n = P_->ceresProblem().ParameterBlockSize(r);
@@ -1476,8 +1481,9 @@ class Estimation {
         continue;
       Eigen::MatrixXd C(6 + n, 6 + n);
       C << mm, mr, mr.transpose(), rr;
-      reported_formal_[r] = C * scale;
+      out[r] = C * scale;
     }
+    return out;
   }
 
   /// The joint covariance of the mounting and each reported block in the mounting's stochastic
@@ -1485,22 +1491,26 @@ class Estimation {
   /// plus the trajectory errors in time, C = N⁻¹ + N⁻¹ M N⁻¹ over the mounting and every
   /// reported block kept together (trajectoryErrorTerm with their columns). Held mounting
   /// parameters: NaN rows and columns.
-  void reportedCovariances(const std::array<bool, 6>& est, double scale) {
+  void reportedCovariances(const std::array<bool, 6>& est, double scale, const std::map<const double*, Eigen::MatrixXd>& reported_formal) {
     const std::vector<const double*> reported = variableReported();
     if (reported.empty()) return;
     const Columns cols = columnsOf(*P_);
     int kept = 6;
     for (const double* r : reported) kept += cols.col.at(r).second;
-    Eigen::MatrixXd N_red;
-    Eigen::VectorXd diag;
-    reducedSystem(*P_, kept, &N_red, &diag);
     std::vector<bool> keep(static_cast<std::size_t>(kept), true);
     for (std::size_t j = 0; j < 6; ++j) keep[j] = est[j];
+    Eigen::MatrixXd N_red;
+    TrajectoryTerm<Eigen::Dynamic> term;
+    if (o_.trajectory.any()) {
+      // The term's own reduced system serves the inverse as well.
+      term = trajectoryErrorTerm<Eigen::Dynamic>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), kept, &N_red);
+    } else {
+      Eigen::VectorXd diag;
+      reducedSystem(*P_, kept, &N_red, &diag);
+    }
     const Eigen::MatrixXd Pinv = inverseOnEstimated(N_red, keep);
     Eigen::MatrixXd consider = Eigen::MatrixXd::Zero(kept, kept);
-    if (o_.trajectory.any()) {
-      const TrajectoryTerm<Eigen::Dynamic> term =
-          trajectoryErrorTerm<Eigen::Dynamic>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), kept);
+    if (term.M.size() > 0) {
       const Eigen::MatrixXd extra = Pinv * (term.M - boundedSelf(term.self, N_red, keep)) * Pinv;
       if (extra.allFinite()) consider = extra;
     }
@@ -1509,10 +1519,10 @@ class Estimation {
       std::vector<int> idx{0, 1, 2, 3, 4, 5};
       for (int i = 0; i < n; ++i) idx.push_back(first + i);
       Eigen::MatrixXd C(6 + n, 6 + n);
-      const auto formal = reported_formal_.find(r);
+      const auto formal = reported_formal.find(r);
       for (int a = 0; a < 6 + n; ++a)
         for (int b = 0; b < 6 + n; ++b) {
-          const double f = formal != reported_formal_.end() ? formal->second(a, b) : scale * Pinv(idx[a], idx[b]);
+          const double f = formal != reported_formal.end() ? formal->second(a, b) : scale * Pinv(idx[a], idx[b]);
           const bool held = (a < 6 && !est[a]) || (b < 6 && !est[b]);
           C(a, b) = held ? std::nan("") : f + consider(idx[a], idx[b]);
         }
@@ -1521,20 +1531,24 @@ class Estimation {
     }
   }
 
-  /// A named reported block held at 0 instead of estimated: the mounting's first-order move
-  /// −C_mb C_bb⁻¹ b̂ (its conditional mean given b = 0) against its σ, and how strongly the data
-  /// reject b = 0 (χ² = b̂ᵀ C_bb⁻¹ b̂ with as many degrees of freedom as values, as a normal
-  /// deviate: Wilson–Hilferty) — as for the trajectory corrections.
+  /// A named reported block held at 0 instead of estimated (heldAtZero).
   void reportedSensitivity(const double* block, const Eigen::MatrixXd& C, const std::array<bool, 6>& est) {
     const std::string name = P_->reportedName(block);
     const int n = static_cast<int>(C.rows()) - 6;
-    if (name.empty() || n <= 0) return;
-    const Eigen::VectorXd b = Eigen::Map<const Eigen::VectorXd>(block, n);
-    const Eigen::MatrixXd Cbb = C.bottomRightCorner(n, n);
-    if (!Cbb.allFinite()) return;
-    const Eigen::VectorXd z = Cbb.completeOrthogonalDecomposition().solve(b);
+    if (name.empty() || n <= 0 || !C.bottomRightCorner(n, n).allFinite()) return;
+    heldAtZero(name + " held at 0 instead of estimated", C, Eigen::Map<const Eigen::VectorXd>(block, n), est);
+  }
+
+  /// Model sensitivity of a nuisance block b held at 0 instead of estimated, from C, the joint
+  /// covariance of the mounting (0–5) and b (6…): the mounting's first-order move −C_mb C_bb⁻¹ b̂
+  /// (its conditional mean given b = 0) against its σ, and how strongly the data reject b = 0 —
+  /// χ² = b̂ᵀ C_bb⁻¹ b̂ with as many degrees of freedom as values, as a normal deviate
+  /// (Wilson–Hilferty).
+  void heldAtZero(const std::string& change, const Eigen::MatrixXd& C, const Eigen::VectorXd& b, const std::array<bool, 6>& est) {
+    const int n = static_cast<int>(b.size());
+    const Eigen::VectorXd z = C.bottomRightCorner(n, n).completeOrthogonalDecomposition().solve(b);
     AdjustmentSummary::ModelSensitivity ms;
-    ms.change = name + " held at 0 instead of estimated";
+    ms.change = change;
     const double chi2 = std::max(b.dot(z), 0.0), h = 2.0 / (9.0 * n);
     ms.rejected_in_sigma = std::max(0.0, (std::cbrt(chi2 / n) - (1.0 - h)) / std::sqrt(h));
     for (int j = 0; j < 6; ++j) {
@@ -1650,23 +1664,9 @@ class Estimation {
       S_.strip_corrections.push_back(out);
     }
     if (nuisance_first_.empty()) return;
+    // The corrections are the first blocks after the mounting in nuisance_cov_.
     const int n = static_cast<int>(c_hat.size());
-    const Eigen::MatrixXd Ccc = nuisance_cov_.block(6, 6, n, n);
-    const Eigen::MatrixXd Cmc = nuisance_cov_.block(0, 6, 6, n);
-    const Eigen::VectorXd z = Ccc.completeOrthogonalDecomposition().solve(c_hat);
-    const Eigen::VectorXd shift = -Cmc * z;
-    AdjustmentSummary::ModelSensitivity ms;
-    ms.change = "the trajectory corrections held at 0 (strip offsets only)";
-    // How strongly the data reject "no corrections": χ² = ĉᵀ C_cc⁻¹ ĉ with n degrees of
-    // freedom, as a normal deviate (Wilson–Hilferty).
-    const double chi2 = std::max(c_hat.dot(z), 0.0), h = 2.0 / (9.0 * n);
-    ms.rejected_in_sigma = std::max(0.0, (std::cbrt(chi2 / n) - (1.0 - h)) / std::sqrt(h));
-    for (int j = 0; j < 6; ++j) {
-      if (!est[j] || !(S_.sigma[j] > 0)) continue;
-      ms.shift[static_cast<std::size_t>(j)] = shift[j];
-      ms.shift_in_sigma[static_cast<std::size_t>(j)] = std::abs(shift[j]) / S_.sigma[j];
-    }
-    S_.model_sensitivity.push_back(ms);
+    heldAtZero("the trajectory corrections held at 0 (strip offsets only)", nuisance_cov_.topLeftCorner(6 + n, 6 + n), c_hat, est);
   }
 
   const MountingAdjustment::Options& o_;
@@ -1683,10 +1683,9 @@ class Estimation {
   bool first_ = true;
   std::ostringstream report_;
   TimeOffsetSystem time_;
-  bool without_corrections_ = false;                          ///< estimate()'s first stage (see there)
-  Eigen::MatrixXd nuisance_cov_;                              ///< nuisanceCovariance(): mounting, then estimatedNuisance()
-  std::vector<int> nuisance_first_;                           ///< first column of each estimated nuisance block there
-  std::map<const double*, Eigen::MatrixXd> reported_formal_;  ///< reportedFormal(): mounting, then the block
+  bool without_corrections_ = false;  ///< estimate()'s first stage (see there)
+  Eigen::MatrixXd nuisance_cov_;      ///< nuisanceCovariance(): mounting, then estimatedNuisance()
+  std::vector<int> nuisance_first_;   ///< first column of each estimated nuisance block there
 };
 
 }  // namespace

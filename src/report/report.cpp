@@ -1,7 +1,6 @@
 #include "mountcal/report/report.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -23,25 +22,13 @@ std::string f(double v, const char* fmt = "%.4f") {
   return b;
 }
 
-/// One discrepancy map as an SVG (north up, at most 400 px a side), each cell coloured by the
-/// class of its median: ≤ t[0], ≤ t[1], ≤ t[2], beyond.
-std::string mapSvg(const DiscrepancyMap& m, const std::array<double, 3>& t) {
+/// One discrepancy map as an SVG (north up), each cell coloured by the class of its median.
+std::string mapSvg(const DiscrepancyMap& m, const std::vector<double>& t) {
   if (m.empty()) return "<p>no used point</p>";
-  const int px = std::max(1, 400 / std::max(m.nx, m.ny));
-  static const char* colours[] = {"#1a9850", "#fee08b", "#fc8d59", "#d73027"};
-  std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << m.nx * px << "\" height=\"" << m.ny * px << "\" style=\"background:#eee\">";
-  for (int y = 0; y < m.ny; ++y)
-    for (int x = 0; x < m.nx; ++x) {
-      const float v = m.median_m[static_cast<std::size_t>(y) * static_cast<std::size_t>(m.nx) + static_cast<std::size_t>(x)];
-      if (std::isnan(v)) continue;
-      std::size_t c = 0;
-      while (c < 3 && v > t[c]) ++c;
-      o << "<rect x=\"" << x * px << "\" y=\"" << y * px << "\" width=\"" << px << "\" height=\"" << px << "\" fill=\"" << colours[c]
-        << "\"/>";
-    }
-  o << "</svg>";
-  return o.str();
+  auto median = [&m](int x, int y) {
+    return static_cast<double>(m.median_m[static_cast<std::size_t>(y) * static_cast<std::size_t>(m.nx) + static_cast<std::size_t>(x)]);
+  };
+  return svgClassedGrid(m.nx, m.ny, median, t);
 }
 
 /// "Where the discrepancy lies": one table per group of the breakdown, before and after by class,
@@ -62,7 +49,7 @@ void breakdownHtml(const DiscrepancyBreakdown& before, const DiscrepancyBreakdow
   if (after.map.empty()) return;
   // One colour scale for both maps: 1, 2 and 4 times the median after.
   const double m = after.map.median_all_m;
-  const std::array<double, 3> t{m, 2 * m, 4 * m};
+  const std::vector<double> t{m, 2 * m, 4 * m};
   h << "<h3>Map of the discrepancy</h3><p>Plan view, north up: the median |distance| of the used points in each cell ("
     << f(after.map.cell_m, "%.2f") << " m after, " << f(before.map.cell_m, "%.2f") << " m before); green ≤ " << f(t[0])
     << " m (the median after), yellow ≤ " << f(t[1]) << " m, orange ≤ " << f(t[2]) << " m, red beyond; grey: no used point.</p>"

@@ -161,4 +161,28 @@ std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const 
   return o.str();
 }
 
+std::string svgClassedGrid(int nx, int ny, const std::function<double(int x, int y)>& value, const std::vector<double>& thresholds,
+                           int max_cells) {
+  const int step = std::max(1, (std::max(nx, ny) + max_cells - 1) / max_cells);
+  const int w = (nx + step - 1) / step, h = (ny + step - 1) / step;
+  const int px = std::max(1, 400 / std::max(w, h));
+  static const char* colours[] = {"#1a9850", "#fee08b", "#fc8d59", "#d73027"};
+  std::ostringstream o;
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w * px << "\" height=\"" << h * px << "\" style=\"background:#eee\">";
+  for (int by = 0; by < h; ++by)
+    for (int bx = 0; bx < w; ++bx) {
+      double worst = -std::numeric_limits<double>::infinity();
+      for (int y = by * step; y < std::min(ny, (by + 1) * step); ++y)
+        for (int x = bx * step; x < std::min(nx, (bx + 1) * step); ++x)
+          if (const double v = value(x, y); !std::isnan(v)) worst = std::max(worst, v);
+      if (worst == -std::numeric_limits<double>::infinity()) continue;
+      std::size_t c = 0;
+      while (c < thresholds.size() && c < 3 && worst > thresholds[c]) ++c;
+      o << "<rect x=\"" << bx * px << "\" y=\"" << by * px << "\" width=\"" << px << "\" height=\"" << px << "\" fill=\"" << colours[c]
+        << "\"/>";
+    }
+  o << "</svg>";
+  return o.str();
+}
+
 }  // namespace mountcal

@@ -16,6 +16,7 @@
 #include "mountcal/core/error.hpp"
 #include "mountcal/core/rotation.hpp"
 #include "mountcal/report/evaluation.hpp"
+#include "mountcal/report/svg_plot.hpp"
 #include "report/html_text.hpp"
 
 namespace mountcal {
@@ -692,28 +693,11 @@ namespace {
 /// coloured by the thresholds' classes.
 std::string rasterSvg(const DzRaster& r, const std::vector<double>& t) {
   if (r.nx == 0 || r.ny == 0) return "<p>no common smooth cells</p>";
-  const int step = std::max(1, (std::max(r.nx, r.ny) + 99) / 100);
-  const int w = (r.nx + step - 1) / step, h = (r.ny + step - 1) / step;
-  const int px = std::max(1, 400 / std::max(w, h));
-  static const char* colours[] = {"#1a9850", "#fee08b", "#fc8d59", "#d73027"};
-  std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w * px << "\" height=\"" << h * px << "\" style=\"background:#eee\">";
-  for (int by = 0; by < h; ++by)
-    for (int bx = 0; bx < w; ++bx) {
-      double worst = -1;
-      for (int y = by * step; y < std::min(r.ny, (by + 1) * step); ++y)
-        for (int x = bx * step; x < std::min(r.nx, (bx + 1) * step); ++x) {
-          const float v = r.dz_m[static_cast<std::size_t>(y) * static_cast<std::size_t>(r.nx) + static_cast<std::size_t>(x)];
-          if (!std::isnan(v)) worst = std::max(worst, std::abs(static_cast<double>(v)));
-        }
-      if (worst < 0) continue;
-      std::size_t c = 0;
-      while (c < t.size() && c < 3 && worst > t[c]) ++c;
-      o << "<rect x=\"" << bx * px << "\" y=\"" << by * px << "\" width=\"" << px << "\" height=\"" << px << "\" fill=\"" << colours[c]
-        << "\"/>";
-    }
-  o << "</svg>";
-  return o.str();
+  auto absDz = [&r](int x, int y) {
+    return std::abs(
+        static_cast<double>(r.dz_m[static_cast<std::size_t>(y) * static_cast<std::size_t>(r.nx) + static_cast<std::size_t>(x)]));
+  };
+  return svgClassedGrid(r.nx, r.ny, absDz, t);
 }
 
 std::string statsRow(const std::string& what, const DzStats& s) {

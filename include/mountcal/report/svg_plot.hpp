@@ -2,6 +2,7 @@
 /// \file svg_plot.hpp
 /// A minimal, dependency-free SVG line chart for reports and examples.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -35,5 +36,12 @@ std::string svgCorrelationHeatMap(const std::vector<std::string>& labels, const 
 
 /// The colour of a correlation in the heat map ("#rrggbb").
 std::string correlationColour(double c);
+
+/// A raster as an SVG map (about 400 px a side): nx × ny cells, row 0 at the top, each coloured
+/// by the class of its value — ≤ thresholds[0] green, ≤ [1] yellow, ≤ [2] orange, beyond red —
+/// with NaN cells left grey. At most `max_cells` cells a side: coarser blocks take their largest
+/// value. Returns an SVG element (inline in HTML).
+std::string svgClassedGrid(int nx, int ny, const std::function<double(int x, int y)>& value, const std::vector<double>& thresholds,
+                           int max_cells = 100);
 
 }  // namespace mountcal

@@ -642,7 +642,6 @@ PairCandidates findPairCandidates(const CalibrationData& data, int a, int b, con
 
 namespace {
 
-/// A prior on one laser's elevation offset (δ_i/σ), or on their mean (Σδ/(L σ)).
 /// The points of `set`'s correspondences (A's and B's) per laser id, lasers 0..L−1.
 std::vector<int> laserPoints(const CorrespondenceSet& set, const detail::DenseMatcher& dense, int L) {
   std::vector<int> n(static_cast<std::size_t>(L), 0);
