@@ -81,9 +81,10 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
   // A job naming every method's every option with a value other than its default.
   json j = minimalJob();
   j["targets"] = "targets.csv";
-  // Features' options are read and written back without the method being named: named beside the
-  // dense correspondences, both would estimate per-laser offsets, which one calibration refuses.
-  j["method"] = {"vtpm", "planes", "correspondences"};
+  // The features' and the correspondences' options are read and written back without those methods
+  // being named: named beside the planes (whose laser_elevation_sigma_deg is set here), each would
+  // estimate per-laser offsets too, which one calibration refuses.
+  j["method"] = {"vtpm", "planes"};
   j["planes"] = {{"regions", "auto"}};
   std::map<std::string, std::map<std::string, double>> given;
   for (const auto& m : registeredMethods()) {

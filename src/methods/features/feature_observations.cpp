@@ -13,7 +13,7 @@
 
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
-#include "methods/common/laser_prior.hpp"
+#include "methods/common/laser_elevations.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -616,13 +616,8 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("features options: " + why);
   if (options.laser_elevation_sigma_deg > 0) {
-    for (const StripData& s : data.strips) {
-      if (s.laser.size() != s.r_s.size())
-        throw InvalidInput("features: per-laser elevation offsets need each point's laser id (job key sensor.laser_field); strip '" + s.id +
-                           "' has none");
-      for (std::uint16_t id : s.laser) lasers_ = std::max(lasers_, static_cast<int>(id) + 1);
-    }
-    laser_dl_.assign(static_cast<std::size_t>(lasers_), 0.0);
+    laser_ = std::make_unique<detail::LaserElevationBlock>();
+    laser_->setUp(data, "features");
   }
   auto clock = [] { return std::chrono::steady_clock::now(); };
   const auto t0 = clock();
@@ -787,7 +782,16 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
   ceres::NumericDiffOptions nd;
   nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.assign(targets_.size(), {});
-  addLaserBlock(problem);
+  double* lasers = nullptr;
+  if (laser_) {
+    // Priors: each offset N(0, σ); their mean over the lasers the outlines use held at 0 (the
+    // boresight pitch's direction, as in the dense correspondences).
+    std::vector<bool> seen(static_cast<std::size_t>(laser_->lasers()), false);
+    for (const Target& T : targets_)
+      for (const View& v : T.views)
+        for (const View::LaserTerm& t : v.lasers) seen[static_cast<std::size_t>(t.laser)] = true;
+    lasers = laser_->add(problem, seen, options_.laser_elevation_sigma_deg);
+  }
   for (std::size_t k = 0; k < targets_.size(); ++k) {
     Target& T = targets_[k];
     const double zero[3] = {0, 0, 0};
@@ -797,7 +801,7 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
           new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, nd);
       for (int size : {6, 3, 3}) cost->AddParameterBlock(size);
       std::vector<double*> blocks = {problem->mounting(), T.block, problem->stripOffset(v.strip_id)};
-      if (laser_block_) cost->AddParameterBlock(lasers_), blocks.push_back(laser_block_);
+      if (lasers) cost->AddParameterBlock(laser_->lasers()), blocks.push_back(lasers);
       cost->SetNumResiduals(3);
       blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, blocks));
       problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m, options_.sigma_in_plane_m <= 0);
@@ -805,27 +809,8 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
   }
 }
 
-void FeatureObservations::addLaserBlock(AdjustmentProblem* problem) {
-  laser_block_ = nullptr;
-  if (lasers_ == 0) return;
-  laser_block_ = problem->addNuisanceBlock(lasers_, laser_dl_.data(), nullptr, false);
-  problem->reportCovariance(laser_block_, "the per-laser elevation offsets");  // σ with the trajectory errors in time, as the mounting's
-  // Priors: each offset N(0, σ); their mean over the lasers the outlines use held at 0 (the
-  // boresight pitch's direction, as in the dense correspondences).
-  std::vector<bool> seen(static_cast<std::size_t>(lasers_), false);
-  for (const Target& T : targets_)
-    for (const View& v : T.views)
-      for (const View::LaserTerm& t : v.lasers) seen[static_cast<std::size_t>(t.laser)] = true;
-  std::vector<int> mean;
-  for (int i = 0; i < lasers_; ++i) {
-    detail::addLaserPrior(problem, laser_block_, lasers_, {i}, deg2rad(options_.laser_elevation_sigma_deg));
-    if (seen[static_cast<std::size_t>(i)]) mean.push_back(i);
-  }
-  if (!mean.empty()) detail::addLaserPrior(problem, laser_block_, lasers_, mean, 1e-6);
-}
-
 void FeatureObservations::solved(const AdjustmentProblem& problem) {
-  if (laser_block_) std::copy(laser_block_, laser_block_ + lasers_, laser_dl_.begin());
+  if (laser_) laser_->solved();
   settled_ = true;
   if (options_.sigma_in_plane_m > 0) return;
   // Variance components (after Förstner): σ² = Σ r² / redundancy per component, the redundancy
@@ -880,25 +865,16 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     section_.rms_before_m = (ss_before / n).cwiseSqrt();
     section_.rms_after_m = (ss_after / n).cwiseSqrt();
   }
-  if (laser_block_) finishLasers(problem);
-}
-
-void FeatureObservations::finishLasers(const AdjustmentProblem& adjustment) {
-  const std::size_t L = static_cast<std::size_t>(lasers_);
-  section_.lasers.assign(L, LaserCorrection{});
-  section_.laser_elevation_sigma_deg.assign(L, std::nan(""));
-  section_.laser_points.assign(L, 0);
-  for (std::size_t i = 0; i < L; ++i) section_.lasers[i].elevation_rad = laser_block_[i];
-  for (const auto& vps : points_)
-    for (const ViewPoints& vp : vps)
-      for (int l : vp.laser) ++section_.laser_points[static_cast<std::size_t>(l)];
-  // In the mounting's stochastic model (AdjustmentProblem::reportCovariance).
-  const Eigen::MatrixXd& joint = adjustment.reportedCovariance(laser_block_);
-  if (joint.rows() != 6 + lasers_) return;
-  const Eigen::MatrixXd C = joint.bottomRightCorner(lasers_, lasers_);
-  for (std::size_t i = 0; i < L; ++i)
-    if (section_.laser_points[i] > 0)
-      section_.laser_elevation_sigma_deg[i] = rad2deg(std::sqrt(std::max(C(static_cast<long>(i), static_cast<long>(i)), 0.0)));
+  if (laser_) {
+    std::vector<int> points(static_cast<std::size_t>(laser_->lasers()), 0);
+    for (const auto& vps : points_)
+      for (const ViewPoints& vp : vps)
+        for (int l : vp.laser) ++points[static_cast<std::size_t>(l)];
+    detail::LaserElevations e = laser_->finish(problem, points);
+    section_.lasers = std::move(e.lasers);
+    section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
+    section_.laser_points = std::move(e.points);
+  }
 }
 
 }  // namespace mountcal

@@ -4,6 +4,7 @@
 #include <optional>
 #include <sstream>
 
+#include "../common/laser_elevations.hpp"
 #include "../common/section_format.hpp"
 
 namespace mountcal {
@@ -132,13 +133,10 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
     }
   }
   if (!C.message.empty()) r << "  closed form: " << C.message << "\n";
-  if (!lasers.empty()) {
-    r << "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the targets' outlines use; sigma a priori):\n"
-         "  laser  offset [deg]  sigma [deg]  target points\n";
-    for (std::size_t i = 0; i < lasers.size(); ++i)
-      r << detail::printfString("  %5zu  %+12.4f  %11.4f  %14d\n", i, rad2deg(lasers[i].elevation_rad), laser_elevation_sigma_deg[i],
-                                laser_points[i]);
-  }
+  if (!lasers.empty())
+    r << detail::laserElevationTable(
+        {lasers, laser_elevation_sigma_deg, laser_points},
+        "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the targets' outlines use):", "target points");
   for (const RejectedFeature& t : rejected)
     r << "rejected target " << t.target_id << (t.strip_id.empty() ? "" : " on strip " + t.strip_id) << ": " << t.reason << "\n";
   return r.str();
@@ -218,16 +216,8 @@ std::string FeatureSection::resultJson(const AdjustmentSummary&) const {
                    {"sigma_estimated", sigma_estimated},
                    {"extraction_time_s", extraction_time_s},
                    {"matching_time_s", matching_time_s}};
-  if (!lasers.empty()) {
-    json off = json::array(), sig = json::array(), pts = json::array();
-    for (std::size_t i = 0; i < lasers.size(); ++i) {
-      off.push_back(rad2deg(lasers[i].elevation_rad));
-      sig.push_back(numOrNull(laser_elevation_sigma_deg[i]));
-      pts.push_back(laser_points[i]);
-    }
-    // The intrinsics to use from now on (apply and evaluate read them), by laser id.
-    j["intrinsics"] = {{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig}, {"laser_points", pts}};
-  }
+  // The intrinsics to use from now on (apply and evaluate read them), by laser id.
+  if (!lasers.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics({lasers, laser_elevation_sigma_deg, laser_points}));
   return j.dump();
 }
 
@@ -272,6 +262,8 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
+  if (!lasers.empty())
+    h << detail::laserElevationHtml({lasers, laser_elevation_sigma_deg, laser_points}, "Per-laser elevation offsets", "target points");
   return h.str();
 }
 

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "geometry/plane_ransac.hpp"
+#include "methods/common/laser_elevations.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -35,6 +36,7 @@ bool PlaneOptions::IsValid(std::string* error) const {
   if (!(edge_margin_m >= 0) || edge_margin_m > 1000) return fail("edge_margin_m must be in [0, 1000]");
   if (!(max_patch_size_m > 0) || max_patch_size_m > 10000) return fail("max_patch_size_m must be in (0, 10000]");
   if (max_patches < 1 || max_patches > 100000) return fail("max_patches must be in [1, 100000]");
+  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
   return true;
 }
 
@@ -110,6 +112,24 @@ struct PlanePointResidual {
   bool operator()(const double* m, const double* plane, const double* o, double* r) const {
     const detail::MountingMotion motion = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m);
     const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + Vec3(o[0], o[1], o[2]);
+    const Vec3 n(plane[0], plane[1], plane[2]);
+    r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
+    return true;
+  }
+};
+
+/// PlanePointResidual of a multi-beam point whose laser's elevation is off by δω (dl[0]): its
+/// laser vector turned exactly, r_s' = cos δω r_s + sin δω u (LaserCorrector), and
+/// x(M, δω) = x(M) + R_mb R_bs(M) (r_s' − r_s), with R_bs(M) = R_bs,used + ΔR_bs (MountingMotion).
+struct PlaneLaserPointResidual {
+  const PlaneObservations::PatchPoint* p;
+  const MountingParameters* used;
+  Mat3 R_bs_used;
+  double inv_sigma;
+  bool operator()(const double* m, const double* plane, const double* o, const double* dl, double* r) const {
+    const detail::MountingMotion motion = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m);
+    const Vec3 dr = (std::cos(dl[0]) - 1.0) * p->r_s + std::sin(dl[0]) * elevationTangent(p->r_s);
+    const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + p->R_mb * ((R_bs_used + motion.dR_bs) * dr) + Vec3(o[0], o[1], o[2]);
     const Vec3 n(plane[0], plane[1], plane[2]);
     r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
     return true;
@@ -248,6 +268,10 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
     regions.clear();
     for (const PlanarPatch& p : findPlanarPatches(data, options_)) regions.push_back(p.region);
   }
+  if (options_.laser_elevation_sigma_deg > 0) {
+    laser_ = std::make_unique<detail::LaserElevationBlock>();
+    laser_->setUp(data, "planes");
+  }
   std::vector<StripCloud> clouds = makeClouds(data, 4.0);
   // Candidates: every strip point within the region grown by the search margin (points move
   // in and out of a region as the mounting changes; select() picks the inliers each round).
@@ -263,6 +287,7 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
         cand.r_s = c.strip->r_s[i];
         cand.R_mb = data.pose(*c.strip, i).R_mb;
         cand.time_s = c.strip->time_s[i];
+        if (laser_) cand.laser = c.strip->laser[i];
         region.candidates.push_back(cand);
       }
     }
@@ -352,15 +377,19 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
     std::vector<Vec3> now;  // positions at m
     for (const Seen& sn : agree) {
       fit_sigmas.push_back(sn.fit.sigma_m);
-      // Evenly thinned inliers, in time order.
-      std::vector<std::uint32_t> in = sn.inliers;
-      std::sort(in.begin(), in.end());
-      const std::size_t keep = std::min<std::size_t>(in.size(), static_cast<std::size_t>(options_.max_points_per_strip));
-      for (std::size_t k = 0; k < keep; ++k) {
-        const std::uint32_t i = in[k * in.size() / keep];
-        const Candidate& c = region.candidates[i];
-        patch.points.push_back({c.strip_id, c.x0 /* made relative below */, c.R_mb, c.r_s, c.time_s});
-        now.push_back(X[i]);
+      // Evenly thinned inliers, in time order — per laser when per-laser offsets are estimated,
+      // so that every laser the strip sees the patch with keeps its points.
+      std::map<int, std::vector<std::uint32_t>> by_laser;
+      for (std::uint32_t i : sn.inliers) by_laser[region.candidates[i].laser].push_back(i);
+      for (auto& [laser, in] : by_laser) {
+        std::sort(in.begin(), in.end());
+        const std::size_t keep = std::min<std::size_t>(in.size(), static_cast<std::size_t>(options_.max_points_per_strip));
+        for (std::size_t k = 0; k < keep; ++k) {
+          const std::uint32_t i = in[k * in.size() / keep];
+          const Candidate& c = region.candidates[i];
+          patch.points.push_back({c.strip_id, c.x0 /* made relative below */, c.R_mb, c.r_s, c.time_s, c.laser});
+          now.push_back(X[i]);
+        }
       }
     }
     Vec3 centre = Vec3::Zero();
@@ -398,19 +427,39 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   ceres::NumericDiffOptions nd;
   nd.relative_step_size = problem->numericDiffRelativeStep();
   blocks_.assign(patches_.size(), {});
+  double* lasers = nullptr;
+  if (laser_) {
+    std::vector<bool> seen(static_cast<std::size_t>(laser_->lasers()), false);
+    for (const Patch& patch : patches_)
+      for (const PatchPoint& pp : patch.points) seen[static_cast<std::size_t>(pp.laser)] = true;
+    lasers = laser_->add(problem, seen, options_.laser_elevation_sigma_deg);
+  }
   for (std::size_t q = 0; q < patches_.size(); ++q) {
     Patch& patch = patches_[q];
     // One plane per patch: unit normal on the sphere × offset (a nuisance block).
     auto* manifold = new ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>>();
     patch.block = problem->addNuisanceBlock(4, patch.plane0.data(), manifold);
     for (const PatchPoint& pp : patch.points) {
-      auto* cost = new ceres::NumericDiffCostFunction<PlanePointResidual, ceres::CENTRAL, 1, 6, 4, 3>(
-          new PlanePointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
-      blocks_[q].push_back(
-          problem->addResidualBlock(cost, section_.sigma_m, {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id)}));
+      if (lasers) {
+        auto* cost =
+            new detail::OneOfBlock(new ceres::NumericDiffCostFunction<PlaneLaserPointResidual, ceres::CENTRAL, 1, 6, 4, 3, 1>(
+                                       new PlaneLaserPointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd),
+                                   pp.laser, laser_->lasers());
+        blocks_[q].push_back(problem->addResidualBlock(cost, section_.sigma_m,
+                                                       {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id), lasers}));
+      } else {
+        auto* cost = new ceres::NumericDiffCostFunction<PlanePointResidual, ceres::CENTRAL, 1, 6, 4, 3>(
+            new PlanePointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd);
+        blocks_[q].push_back(
+            problem->addResidualBlock(cost, section_.sigma_m, {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id)}));
+      }
       problem->setEpoch(blocks_[q].back(), pp.strip_id, pp.time_s, pp.R_mb * (R_bs_used * pp.r_s + used_.a_b));
     }
   }
+}
+
+void PlaneObservations::solved(const AdjustmentProblem& /*problem*/) {
+  if (laser_) laser_->solved();
 }
 
 void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::array<double, 6>& /*m*/, const AdjustmentProblem& problem,
@@ -453,6 +502,15 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
   const double scale = robustScaleFromNorms(rms, 1);
   for (PatchResidual& pr : section_.patches)
     pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
+  if (laser_) {
+    std::vector<int> points(static_cast<std::size_t>(laser_->lasers()), 0);
+    for (const Patch& patch : patches_)
+      for (const PatchPoint& pp : patch.points) ++points[static_cast<std::size_t>(pp.laser)];
+    detail::LaserElevations e = laser_->finish(problem, points);
+    section_.lasers = std::move(e.lasers);
+    section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
+    section_.laser_points = std::move(e.points);
+  }
 }
 
 }  // namespace mountcal

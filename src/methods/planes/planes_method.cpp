@@ -3,6 +3,7 @@
 
 #include <sstream>
 
+#include "../common/laser_elevations.hpp"
 #include "../common/section_format.hpp"
 #include "mountcal/report/svg_plot.hpp"
 
@@ -45,7 +46,7 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
               "fewer inliers: the strip does not see the patch")
           .integer(
               "max_points_per_strip", [](T& o) -> int& { return o.max_points_per_strip; }, 3, 1000000,
-              "inliers used per patch and strip, evenly thinned")
+              "inliers used per patch and strip (and laser, with per-laser offsets), evenly thinned")
           .number(
               "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
               "a strip's plane tilted more than this from the others' is another surface")
@@ -73,6 +74,9 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
           .number(
               "search_margin_m", [](T& o) -> double& { return o.search_margin_m; }, "m", 0, 100,
               "points this close to a region are re-selected at each mounting")
+          .number(
+              "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
+              "multi-beam strips with laser ids: prior sigma of per-laser elevation offsets; 0: not estimated")
           .specs();
   return specs;
 }
@@ -117,6 +121,10 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
                               aspectDeg(p.normal), p.rms_before_m, p.rms_after_m, p.outlier ? "  outlier" : "");
   }
+  if (!lasers.empty())
+    r << detail::laserElevationTable(
+        {lasers, laser_elevation_sigma_deg, laser_points},
+        "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the patches use):", "patch points");
   for (const RejectedPatch& p : rejected)
     r << "rejected patch " << p.patch_id << (p.strip_id.empty() ? "" : " on strip " + p.strip_id) << ": " << p.reason << "\n";
   return r.str();
@@ -146,6 +154,8 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
                  {"rms_after_m", rms_after_m},
                  {"patches", list},
                  {"rejected", rej}};
+  // The intrinsics to use from now on (apply and evaluate read them), by laser id.
+  if (!lasers.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics({lasers, laser_elevation_sigma_deg, laser_points}));
   return j.dump();
 }
 
@@ -184,6 +194,8 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
+  if (!lasers.empty())
+    h << detail::laserElevationHtml({lasers, laser_elevation_sigma_deg, laser_points}, "Per-laser elevation offsets", "patch points");
   return h.str();
 }
 

@@ -24,6 +24,7 @@
 ///     sampling of the target's outline). The mean is linear in R_bs(M): c_i(M) needs one 3×9
 ///     product per evaluation however many points the target holds.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,10 @@
 #include "mountcal/methods/method.hpp"
 
 namespace mountcal {
+
+namespace detail {
+class LaserElevationBlock;
+}
 
 /// Settings of the feature method (job: the `"features"` object). Lengths [m], angles [deg].
 struct FeatureOptions {
@@ -260,11 +265,7 @@ class FeatureObservations final : public ObservationSource {
   std::vector<Target> targets_;
   std::vector<std::vector<int>> blocks_;
   FeatureSection section_;
-  int lasers_ = 0;                 // laser ids 0..lasers_−1 (per-laser elevation offsets; 0: none)
-  std::vector<double> laser_dl_;   // their values, carried from solve to solve [rad]
-  double* laser_block_ = nullptr;  // this round's block
-  void addLaserBlock(AdjustmentProblem* problem);
-  void finishLasers(const AdjustmentProblem& problem);
+  std::unique_ptr<detail::LaserElevationBlock> laser_;  // per-laser elevation offsets (null: not estimated)
 };
 
 /// Step 3 alone, from matched pairs: the closed form (SPEC §2) at `mounting_used`.

@@ -11,8 +11,11 @@
 ///   r = ( n̂ · (x_j(M) + o_i − c) − d ) / σ,   x_j(M) = p_m(t_j) + R_mb(t_j) (R_bs(M) r_s + a_b)
 ///
 /// (SPEC §2 eq. 1, evaluated relative to the point's position at the mounting used, which is
-/// exact) as a `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 4, 3>`.
+/// exact) as a `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 4, 3>`. With per-laser
+/// elevation offsets δω (`laser_elevation_sigma_deg`) a multi-beam point's laser vector is turned
+/// first, exactly: r_s' = cos δω r_s + sin δω u (u: elevationTangent, as LaserCorrector).
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -21,6 +24,10 @@
 #include "mountcal/methods/method.hpp"
 
 namespace mountcal {
+
+namespace detail {
+class LaserElevationBlock;
+}
 
 /// Settings of the plane method. Lengths [m], angles [deg].
 struct PlaneOptions {
@@ -35,7 +42,9 @@ struct PlaneOptions {
   double ransac_threshold_m = 0.10;
   int ransac_iterations = 200;
   int min_points_per_strip = 10;  ///< fewer inliers: the strip does not see the patch
-  int max_points_per_strip = 24;  ///< inliers used per patch and strip, evenly thinned
+  /// Inliers used per patch and strip (and laser, when per-laser elevation offsets are
+  /// estimated), evenly thinned.
+  int max_points_per_strip = 24;
   /// A strip's plane that differs from the other strips' by more than this is another surface.
   double max_normal_angle_deg = 10.0;
   /// …or parallel to it but farther than this (a flat roof and the ground beside it) [m].
@@ -54,6 +63,10 @@ struct PlaneOptions {
   /// Points within this of a region are candidates: as the mounting changes, the points in
   /// each region are selected again (RANSAC at the current mounting) between solves [m].
   double search_margin_m = 3.0;
+  /// Multi-beam strips with laser ids: prior σ of one elevation offset per laser id, estimated
+  /// with the mounting (a nuisance block; their mean over the lasers the patches use held at 0,
+  /// a common offset being the boresight pitch's); 0: not estimated [deg].
+  double laser_elevation_sigma_deg = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -92,6 +105,12 @@ struct PlaneSection : MethodSection {
   std::vector<PatchResidual> patches;
   std::vector<RejectedPatch> rejected;
   double rms_before_m = 0.0, rms_after_m = 0.0;  ///< over all points [m]
+  /// With laser_elevation_sigma_deg > 0: per laser id the estimated elevation offset, its σ in
+  /// the mounting's stochastic model (NaN for a laser without patch points) and its patch points.
+  LaserCorrections lasers;
+  std::vector<double> laser_elevation_sigma_deg;
+  std::vector<int> laser_points;
+  LaserCorrections laserCorrections() const override { return lasers; }
 };
 
 /// A planar patch found in the overlaps (findPlanarPatches).
@@ -117,6 +136,7 @@ class PlaneObservations final : public ObservationSource {
   /// The points in each region are selected again at each new mounting.
   bool rematches() const override { return true; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
+  void solved(const AdjustmentProblem& problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
               const AnalysisOptions& analysis) override;
 
@@ -130,6 +150,7 @@ class PlaneObservations final : public ObservationSource {
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
     double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
+    int laser = -1;       ///< laser id when per-laser elevation offsets are estimated
   };
   struct Patch {
     std::string id;
@@ -148,6 +169,7 @@ class PlaneObservations final : public ObservationSource {
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
     double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
+    int laser = -1;
   };
   struct Region {
     PlaneRegion box;
@@ -164,6 +186,7 @@ class PlaneObservations final : public ObservationSource {
   std::vector<Patch> patches_;
   std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
   PlaneSection section_;
+  std::unique_ptr<detail::LaserElevationBlock> laser_;  // per-laser elevation offsets (null: not estimated)
 };
 
 }  // namespace mountcal
