@@ -119,7 +119,7 @@ struct PlanePointResidual {
 };
 
 /// PlanePointResidual of a multi-beam point whose laser's elevation is off by δω (dl[0]): its
-/// laser vector turned exactly, r_s' = cos δω r_s + sin δω u (LaserCorrector), and
+/// laser vector turned exactly by LaserCorrector (the correction apply writes), and
 /// x(M, δω) = x(M) + R_mb R_bs(M) (r_s' − r_s), with R_bs(M) = R_bs,used + ΔR_bs (MountingMotion).
 struct PlaneLaserPointResidual {
   const PlaneObservations::PatchPoint* p;
@@ -128,7 +128,9 @@ struct PlaneLaserPointResidual {
   double inv_sigma;
   bool operator()(const double* m, const double* plane, const double* o, const double* dl, double* r) const {
     const detail::MountingMotion motion = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m);
-    const Vec3 dr = (std::cos(dl[0]) - 1.0) * p->r_s + std::sin(dl[0]) * elevationTangent(p->r_s);
+    LaserCorrection turn;
+    turn.elevation_rad = dl[0];
+    const Vec3 dr = LaserCorrector(turn)(p->r_s) - p->r_s;
     const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + p->R_mb * ((R_bs_used + motion.dR_bs) * dr) + Vec3(o[0], o[1], o[2]);
     const Vec3 n(plane[0], plane[1], plane[2]);
     r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
@@ -429,9 +431,8 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   blocks_.assign(patches_.size(), {});
   double* lasers = nullptr;
   if (laser_) {
-    std::vector<bool> seen(static_cast<std::size_t>(laser_->lasers()), false);
-    for (const Patch& patch : patches_)
-      for (const PatchPoint& pp : patch.points) seen[static_cast<std::size_t>(pp.laser)] = true;
+    std::vector<bool> seen;
+    for (int n : laserPoints()) seen.push_back(n > 0);
     lasers = laser_->add(problem, seen, options_.laser_elevation_sigma_deg);
   }
   for (std::size_t q = 0; q < patches_.size(); ++q) {
@@ -456,6 +457,13 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
       problem->setEpoch(blocks_[q].back(), pp.strip_id, pp.time_s, pp.R_mb * (R_bs_used * pp.r_s + used_.a_b));
     }
   }
+}
+
+std::vector<int> PlaneObservations::laserPoints() const {
+  std::vector<int> points(static_cast<std::size_t>(laser_->lasers()), 0);
+  for (const Patch& patch : patches_)
+    for (const PatchPoint& pp : patch.points) ++points[static_cast<std::size_t>(pp.laser)];
+  return points;
 }
 
 void PlaneObservations::solved(const AdjustmentProblem& /*problem*/) {
@@ -503,10 +511,7 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
   for (PatchResidual& pr : section_.patches)
     pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
   if (laser_) {
-    std::vector<int> points(static_cast<std::size_t>(laser_->lasers()), 0);
-    for (const Patch& patch : patches_)
-      for (const PatchPoint& pp : patch.points) ++points[static_cast<std::size_t>(pp.laser)];
-    detail::LaserElevations e = laser_->finish(problem, points);
+    detail::LaserElevations e = laser_->finish(problem, laserPoints());
     section_.lasers = std::move(e.lasers);
     section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
     section_.laser_points = std::move(e.points);

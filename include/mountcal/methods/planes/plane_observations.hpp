@@ -177,6 +177,8 @@ class PlaneObservations final : public ObservationSource {
   };
   /// Selects every region's points (RANSAC per strip) and builds the patches at mounting m.
   void select(const std::array<double, 6>& m);
+  /// Patch points per laser id (per-laser elevation offsets estimated).
+  std::vector<int> laserPoints() const;
 
   PlaneOptions options_;
   MountingParameters used_;
