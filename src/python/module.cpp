@@ -71,9 +71,15 @@ F64 vec3(const Vec3& v) {
   std::memcpy(a.mutable_data(), v.data(), 3 * sizeof(double));
   return a;
 }
+/// Three numbers (a list, a tuple or an array of any integer or floating dtype: [180, -90, 0] is
+/// as good as [180.0, -90.0, 0.0] for a 3-vector); anything else refused naming `what`.
 Vec3 toVec3(const py::handle& obj, const std::string& what) {
-  const F64 a = requireF64(py::array::ensure(obj).attr("reshape")(1, 3), what, 3);
-  return Vec3(a.at(0, 0), a.at(0, 1), a.at(0, 2));
+  py::array a = py::array::ensure(obj);
+  const char kind = a ? a.dtype().kind() : '?';
+  if (kind != 'f' && kind != 'i' && kind != 'u') throw py::type_error(what + ": expected three numbers");
+  if (a.size() != 3) throw py::value_error(what + ": " + std::to_string(a.size()) + " values, expected three");
+  const F64 v = requireF64(a.attr("astype")(py::dtype::of<double>()).attr("reshape")(1, 3), what, 3);
+  return Vec3(v.at(0, 0), v.at(0, 1), v.at(0, 2));
 }
 template <class Matrix>
 F64 mat(const Matrix& m) {

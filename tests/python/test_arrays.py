@@ -105,6 +105,20 @@ def test_wrong_arrays_are_refused_with_the_argument_named():
     assert e.value.time_s == 99.0 and "does not extrapolate" in str(e.value)
 
 
+def test_a_mounting_takes_integers_and_names_a_wrong_vector():
+    # A sensor on its side is written [180, -90, 0] in a job; the same list is a mounting here.
+    ints = mountcal.Mounting([0, 0, 0], [1, 0, 0], nominal_rotation_deg=[180, -90, 0])
+    floats = mountcal.Mounting([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], nominal_rotation_deg=[180.0, -90.0, 0.0])
+    r = np.array([[0.0, 0.0, 10.0]])
+    traj, _ = straight_flight()
+    t = np.array([101.0])
+    assert np.array_equal(mountcal.georeference(traj, ints, t, r), mountcal.georeference(traj, floats, t, r))
+    with pytest.raises(ValueError, match=r"lever_arm_m: 2 values, expected three"):
+        mountcal.Mounting([0.1, 0.2], [0.0, 0.0, 0.0])
+    with pytest.raises(TypeError, match=r"boresight_deg: expected three numbers"):
+        mountcal.Mounting([0.0, 0.0, 0.0], ["a", "b", "c"])
+
+
 def las_points_by_hand(path):
     """X, Y, Z, GPS time and the extra bytes of a LAS 1.2 format-3 file, read with struct/NumPy only."""
     raw = open(path, "rb").read()

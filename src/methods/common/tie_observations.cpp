@@ -97,12 +97,46 @@ Vec3 imuToPoint(const VirtualTiePoint& v) {
   return v.referencePosition() - p;
 }
 
-/// The stochastic model's pulse noise at a virtual tie point [m²]: attitude and position common
-/// to its three pulses (emitted within a few milliseconds), range and pointing independent per
-/// pulse with the barycentric weights w_i of the pick in the plan triangle (Rule 1).
+Vec3 triangleNormal(const VirtualTiePoint& v) {
+  const auto& V = v.vertices();
+  Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
+  return n.z() < 0 ? Vec3(-n) : n;
+}
+
+/// The steepest surface gradient a tie's covariance takes, tan 72°: a pick on a wall does not
+/// define a height [-].
+constexpr double kMaxTieGradient = 3.0;
+
+/// The stochastic model's pulse noise at a virtual tie point [m²]. Attitude and position are
+/// common to its three pulses (emitted within a few milliseconds): they move the strip's whole
+/// surface there, and the feature the user picks with it, so the tie point moves by the full 3-D
+/// error. Range and pointing are independent per pulse: they do not move the pick, which stays at
+/// its plan position (Rule 1), only the triangle's height there — each pulse's error across the
+/// surface, n·δ_i, raises the plane at the pick by n·δ_i / n_z with the barycentric weight w_i, so
+/// their share is vertical, Σ w_i² nᵀ P_i n / n_z².
 Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const PulseNoise& noise) {
   const Vec3 u = imuToPoint(v);
-  return noise.pointCovariance(u, u, pickWeights(v).squaredNorm());
+  const Mat3 common = noise.pointCovariance(u, u, 0.0);
+  const Mat3 independent = noise.pointCovariance(u, u, 1.0) - common;
+  const Vec3 n = triangleNormal(v);
+  const double nz = std::max(n.z(), 1.0 / std::hypot(1.0, kMaxTieGradient));
+  Mat3 S = common;
+  S(2, 2) += pickWeights(v).squaredNorm() * n.dot(independent * n) / (nz * nz);
+  return S;
+}
+
+/// The cofactor of a plan pick's error in 3-D: a pick δ = (δx, δy) off in plan lands on the strip's
+/// surface there, so the virtual tie point moves by J δ with J = [1 0; 0 1; g_x g_y] and g the
+/// surface's gradient (−n_x/n_z, −n_y/n_z) of the VTP's triangle: on a roof of slope θ the height
+/// follows the pick by tan θ along the fall line. Σ_pick = σ_xy² J Jᵀ (diag(σ², σ², 0) on level
+/// ground).
+Mat3 pickCofactor(const VirtualTiePoint& v) {
+  const Vec3 n = triangleNormal(v);
+  Eigen::Vector2d g = -n.head<2>() / std::max(n.z(), 1e-9);
+  if (g.norm() > kMaxTieGradient) g *= kMaxTieGradient / g.norm();
+  Eigen::Matrix<double, 3, 2> J;
+  J << 1, 0, 0, 1, g.x(), g.y();
+  return J * J.transpose();
 }
 
 /// Emission time of a virtual tie point: its pulses' mean [s].
@@ -114,12 +148,6 @@ double vtpTime(const VirtualTiePoint& v, const CalibrationData& data) {
     return t / 3.0;
   }
   return 0.0;
-}
-
-Vec3 triangleNormal(const VirtualTiePoint& v) {
-  const auto& V = v.vertices();
-  Vec3 n = (V[1].x0_m - V[0].x0_m).cross(V[2].x0_m - V[0].x0_m).normalized();
-  return n.z() < 0 ? Vec3(-n) : n;
 }
 
 }  // namespace
@@ -312,10 +340,10 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
     sigma_xy_m_ = options_.tie_sigma_xy_m;
     sigma_z_m_ = options_.tie_sigma_z_m;
   }
-  const Vec3 sigma(sigma_xy_m_, sigma_xy_m_, sigma_z_m_);
   blocks_.clear();
   whitening_.clear();
   redundancy_.clear();
+  pick_cofactor_.clear();
   if (kind_ == "control") {
     for (Tie& tie : ties_) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
@@ -347,14 +375,15 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
     tie.X = problem->addNuisanceBlock(3, tie.mean_m.data());
     for (int k : tie.obs) {
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-      // seed eq. (10), whitened by the picking σ and, when the stochastic model has it, the
-      // pulse noise at this tie point.
-      Mat3 W = sigma.cwiseInverse().asDiagonal();
-      if (problem->pulseNoise().any()) {
-        const Mat3 Sigma = Mat3(sigma.cwiseProduct(sigma).asDiagonal()) + vtpPulseCovariance(v, problem->pulseNoise());
-        W = Sigma.llt().matrixL().solve(Mat3::Identity());
-      }
+      // seed eq. (10), whitened by the pick's σ along the surface (pickCofactor), the height's
+      // σ from the triangle and, when the stochastic model has it, the pulse noise at this tie point.
+      const Mat3 Q_pick = pickCofactor(v);
+      Mat3 Sigma = sigma_xy_m_ * sigma_xy_m_ * Q_pick;
+      Sigma(2, 2) += sigma_z_m_ * sigma_z_m_;
+      if (problem->pulseNoise().any()) Sigma += vtpPulseCovariance(v, problem->pulseNoise());
+      const Mat3 W = Sigma.llt().matrixL().solve(Mat3::Identity());
       whitening_.push_back(W);
+      pick_cofactor_.push_back(Q_pick);
       const double k_obs = static_cast<double>(tie.obs.size());
       redundancy_.push_back(tie.gcp ? k_obs / (k_obs + 1.0) : (k_obs - 1.0) / k_obs);
       if (double* dpsi = problem->attitudeError(v.stripId(), vtpTime(v, *data_))) {
@@ -378,27 +407,36 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
 
 void TieObservations::solved(const AdjustmentProblem& problem) {
   if (!estimatesSigma() || blocks_.empty()) return;
-  // Förstner's variance components: for component c with cofactor Q_c (Σ = Σ_c Q_c + Σ_pulse),
-  // σ̂²_c / σ²_c = Σ (Wᵀr)ᵀ Q_c (Wᵀr) / Σ r_i tr(WᵀW Q_c), r = W e the whitened residual and
-  // r_i the observation's redundancy share.
-  const Mat3 Q_xy = Vec3(sigma_xy_m_ * sigma_xy_m_, sigma_xy_m_ * sigma_xy_m_, 0).asDiagonal();
+  // Variance components (Förstner 1979; Koch 1999, §3.6): for component c with cofactor Q_c
+  // (Σ = Σ_c Q_c + Σ_pulse), q_c = Σ (Wᵀr)ᵀ Q_c (Wᵀr) with r = W e the whitened residual, and with
+  // r_i the observation's redundancy share, ρ_c = Σ r_i tr(Σ⁻¹Q_c), τ_c = Σ r_i tr(Σ⁻¹Q_c Σ⁻¹Q_c).
+  // If the component's true variance is λ times the current one, E[q_c] = ρ_c + (λ − 1) τ_c, so
+  // λ̂ = 1 + (q_c/ρ_c − 1) / s_c with s_c = τ_c/ρ_c, the component's share of the variance where it
+  // acts. (The plain ratio q_c/ρ_c takes s_c = 1: a component that other noise dominates — the
+  // tie height beside the pulse noise — then shrinks by a few per cent a solve and never settles.)
   const Mat3 Q_z = Vec3(0, 0, sigma_z_m_ * sigma_z_m_).asDiagonal();
-  double q_xy = 0, q_z = 0, r_xy = 0, r_z = 0;
+  double q_xy = 0, q_z = 0, r_xy = 0, r_z = 0, t_xy = 0, t_z = 0;
   for (std::size_t i = 0; i < blocks_.size(); ++i) {
     const Mat3& W = whitening_[i];
+    const Mat3 Q_xy = sigma_xy_m_ * sigma_xy_m_ * pick_cofactor_[i];
     const Vec3 g = W.transpose() * Vec3(problem.residual(blocks_[i]));  // Σ⁻¹ e
     const Mat3 Sinv = W.transpose() * W;
+    const Mat3 A_xy = Sinv * Q_xy, A_z = Sinv * Q_z;
     q_xy += g.dot(Q_xy * g);
     q_z += g.dot(Q_z * g);
-    r_xy += redundancy_[i] * (Sinv * Q_xy).trace();
-    r_z += redundancy_[i] * (Sinv * Q_z).trace();
+    r_xy += redundancy_[i] * A_xy.trace();
+    r_z += redundancy_[i] * A_z.trace();
+    t_xy += redundancy_[i] * (A_xy * A_xy).trace();
+    t_z += redundancy_[i] * (A_z * A_z).trace();
   }
-  if (!(r_xy > 0) || !(r_z > 0)) return;
-  const double f_xy = q_xy / r_xy, f_z = q_z / r_z;  // ratios of variances
+  if (!(r_xy > 0) || !(r_z > 0) || !(t_xy > 0) || !(t_z > 0)) return;
   // Bounded steps (×/÷ 100 in variance at most per solve) keep a degenerate round harmless.
-  const double new_xy = sigma_xy_m_ * std::sqrt(std::clamp(f_xy, 1e-2, 1e2));
-  const double new_z = sigma_z_m_ * std::sqrt(std::clamp(f_z, 1e-2, 1e2));
-  sigma_settled_ = std::abs(new_xy / sigma_xy_m_ - 1.0) < 0.01 && std::abs(new_z / sigma_z_m_ - 1.0) < 0.01;
+  auto step = [](double q, double r, double t) { return std::clamp(1.0 + (q / r - 1.0) * r / t, 1e-2, 1e2); };
+  const double new_xy = sigma_xy_m_ * std::sqrt(step(q_xy, r_xy, t_xy));
+  const double new_z = sigma_z_m_ * std::sqrt(step(q_z, r_z, t_z));
+  // A component below 0.1 % of the variance where it acts no longer changes the weights.
+  auto settled = [](double now, double before, double share) { return std::abs(now / before - 1.0) < 0.01 || share < 1e-3; };
+  sigma_settled_ = settled(new_xy, sigma_xy_m_, t_xy / r_xy) && settled(new_z, sigma_z_m_, t_z / r_z);
   if (!sigma_settled_) {
     sigma_xy_m_ = new_xy;
     sigma_z_m_ = new_z;

@@ -127,6 +127,7 @@ class TieObservations final : public ObservationSource {
   std::vector<int> blocks_;                    // residual block of each observation, in ties_ order
   std::vector<Mat3> whitening_;                // W of each observation (WᵀW = Σ⁻¹), in ties_ order
   std::vector<double> redundancy_;             // (k−1)/k of each observation, in ties_ order
+  std::vector<Mat3> pick_cofactor_;            // J Jᵀ of each observation's plan pick (see pickCofactor), in ties_ order
   double sigma_xy_m_ = 0.0, sigma_z_m_ = 0.0;  // σ of the current solve [m]
   bool sigma_settled_ = false;
   TieSection section_;
