@@ -347,9 +347,11 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
 }
 
 // Issue 26: without hand tuning the job takes its defaults from the data — a multi-beam sensor
-// matches densely with per-laser elevations and a Cauchy loss, parts of one recording have no
-// strip offsets — and comes within 10 % of the tuned job's median (Truck: 13 %, missed). Car's
-// untuned heading does not settle (re-solve 8.7σ): its verdict is doubtful, as is the tuned one's.
+// matches densely with per-laser elevations and a Cauchy loss, planes rougher than 1.5 × a named
+// model's range accuracy are rough, parts of one recording have no strip offsets — and comes
+// within 10 % of the tuned job's median (2026-11-28: Truck 1.09, Car 0.96, Tent 1.04; Truck was
+// 1.13 without the roughness bound). Car's untuned heading does not settle (re-solve 7.2σ): its
+// verdict is doubtful, as is the tuned one's.
 TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
   const GravityCase c = GetParam();
   REQUIRE_DATA(std::string("gravity/") + c.file);
@@ -360,6 +362,7 @@ TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
   if (mountcal_tests::kSanitizerBuild && std::string(c.name) != "truck")
     GTEST_SKIP() << "sanitizer build: the untuned calibration runs under the sanitizers on Truck; Car and Tent in the Release suite";
   EXPECT_TRUE(untuned.options.method<CorrespondenceOptions>().dense) << "a multi-beam sensor matches densely";
+  EXPECT_DOUBLE_EQ(untuned.options.method<CorrespondenceOptions>().max_roughness_m, 0.03) << "1.5 × the HDL-32E's 2 cm";
   EXPECT_EQ(untuned.options.strip_offset_sigma_m, 0.0) << "two parts of one recording";
   EXPECT_EQ(untuned.options.loss, LossType::kCauchy);
   const LoadedJob L = loadJob(untuned);
@@ -372,7 +375,7 @@ TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, GravityCalibration,
-                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true, 1.15},
+                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true, 1.10},
                                            GravityCase{"car", "Car.las", 0.20, 0.0230, false, 1.10},
                                            GravityCase{"tent", "Tent.las", 0.020, 0.0108, true, 1.10}),
                          [](const auto& info) { return std::string(info.param.name); });

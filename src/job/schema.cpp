@@ -362,7 +362,11 @@ void readInputs(const std::string& path, const Fields& top, const json& j, Job* 
 ///    "stochastic.trajectory" states);
 ///  - a spinning multi-beam sensor: the correspondences match densely (passes over one object,
 ///    not airborne strips), with per-laser elevation offsets under a 0.15° prior (the order of
-///    the corrections found on the Gravity HDL-32E passes).
+///    the corrections found on the Gravity HDL-32E passes);
+///  - a named model besides: a plane fitted to its points whose σ exceeds 1.5 × the model's
+///    range accuracy is rough (correspondences.max_roughness_m; the accuracy from the manuals:
+///    VLP-16 ±3 cm, HDL-32E ±2 cm). The radius-relative bound alone (0.2 r) let 5 cm planes in on
+///    the Gravity passes, whose noise is 2 cm.
 /// The robust loss of a multi-beam correspondence job is set in readJob, once the methods are known.
 void applyDataDefaults(Job* job) {
   bool one_recording = job->strips.size() > 1;
@@ -372,9 +376,11 @@ void applyDataDefaults(Job* job) {
     const Method* m = findMethod("correspondences");
     if (!m) return;
     std::any& o = job->options.method_options.at(m->name(), m->defaultOptions());
+    const double range_accuracy_m = job->sensor_model == "VLP-16" ? 0.03 : job->sensor_model == "HDL-32E" ? 0.02 : 0.0;
     for (const OptionSpec& spec : m->options()) {
       if (spec.key == "dense") spec.set(o, 1.0);
       if (spec.key == "laser_elevation_sigma_deg") spec.set(o, 0.15);
+      if (spec.key == "max_roughness_m" && range_accuracy_m > 0) spec.set(o, 1.5 * range_accuracy_m);
     }
   }
 }

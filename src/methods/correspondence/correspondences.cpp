@@ -44,6 +44,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
   if (max_neighbours < min_neighbours || max_neighbours > 1000) return fail("max_neighbours must be in [min_neighbours, 1000]");
   if (!(max_roughness_relative >= 1) || !std::isfinite(max_roughness_relative)) return fail("max_roughness_relative must be at least 1");
+  if (!(max_roughness_m >= 0) || !std::isfinite(max_roughness_m)) return fail("max_roughness_m must be 0 (off) or a positive length");
   if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0))
     return fail("roughness, distance and MAD factors must be positive");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) return fail("max_normal_angle_deg must be in (0, 90)");
@@ -404,7 +405,8 @@ class Matcher {
         continue;
       }
       const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t j) { return xb[nb[j]]; });
-      if (fb.sigma_m > o_.max_roughness_factor * r || fb.spread_ratio < o_.min_spread_ratio) {
+      if (fb.sigma_m > o_.max_roughness_factor * r || (o_.max_roughness_m > 0 && fb.sigma_m > o_.max_roughness_m) ||
+          fb.spread_ratio < o_.min_spread_ratio) {
         ++st.rejected_rough;
         continue;
       }

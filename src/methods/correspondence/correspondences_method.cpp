@@ -43,6 +43,9 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
               "max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6,
               "plane sigma above this x the median: rough")
           .number(
+              "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 0, 10,
+              "plane sigma above this: rough (0: off; dense mode: fine stage; VLP-16 / HDL-32E jobs: 1.5 x range accuracy)")
+          .number(
               "max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6,
               "|distance| above this x r: far")
           .number(

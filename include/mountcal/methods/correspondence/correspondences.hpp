@@ -50,6 +50,11 @@ struct CorrespondenceOptions {
   /// …or plane σ > this × the median σ of all candidates (at least 5 mm): rough, as across a
   /// ridge, an eave or a wall edge [-].
   double max_roughness_relative = 4.0;
+  /// …or plane σ > this (0: no such bound; dense mode: its fine stage only) [m]. The sensor's own
+  /// noise bounds a plane fit's σ whatever the radius, so a larger one is roughness; a job of a
+  /// named multi-beam model (VLP-16, HDL-32E) takes 1.5 × its range accuracy by default — the
+  /// 97.5 % point of the σ of a plane fitted to 10 points of that noise (√(χ²₇,0.975 / 7) = 1.51).
+  double max_roughness_m = 0.0;
   double max_distance_factor = 3.0;    ///< |distance| > this × r: far [-]
   double max_normal_angle_deg = 10.0;  ///< [deg]
   double mad_factor = 3.0;             ///< beyond this × σ_MAD of the distances: rejected [-]
