@@ -113,12 +113,11 @@ constexpr double kMaxTieGradient = 3.0;
 /// error. Range and pointing are independent per pulse: they do not move the pick, which stays at
 /// its plan position (Rule 1), only the triangle's height there — each pulse's error across the
 /// surface, n·δ_i, raises the plane at the pick by n·δ_i / n_z with the barycentric weight w_i, so
-/// their share is vertical, Σ w_i² nᵀ P_i n / n_z².
-Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const PulseNoise& noise) {
+/// their share is vertical, Σ w_i² nᵀ P_i n / n_z². `n`: the triangle's normal (triangleNormal).
+Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const Vec3& n, const PulseNoise& noise) {
   const Vec3 u = imuToPoint(v);
   const Mat3 common = noise.pointCovariance(u, u, 0.0);
   const Mat3 independent = noise.pointCovariance(u, u, 1.0) - common;
-  const Vec3 n = triangleNormal(v);
   const double nz = std::max(n.z(), 1.0 / std::hypot(1.0, kMaxTieGradient));
   Mat3 S = common;
   S(2, 2) += pickWeights(v).squaredNorm() * n.dot(independent * n) / (nz * nz);
@@ -129,9 +128,8 @@ Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const PulseNoise& noise) {
 /// surface there, so the virtual tie point moves by J δ with J = [1 0; 0 1; g_x g_y] and g the
 /// surface's gradient (−n_x/n_z, −n_y/n_z) of the VTP's triangle: on a roof of slope θ the height
 /// follows the pick by tan θ along the fall line. Σ_pick = σ_xy² J Jᵀ (diag(σ², σ², 0) on level
-/// ground).
-Mat3 pickCofactor(const VirtualTiePoint& v) {
-  const Vec3 n = triangleNormal(v);
+/// ground). `n`: the triangle's normal (triangleNormal).
+Mat3 pickCofactor(const Vec3& n) {
   Eigen::Vector2d g = -n.head<2>() / std::max(n.z(), 1e-9);
   if (g.norm() > kMaxTieGradient) g *= kMaxTieGradient / g.norm();
   Eigen::Matrix<double, 3, 2> J;
@@ -352,7 +350,7 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
         const Vec3 n = triangleNormal(v);
         // σ across the surface: the GCP's (its normal component) and the strip's (Rule 1).
         const double s_gcp2 = std::pow(tie.gcp->sigma_xy_m, 2) * n.head<2>().squaredNorm() + std::pow(tie.gcp->sigma_z_m * n.z(), 2);
-        const double s_pulse2 = problem->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, problem->pulseNoise()) * n) : 0.0;
+        const double s_pulse2 = problem->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, n, problem->pulseNoise()) * n) : 0.0;
         const double sigma = std::sqrt(s_gcp2 + options_.tie_sigma_z_m * options_.tie_sigma_z_m + s_pulse2);
         ceres::NumericDiffOptions nd;
         nd.relative_step_size = problem->numericDiffRelativeStep();
@@ -377,10 +375,11 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
       // seed eq. (10), whitened by the pick's σ along the surface (pickCofactor), the height's
       // σ from the triangle and, when the stochastic model has it, the pulse noise at this tie point.
-      const Mat3 Q_pick = pickCofactor(v);
+      const Vec3 n = triangleNormal(v);
+      const Mat3 Q_pick = pickCofactor(n);
       Mat3 Sigma = sigma_xy_m_ * sigma_xy_m_ * Q_pick;
       Sigma(2, 2) += sigma_z_m_ * sigma_z_m_;
-      if (problem->pulseNoise().any()) Sigma += vtpPulseCovariance(v, problem->pulseNoise());
+      if (problem->pulseNoise().any()) Sigma += vtpPulseCovariance(v, n, problem->pulseNoise());
       const Mat3 W = Sigma.llt().matrixL().solve(Mat3::Identity());
       whitening_.push_back(W);
       pick_cofactor_.push_back(Q_pick);

@@ -405,8 +405,7 @@ class Matcher {
         continue;
       }
       const PlaneFit fb = fitPlane(nb.size(), [&](std::size_t j) { return xb[nb[j]]; });
-      if (fb.sigma_m > o_.max_roughness_factor * r || (o_.max_roughness_m > 0 && fb.sigma_m > o_.max_roughness_m) ||
-          fb.spread_ratio < o_.min_spread_ratio) {
+      if (fb.sigma_m > o_.maxPlaneSigma(r) || fb.spread_ratio < o_.min_spread_ratio) {
         ++st.rejected_rough;
         continue;
       }

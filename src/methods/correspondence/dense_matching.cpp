@@ -194,8 +194,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   const double gate = coarse ? std::max(2.0 * o_.apriori_misalignment_m, o_.max_distance_factor * R) : fine_gate_m;
   const double max_angle = coarse ? std::min(2 * o_.max_normal_angle_deg, 60.0) : o_.max_normal_angle_deg;
   // The coarse stage's planes span a metre of a curved object: only the relative bound there.
-  const double max_sigma =
-      !coarse && o_.max_roughness_m > 0 ? std::min(o_.max_roughness_factor * R, o_.max_roughness_m) : o_.max_roughness_factor * R;
+  const double max_sigma = o_.maxPlaneSigma(R, !coarse);
   out.radius_m = R;
   out.spacing_m = spacing;
   out.max_distance_m = gate;

@@ -16,6 +16,7 @@
 /// its exact form relative to the mounting used), n_B held within a round, as a
 /// `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 3, 3>`.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -55,6 +56,11 @@ struct CorrespondenceOptions {
   /// named multi-beam model (VLP-16, HDL-32E) takes 1.5 × its range accuracy by default — the
   /// 97.5 % point of the σ of a plane fitted to 10 points of that noise (√(χ²₇,0.975 / 7) = 1.51).
   double max_roughness_m = 0.0;
+  /// The largest plane σ a neighbourhood of radius r may have: max_roughness_factor × r, and
+  /// max_roughness_m when set and `absolute` [m].
+  double maxPlaneSigma(double r, bool absolute = true) const {
+    return absolute && max_roughness_m > 0 ? std::min(max_roughness_factor * r, max_roughness_m) : max_roughness_factor * r;
+  }
   double max_distance_factor = 3.0;    ///< |distance| > this × r: far [-]
   double max_normal_angle_deg = 10.0;  ///< [deg]
   double mad_factor = 3.0;             ///< beyond this × σ_MAD of the distances: rejected [-]
