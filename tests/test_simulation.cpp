@@ -269,6 +269,39 @@ TEST(Simulator, PerLaserErrorsAreCastWhileThePointsUseTheTable) {
   EXPECT_GT(off, n * 9 / 10);  // errors of 0.1°, 5 mm and 1 cm move nearly every point by over 1 mm
 }
 
+// The azimuth gate (MultiBeamConfig::azimuth_gate) sets up only the firing sequences that can
+// reach an ROI window: the strips are the ungated simulator's to the last bit — the VLP-16 preset
+// (spin axis horizontal, rolling and pitching by 1°) and an HDL-32E, both with survey noise and
+// per-laser errors of every group (azimuth and horizontal offsets widen the gate), ROI radius 1.5 m.
+TEST(Simulator, AzimuthGateKeepsEveryPulseTheRoiKeeps) {
+  for (const bool hdl : {false, true}) {
+    Scene scene;
+    SurveyConfig c;
+    makePreset("uav-vlp16", 3, &c, &scene);
+    if (hdl) c.multibeam.model = MultiBeamModel::HDL32E();
+    c.roi_radius_m = 1.5;
+    c.multibeam.laser_errors = drawLaserErrors(c.multibeam.model.laserCount(), 7, deg2rad(0.1), deg2rad(0.3), 0.005, 0.01, 0.02);
+    SurveyConfig ungated = c;
+    ungated.multibeam.azimuth_gate = false;
+    const SimulatedSurvey a = simulate(c, scene), b = simulate(ungated, scene);
+    ASSERT_EQ(a.strips.size(), b.strips.size());
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.strips.size(); ++i) {
+      const SimulatedStrip &x = a.strips[i], &y = b.strips[i];
+      ASSERT_EQ(x.pulses.size(), y.pulses.size()) << "strip " << x.id << (hdl ? " HDL-32E" : " VLP-16");
+      for (std::size_t k = 0; k < x.pulses.size(); ++k) {
+        ASSERT_EQ(x.pulses[k].time_s, y.pulses[k].time_s) << k;
+        ASSERT_EQ(x.pulses[k].laser_id, y.pulses[k].laser_id) << k;
+        ASSERT_EQ(x.pulses[k].range_m, y.pulses[k].range_m) << k;
+        ASSERT_EQ(x.points_m[k], y.points_m[k]) << k;
+      }
+      n += x.pulses.size();
+    }
+    EXPECT_GT(n, 10000u);
+    EXPECT_EQ(a.ties.size(), b.ties.size());
+  }
+}
+
 TEST(Simulator, RejectsInconsistentConfigurationsAndUnknownPresets) {
   Scene scene;
   SurveyConfig c;

@@ -47,6 +47,10 @@ struct MultiBeamConfig {
   /// calibration file writes them. Sizes other than 0 or the laser count are refused; the
   /// firing offsets are not used. Tie picks see the true geometry.
   std::vector<LaserSpec> laser_errors;
+  /// With an ROI (SurveyConfig::roi_radius_m), set up only the firing sequences whose azimuths can
+  /// reach an ROI window (a bound from the scanner's pose every millisecond): the same strips to
+  /// the last bit, a fraction of the pulses. false sets up every sequence (the reference).
+  bool azimuth_gate = true;
 };
 
 /// Per-laser errors of a spinning multi-beam sensor drawn from a seed: each laser's elevation,
