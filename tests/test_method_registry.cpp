@@ -122,6 +122,53 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
   EXPECT_TRUE(back.planes_auto);
 }
 
+// The matching defaults of a multi-beam job come from the sensor's range accuracy, which has one
+// home (MultiBeamModel::rangeAccuracy: the VLP-16's 3 cm and the HDL-32E's 2 cm from their
+// manuals; sensor.range_accuracy_m for a laser table or to override): a plane rougher than 1.5 ×
+// it is rough and the Cauchy loss's scale is 1.5 × it (3 cm when unknown). Written back and read
+// again; a negative accuracy is refused with the field.
+TEST(Registry, MatchingDefaultsFollowTheSensorsRangeAccuracy) {
+  const fs::path dir = freshDir("accuracy");
+  auto read = [&](const json& sensor) {
+    json j = minimalJob();
+    j.erase("ties");
+    j["method"] = "correspondences";
+    j["sensor"] = sensor;
+    const std::string path = (dir / "job.json").string();
+    writeJson(path, j);
+    return readJob(path);
+  };
+  const json lasers = json::array({{{"elevation_deg", -15}}, {{"elevation_deg", 15}}});
+  struct Case {
+    json sensor;
+    double roughness, loss_scale;
+  };
+  const std::vector<Case> cases = {
+      {{{"type", "multibeam"}, {"model", "VLP-16"}}, 0.045, 0.045},
+      {{{"type", "multibeam"}, {"model", "HDL-32E"}}, 0.03, 0.03},
+      {{{"type", "multibeam"}, {"model", "HDL-32E"}, {"range_accuracy_m", 0.05}}, 0.075, 0.075},
+      {{{"type", "multibeam"}, {"lasers", lasers}}, 0.0, 0.03},
+      {{{"type", "multibeam"}, {"lasers", lasers}, {"range_accuracy_m", 0.01}}, 0.015, 0.015},
+  };
+  for (const Case& c : cases) {
+    const Job job = read(c.sensor);
+    EXPECT_NEAR(job.options.method<CorrespondenceOptions>().max_roughness_m, c.roughness, 1e-15) << c.sensor.dump();
+    EXPECT_EQ(job.options.loss, LossType::kCauchy);
+    EXPECT_NEAR(job.options.loss_scale_m, c.loss_scale, 1e-15) << c.sensor.dump();
+    const std::string again = (dir / "again.json").string();
+    std::ofstream(again) << jobJson(job);
+    EXPECT_EQ(readJob(again).sensor.multibeam.rangeAccuracy(), job.sensor.multibeam.rangeAccuracy()) << c.sensor.dump();
+  }
+  EXPECT_EQ(MultiBeamModel::VLP16().rangeAccuracy(), 0.03);
+  EXPECT_EQ(MultiBeamModel::HDL32E().rangeAccuracy(), 0.02);
+  try {
+    read({{"type", "multibeam"}, {"model", "VLP-16"}, {"range_accuracy_m", -0.01}});
+    FAIL() << "a negative range accuracy";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor.range_accuracy_m"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Registry, EarlierJobKeysAreStillReadWithANotice) {
   const fs::path dir = freshDir("legacy");
   json j = {{"frame", {{"type", "local"}}},

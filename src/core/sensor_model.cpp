@@ -20,8 +20,9 @@ void LineScannerModel::inverse(const Vec3& r_s, double* scan_angle_rad, double* 
   *scan_angle_rad = (theta - scan_angle_offset_rad) / scan_angle_scale;
 }
 
-MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, double sequence_period_s)
+MultiBeamModel::MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, double sequence_period_s, double range_accuracy_m)
     : name_(std::move(name)), lasers_(std::move(lasers)), sequence_period_s_(sequence_period_s) {
+  setRangeAccuracy(range_accuracy_m);
   if (lasers_.empty()) throw InvalidInput("multi-beam model '" + name_ + "': no lasers");
   for (std::size_t i = 0; i < lasers_.size(); ++i) {
     const LaserSpec& l = lasers_[i];
@@ -45,7 +46,7 @@ MultiBeamModel MultiBeamModel::VLP16() {
     lasers[i].vertical_offset_m = kVerticalMm[i] * 1e-3;
     lasers[i].firing_offset_s = i * 2.304e-6;
   }
-  return MultiBeamModel("VLP-16", std::move(lasers), 55.296e-6);
+  return MultiBeamModel("VLP-16", std::move(lasers), 55.296e-6, 0.03);  // the manual's ±3 cm
 }
 
 MultiBeamModel MultiBeamModel::HDL32E() {
@@ -59,7 +60,13 @@ MultiBeamModel MultiBeamModel::HDL32E() {
     lasers[i].elevation_rad = deg2rad(kElevationDeg[i]);
     lasers[i].firing_offset_s = i * 1.152e-6;
   }
-  return MultiBeamModel("HDL-32E", std::move(lasers), 46.08e-6);
+  return MultiBeamModel("HDL-32E", std::move(lasers), 46.08e-6, 0.02);  // the manual's ±2 cm
+}
+
+void MultiBeamModel::setRangeAccuracy(double range_accuracy_m) {
+  if (!(range_accuracy_m >= 0 && std::isfinite(range_accuracy_m)))
+    throw InvalidInput("multi-beam model '" + name_ + "': the range accuracy must be a non-negative number of metres");
+  range_accuracy_m_ = range_accuracy_m;
 }
 
 const LaserSpec& MultiBeamModel::laser(int id) const {

@@ -31,7 +31,7 @@ const char* lossName(LossType l) {
 
 void readSensor(const std::string& path, const Fields& top, Job* job) {
   const Fields sensor = top.sub("sensor", {"type", "nominal_rotation_deg", "model", "lasers", "range_offset_m", "scan_angle_scale",
-                                           "scan_angle_offset_deg", "laser_field", "laser_table_tolerance_deg"});
+                                           "scan_angle_offset_deg", "laser_field", "laser_table_tolerance_deg", "range_accuracy_m"});
   const std::string type = sensor.str("type");
   job->nominal_rotation_deg = sensor.has("nominal_rotation_deg") ? sensor.vec3("nominal_rotation_deg") : Vec3::Zero();
   if (type == "line") {
@@ -73,6 +73,12 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
       else
         sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
       job->sensor_model = model;
+    }
+    // The maker's range accuracy: a named model's own (MultiBeamModel::rangeAccuracy), or given.
+    if (sensor.has("range_accuracy_m")) {
+      const double a = sensor.num("range_accuracy_m");
+      if (!(a >= 0 && a <= 1)) sensor.fail("range_accuracy_m", "expected metres in [0, 1] (0: unknown)");
+      job->sensor.multibeam.setRangeAccuracy(a);
     }
   } else if (type == "vector") {
     job->sensor = SensorModel::vectorSensor();
@@ -363,10 +369,10 @@ void readInputs(const std::string& path, const Fields& top, const json& j, Job* 
 ///  - a spinning multi-beam sensor: the correspondences match densely (passes over one object,
 ///    not airborne strips), with per-laser elevation offsets under a 0.15° prior (the order of
 ///    the corrections found on the Gravity HDL-32E passes);
-///  - a named model besides: a plane fitted to its points whose σ exceeds 1.5 × the model's
-///    range accuracy is rough (correspondences.max_roughness_m; the accuracy from the manuals:
-///    VLP-16 ±3 cm, HDL-32E ±2 cm). The radius-relative bound alone (0.2 r) let 5 cm planes in on
-///    the Gravity passes, whose noise is 2 cm.
+///  - a sensor whose range accuracy is known (MultiBeamModel::rangeAccuracy: a named model's, or
+///    sensor.range_accuracy_m): a plane fitted to its points whose σ exceeds 1.5 × that accuracy
+///    is rough (correspondences.max_roughness_m). The radius-relative bound alone (0.2 r) let 5 cm
+///    planes in on the Gravity passes, whose noise is 2 cm.
 /// The robust loss of a multi-beam correspondence job is set in readJob, once the methods are known.
 void applyDataDefaults(Job* job) {
   bool one_recording = job->strips.size() > 1;
@@ -376,7 +382,7 @@ void applyDataDefaults(Job* job) {
     const Method* m = findMethod("correspondences");
     if (!m) return;
     std::any& o = job->options.method_options.at(m->name(), m->defaultOptions());
-    const double range_accuracy_m = job->sensor_model == "VLP-16" ? 0.03 : job->sensor_model == "HDL-32E" ? 0.02 : 0.0;
+    const double range_accuracy_m = job->sensor.multibeam.rangeAccuracy();
     for (const OptionSpec& spec : m->options()) {
       if (spec.key == "dense") spec.set(o, 1.0);
       if (spec.key == "laser_elevation_sigma_deg") spec.set(o, 0.15);
@@ -527,9 +533,10 @@ Job readJob(const std::string& path, const std::string& overrides_json) {
   readMethods(top, &job);
   if (job.sensor.type == SensorType::kMultiBeam && job.options.methods == std::vector<std::string>{"correspondences"}) {
     // Real multi-beam passes carry moving objects and edges: a Cauchy loss from 1.5× the
-    // scanner's 2 cm range accuracy (the job's "solver" overrides it).
+    // scanner's range accuracy, 3 cm when it is unknown (the job's "solver" overrides it).
+    const double accuracy_m = job.sensor.multibeam.rangeAccuracy();
     job.options.loss = LossType::kCauchy;
-    job.options.loss_scale_m = 0.03;
+    job.options.loss_scale_m = accuracy_m > 0 ? 1.5 * accuracy_m : 0.03;
   }
   readSettings(top, &job);
   readMeasuredLeverArm(used, &job);
@@ -591,6 +598,12 @@ json sensorJson(const Job& job) {
       }
       if (!job.laser_field.empty()) sensor["laser_field"] = job.laser_field;
       if (job.laser_table_tolerance_deg != 5.0) sensor["laser_table_tolerance_deg"] = job.laser_table_tolerance_deg;
+      if (job.sensor_model == "VLP-16" || job.sensor_model == "HDL-32E") {
+        const double own = (job.sensor_model == "VLP-16" ? MultiBeamModel::VLP16() : MultiBeamModel::HDL32E()).rangeAccuracy();
+        if (job.sensor.multibeam.rangeAccuracy() != own) sensor["range_accuracy_m"] = job.sensor.multibeam.rangeAccuracy();
+      } else if (job.sensor.multibeam.rangeAccuracy() > 0) {
+        sensor["range_accuracy_m"] = job.sensor.multibeam.rangeAccuracy();
+      }
       break;
     case SensorType::kVector:
       sensor["type"] = "vector";

@@ -125,16 +125,17 @@ std::vector<LaserCorrector> laserCorrectors(const LaserCorrections& lasers);
 class MultiBeamModel {
  public:
   MultiBeamModel() = default;
-  /// A custom laser table. Throws InvalidInput when empty or non-finite.
-  MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, double sequence_period_s);
+  /// A custom laser table, with its range accuracy if known (0: unknown) [m]. Throws
+  /// InvalidInput when empty, non-finite or the accuracy is negative.
+  MultiBeamModel(std::string name, std::vector<LaserSpec> lasers, double sequence_period_s, double range_accuracy_m = 0.0);
 
   /// Velodyne VLP-16: elevations −15, 1, −13, 3, …, 13, −1, 15 [deg] by laser id, the manual's
   /// per-laser vertical corrections (+11.2 … −11.2 mm), 2.304 µs between lasers, 55.296 µs per
-  /// firing sequence.
+  /// firing sequence; range accuracy ±3 cm (the manual's "typical").
   static MultiBeamModel VLP16();
   /// Velodyne HDL-32E: elevations −30.67° … +10.67° in 1.333° steps, interleaved by laser id
   /// as in the manual (−30.67, −9.33, −29.33, −8.00, …, −10.67, +10.67), 1.152 µs between
-  /// lasers, 46.08 µs per firing sequence.
+  /// lasers, 46.08 µs per firing sequence; range accuracy ±2 cm (the manual's "typical").
   static MultiBeamModel HDL32E();
 
   const std::string& name() const { return name_; }
@@ -143,6 +144,12 @@ class MultiBeamModel {
   std::vector<LaserSpec>& lasers() { return lasers_; }
   const std::vector<LaserSpec>& lasers() const { return lasers_; }
   double sequencePeriod() const { return sequence_period_s_; }  ///< [s]
+  /// The maker's range accuracy (1σ-like "typical" figure) [m]; 0 when unknown (a custom table
+  /// without `sensor.range_accuracy_m`). The one home of these figures: the matching defaults
+  /// (a rough plane, the robust loss's scale) and the plausibility of a per-laser range
+  /// correction come from it.
+  double rangeAccuracy() const { return range_accuracy_m_; }
+  void setRangeAccuracy(double range_accuracy_m);  ///< throws InvalidInput when negative or not finite
 
   /// Firing time of `laser_id` in firing sequence `sequence` after a packet's start [s].
   double firingTime(int laser_id, long sequence) const;
@@ -155,6 +162,7 @@ class MultiBeamModel {
   std::string name_;
   std::vector<LaserSpec> lasers_;
   double sequence_period_s_ = 0.0;
+  double range_accuracy_m_ = 0.0;
 };
 
 /// The kind of sensor (SPEC §4 `sensor.type`).

@@ -44,7 +44,7 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
               "plane sigma above this x the median: rough")
           .number(
               "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 0, 10,
-              "plane sigma above this: rough (0: off; dense mode: fine stage; VLP-16 / HDL-32E jobs: 1.5 x range accuracy)")
+              "plane sigma above this: rough (0: off; dense mode: fine stage; multi-beam jobs of a known range accuracy: 1.5 x it)")
           .number(
               "max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6,
               "|distance| above this x r: far")
@@ -93,7 +93,7 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
 
 namespace {
 // Beyond these a per-laser correction is not a calibration residual of a working sensor: the
-// manufacturers' range accuracy is a few centimetres (VLP-16 ±3 cm, HDL-32E ±2 cm, their manuals).
+// makers' range accuracy is a few centimetres (MultiBeamModel::rangeAccuracy: VLP-16 3 cm, HDL-32E 2 cm).
 constexpr double kPlausibleRangeM = 0.10, kPlausibleOriginM = 0.05, kPlausibleAngleDeg = 1.0;
 
 auto laserFields(const CorrespondenceSection& s) {
