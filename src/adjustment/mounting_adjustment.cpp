@@ -1698,7 +1698,9 @@ bool AdjustmentSummary::ModelSensitivity::model_dependent() const {
 }
 
 std::string AdjustmentSummary::ModelSensitivity::text() const {
-  std::string t = change + " moves ";
+  // First order: −C_mb C_bb⁻¹ b̂ with the same observations. A solve without the part re-matches
+  // and re-weights, and can move further (Gravity Car's heading: 0.31° here, 1.1–1.35° solved).
+  std::string t = change + " moves (first order, same matches) ";
   bool first = true;
   const auto& names = mountingParameterNames();
   for (int j = 0; j < 6; ++j) {

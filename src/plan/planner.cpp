@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -422,6 +424,12 @@ Prediction predict(const Plan& plan) {
 
   Prediction p;
   p.strips = static_cast<int>(s.strips.size());
+  std::map<std::string, std::set<std::string>> seen_by;  // feature → the strips that pick it
+  for (const auto* picks : {&s.ties, &s.check_points})
+    for (const simulation::TiePick& t : *picks) seen_by[t.tie_id].insert(t.strip_id);
+  const std::set<std::string> ignored(c.ignored_feature_ids.begin(), c.ignored_feature_ids.end());
+  for (const simulation::FeaturePoint& f : scene.features())
+    if (!ignored.count(f.id) && seen_by[f.id].size() < 2) p.untied.push_back(f.id);
   for (const auto& k : summary.kinds) p.observations += k.blocks;
   p.determined = summary.estimated;
   p.sigma = summary.sigma;
@@ -619,6 +627,11 @@ std::string PlanAnalysis::text() const {
     t << line;
   }
   t << "  condition number " << fmt("%.3g", p.condition_number) << "\n";
+  if (!p.untied.empty()) {
+    t << "  no tie (fewer than two lines see it: under a roof, behind a wall or outside the swaths):";
+    for (const std::string& id : p.untied) t << " " << id;
+    t << "\n";
+  }
   for (int a = 0; a < 6; ++a)
     for (int b = a + 1; b < 6; ++b)
       if (p.determined[a] && p.determined[b] && std::abs(p.correlation(a, b)) > 0.9)

@@ -421,6 +421,7 @@ class LineSimulator {
       }
       const double t = 0.5 * (lo + hi);
       const Vec3 r_true = vecAt(t);
+      if (hidden(*fp, t)) continue;  // a surveyor cannot pick what the strip does not see
       Vec3 r_s_seen;
       if (config.sensor == SensorType::kLine) {
         const double theta = std::atan2(r_true.y(), r_true.z());
@@ -443,6 +444,21 @@ class LineSimulator {
   }
 
  private:
+  /// Is feature `fp` hidden from the true scanner position at time t by a solid surface (a roof,
+  /// a wall, a board) more than 5 cm before it? Vegetation is not an occluder here: a crown lets
+  /// part of the pulses through, and a pick is made on the points that reach the feature.
+  bool hidden(const FeaturePoint& fp, double t) const {
+    const Pose p = T_true.pose(t);
+    const Vec3 origin = p.p_m + p.R_mb * M_true.a_b;
+    const Vec3 to = fp.x_m - origin;
+    const double range = to.norm();
+    if (!(range > 0)) return false;
+    Hit hit;
+    if (!scene.cast(origin, to / range, 0, &hit, range + 1.0)) return false;
+    return hit.range_m < range - 0.05 && hit.kind != SurfaceKind::kVegetation && hit.kind != SurfaceKind::kGround &&
+           hit.kind != SurfaceKind::kMarking;
+  }
+
   /// Time windows of the ROI centres along this line, and the time spans to fire in: the whole
   /// line, or the union of the windows.
   void makeWindows() {

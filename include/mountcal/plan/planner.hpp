@@ -88,6 +88,9 @@ struct Prediction {
   double condition_number = 0.0;            ///< of the reduced normal matrix of the determined block
   std::vector<std::string> undeterminable;  ///< parameter names, with the reasons in `observability`
   std::string observability;
+  /// Ground features (targets, roof faces' points) that fewer than two lines see, so no tie:
+  /// hidden under a roof or behind a wall from the lines, or outside their swaths.
+  std::vector<std::string> untied;
   int strips = 0;        ///< strips simulated
   int observations = 0;  ///< residual blocks in the adjustment
   double seconds = 0.0;  ///< wall time of the prediction [s]
