@@ -163,6 +163,37 @@ MountingCalibrator::Summary::ResolveCheck resolveFrom(const MountingCalibrator::
   return check;
 }
 
+/// Model sensitivity of the per-laser offsets, solved (ModelSensitivity::solved): when their
+/// first-order entry moves some parameter by 1σ or more, the observations are built afresh with
+/// every method's laser_*_sigma option at 0 and solved from `summary`'s estimate — its matching
+/// and weights are the model's own, which the first order keeps (Gravity Car: 0.31° first order).
+void solveWithoutLaserOffsets(MountingCalibrator::Summary* summary, const CalibrationData& data, const MountingCalibrator::Options& options,
+                              const std::vector<const Method*>& modules, const std::vector<GroundControlPoint>& free_gcps) {
+  for (AdjustmentSummary::ModelSensitivity& ms : summary->model_sensitivity) {
+    if (ms.part != AdjustmentSummary::ModelSensitivity::Part::kReported) continue;
+    if (*std::max_element(ms.shift_in_sigma.begin(), ms.shift_in_sigma.end()) < 1.0) continue;
+    MountingCalibrator::Options without = options;
+    for (const Method* m : modules) {
+      std::any& o = without.method_options.at(m->name(), m->defaultOptions());
+      for (const OptionSpec& spec : m->options())
+        if (spec.key.rfind("laser_", 0) == 0 && spec.key.find("_sigma") != std::string::npos) spec.set(o, 0.0);
+    }
+    Runs again = buildRuns(data, without, modules, free_gcps);
+    if (again.sources.empty()) continue;
+    const std::array<double, 6> start = summary->mounting.toArray();
+    const AdjustmentSummary re = adjustment(without, data).solve(data.mounting_used, again.sources, &start);
+    if (!re.IsSolutionUsable()) continue;
+    ms.solved = true;
+    const auto a = summary->mounting.toArray(), b = re.mounting.toArray();
+    for (int j = 0; j < 6; ++j) {
+      if (!summary->estimated[j]) continue;
+      ms.solved_shift[j] = b[j] - a[j];
+      const double sigma = std::min(summary->sigma[j], re.sigma[j] > 0 ? re.sigma[j] : summary->sigma[j]);
+      ms.solved_shift_in_sigma[j] = sigma > 0 ? std::abs(ms.solved_shift[j]) / sigma : 0.0;
+    }
+  }
+}
+
 }  // namespace
 
 double MountingCalibrator::Summary::ResolveCheck::largestInSigma() const {
@@ -238,8 +269,10 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
   fillSections();
-  if (options.resolve_check && summary.IsSolutionUsable() && built.rematches())
+  if (options.resolve_check && summary.IsSolutionUsable() && built.rematches()) {
     summary.resolve = resolveFrom(summary, data, options, modules, free_gcps);
+    solveWithoutLaserOffsets(&summary, data, options, modules, free_gcps);
+  }
   summary.time_s = elapsed();
   return summary;
 }

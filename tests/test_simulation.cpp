@@ -272,7 +272,8 @@ TEST(Simulator, PerLaserErrorsAreCastWhileThePointsUseTheTable) {
 // The azimuth gate (MultiBeamConfig::azimuth_gate) sets up only the firing sequences that can
 // reach an ROI window: the strips are the ungated simulator's to the last bit — the VLP-16 preset
 // (spin axis horizontal, rolling and pitching by 1°) and an HDL-32E, both with survey noise and
-// per-laser errors of every group (azimuth and horizontal offsets widen the gate), ROI radius 1.5 m.
+// per-laser errors of every group (azimuth and horizontal offsets widen the gate), ROI radius 1.5 m,
+// the centre line at both heights.
 TEST(Simulator, AzimuthGateKeepsEveryPulseTheRoiKeeps) {
   for (const bool hdl : {false, true}) {
     Scene scene;
@@ -280,6 +281,7 @@ TEST(Simulator, AzimuthGateKeepsEveryPulseTheRoiKeeps) {
     makePreset("uav-vlp16", 3, &c, &scene);
     if (hdl) c.multibeam.model = MultiBeamModel::HDL32E();
     c.roi_radius_m = 1.5;
+    c.lines = {c.lines[0], c.lines[3]};  // the centre line at 50 m and at 80 m
     c.multibeam.laser_errors = drawLaserErrors(c.multibeam.model.laserCount(), 7, deg2rad(0.1), deg2rad(0.3), 0.005, 0.01, 0.02);
     SurveyConfig ungated = c;
     ungated.multibeam.azimuth_gate = false;

@@ -1377,6 +1377,7 @@ class Estimation {
     const Eigen::MatrixXd Saa_inv = Saa.completeOrthogonalDecomposition().pseudoInverse();
     AdjustmentSummary::ModelSensitivity ms;
     ms.change = "the lever arm held at its used value";
+    ms.part = AdjustmentSummary::ModelSensitivity::Part::kLeverArm;
     for (int j : free_lever)
       if (S_.sigma[j] > 0) ms.rejected_in_sigma = std::max(ms.rejected_in_sigma, std::abs(delta[j]) / S_.sigma[j]);
     for (int j = 0; j < 6; ++j) {
@@ -1427,6 +1428,7 @@ class Estimation {
     std::snprintf(buf, sizeof buf, "the time offset estimated (%+.3g ± %.3g ms) instead of 0", 1e3 * S_.time_offset_s,
                   1e3 * S_.time_offset_sigma_s);
     ms.change = buf;
+    ms.part = AdjustmentSummary::ModelSensitivity::Part::kTimeOffset;
     ms.rejected_in_sigma = S_.time_offset_sigma_s > 0 ? std::abs(S_.time_offset_s) / S_.time_offset_sigma_s : 0.0;
     int worst = -1;
     double worst_rho = 0;
@@ -1536,7 +1538,8 @@ class Estimation {
     const std::string name = P_->reportedName(block);
     const int n = static_cast<int>(C.rows()) - 6;
     if (name.empty() || n <= 0 || !C.bottomRightCorner(n, n).allFinite()) return;
-    heldAtZero(name + " held at 0 instead of estimated", C, Eigen::Map<const Eigen::VectorXd>(block, n), est);
+    heldAtZero(name + " held at 0 instead of estimated", AdjustmentSummary::ModelSensitivity::Part::kReported, C,
+               Eigen::Map<const Eigen::VectorXd>(block, n), est);
   }
 
   /// Model sensitivity of a nuisance block b held at 0 instead of estimated, from C, the joint
@@ -1544,11 +1547,13 @@ class Estimation {
   /// (its conditional mean given b = 0) against its σ, and how strongly the data reject b = 0 —
   /// χ² = b̂ᵀ C_bb⁻¹ b̂ with as many degrees of freedom as values, as a normal deviate
   /// (Wilson–Hilferty).
-  void heldAtZero(const std::string& change, const Eigen::MatrixXd& C, const Eigen::VectorXd& b, const std::array<bool, 6>& est) {
+  void heldAtZero(const std::string& change, AdjustmentSummary::ModelSensitivity::Part part, const Eigen::MatrixXd& C,
+                  const Eigen::VectorXd& b, const std::array<bool, 6>& est) {
     const int n = static_cast<int>(b.size());
     const Eigen::VectorXd z = C.bottomRightCorner(n, n).completeOrthogonalDecomposition().solve(b);
     AdjustmentSummary::ModelSensitivity ms;
     ms.change = change;
+    ms.part = part;
     const double chi2 = std::max(b.dot(z), 0.0), h = 2.0 / (9.0 * n);
     ms.rejected_in_sigma = std::max(0.0, (std::cbrt(chi2 / n) - (1.0 - h)) / std::sqrt(h));
     for (int j = 0; j < 6; ++j) {
@@ -1620,6 +1625,7 @@ class Estimation {
     std::snprintf(buf, sizeof buf, "the time offset held at 0 instead of estimated (%+.3g ± %.3g ms)", 1e3 * S_.time_offset_s,
                   1e3 * S_.time_offset_sigma_s);
     ms.change = buf;
+    ms.part = AdjustmentSummary::ModelSensitivity::Part::kTimeOffset;
     ms.rejected_in_sigma = std::abs(S_.time_offset_s) / S_.time_offset_sigma_s;
     int worst = -1;
     double worst_rho = 0;
@@ -1666,7 +1672,8 @@ class Estimation {
     if (nuisance_first_.empty()) return;
     // The corrections are the first blocks after the mounting in nuisance_cov_.
     const int n = static_cast<int>(c_hat.size());
-    heldAtZero("the trajectory corrections held at 0 (strip offsets only)", nuisance_cov_.topLeftCorner(6 + n, 6 + n), c_hat, est);
+    heldAtZero("the trajectory corrections held at 0 (strip offsets only)",
+               AdjustmentSummary::ModelSensitivity::Part::kTrajectoryCorrections, nuisance_cov_.topLeftCorner(6 + n, 6 + n), c_hat, est);
   }
 
   const MountingAdjustment::Options& o_;
@@ -1692,8 +1699,8 @@ class Estimation {
 
 bool AdjustmentSummary::ModelSensitivity::model_dependent() const {
   if (rejected_in_sigma >= 2.0) return false;
-  for (double z : shift_in_sigma)
-    if (z > 3.0) return true;
+  for (int j = 0; j < 6; ++j)
+    if (shift_in_sigma[j] > 3.0 || (solved && solved_shift_in_sigma[j] > 3.0)) return true;
   return false;
 }
 
@@ -1711,6 +1718,15 @@ std::string AdjustmentSummary::ModelSensitivity::text() const {
     first = false;
   }
   if (first) return change + " moves no parameter by 1σ or more";
+  if (solved) {
+    int worst = 0;
+    for (int j = 1; j < 6; ++j)
+      if (solved_shift_in_sigma[j] > solved_shift_in_sigma[worst]) worst = j;
+    char s_buf[160];
+    std::snprintf(s_buf, sizeof s_buf, "; solved again without it: %s by %s (%.1fσ)", names[worst].c_str(),
+                  fmtParam(worst, solved_shift[worst]).c_str(), solved_shift_in_sigma[worst]);
+    t += s_buf;
+  }
   char buf[160];
   std::snprintf(buf, sizeof buf, "; the data %s it (%.1fσ)", rejected_in_sigma >= 2.0 ? "reject" : "cannot reject", rejected_in_sigma);
   return t + buf + (model_dependent() ? ": model-dependent" : "");

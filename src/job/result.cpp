@@ -89,11 +89,22 @@ void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out)
       shift.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(k < 3 ? ms.shift[k] : rad2deg(ms.shift[k])));
       z.push_back(ms.shift[k] == 0.0 ? json(nullptr) : json(ms.shift_in_sigma[k]));
     }
-    sens.push_back({{"change", ms.change},
-                    {"shift_m_deg", shift},
-                    {"shift_in_sigma", z},
-                    {"model_dependent", ms.model_dependent()},
-                    {"text", ms.text()}});
+    json entry = {{"change", ms.change},
+                  {"shift_m_deg", shift},
+                  {"shift_in_sigma", z},
+                  {"model_dependent", ms.model_dependent()},
+                  {"text", ms.text()}};
+    if (ms.solved) {  // the move of a solve without the part (ModelSensitivity::solved)
+      json solved = json::array(), solved_z = json::array();
+      for (int k = 0; k < 6; ++k) {
+        const bool est = summary.estimated[static_cast<std::size_t>(k)];
+        solved.push_back(est ? json(k < 3 ? ms.solved_shift[k] : rad2deg(ms.solved_shift[k])) : json(nullptr));
+        solved_z.push_back(est ? json(ms.solved_shift_in_sigma[k]) : json(nullptr));
+      }
+      entry["solved_shift_m_deg"] = solved;
+      entry["solved_shift_in_sigma"] = solved_z;
+    }
+    sens.push_back(entry);
   }
   j["model_sensitivity"] = sens;
   if (std::isnan(summary.time_offset_s))

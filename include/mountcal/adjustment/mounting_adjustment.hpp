@@ -563,7 +563,18 @@ struct AdjustmentSummary {
     /// parts switched off [-]. From 2 on (95 %) the data tell the two models apart: the shift is
     /// then the cost of a wrong model, not an ambiguity.
     double rejected_in_sigma = 0.0;
-    /// Some |shift| > 3σ while the data cannot tell the two models apart (rejected_in_sigma < 2).
+    /// The part switched off. kReported: a nuisance block a method reported
+    /// (AdjustmentProblem::reportCovariance — the per-laser offsets).
+    enum class Part { kLeverArm, kTimeOffset, kTrajectoryCorrections, kReported };
+    Part part = Part::kReported;
+    /// `shift` is first order with the same observations; a solve without the part matches and
+    /// weighs again and can move further. For the per-laser offsets, when some first-order move
+    /// reaches 1σ, MountingCalibrator solves again without them, started from the result:
+    /// `solved` true and its moves here (0 where not estimated) [m, rad] and in σ [-].
+    bool solved = false;
+    std::array<double, 6> solved_shift{}, solved_shift_in_sigma{};
+    /// Some |shift| (or solved shift) > 3σ while the data cannot tell the two models apart
+    /// (rejected_in_sigma < 2).
     bool model_dependent() const;
     std::string text() const;  ///< one line for reports and the verdict
   };
