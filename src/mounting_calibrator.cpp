@@ -170,7 +170,9 @@ MountingCalibrator::Summary::ResolveCheck resolveFrom(const MountingCalibrator::
 void solveWithoutLaserOffsets(MountingCalibrator::Summary* summary, const CalibrationData& data, const MountingCalibrator::Options& options,
                               const std::vector<const Method*>& modules, const std::vector<GroundControlPoint>& free_gcps) {
   for (AdjustmentSummary::ModelSensitivity& ms : summary->model_sensitivity) {
-    if (ms.part != AdjustmentSummary::ModelSensitivity::Part::kReported) continue;
+    // The reported blocks are the methods' per-laser offsets (reportCovariance's callers); another
+    // reported block would need its own switch, so only those are solved again.
+    if (ms.part != AdjustmentSummary::ModelSensitivity::Part::kReported || ms.change.find("per-laser") == std::string::npos) continue;
     if (*std::max_element(ms.shift_in_sigma.begin(), ms.shift_in_sigma.end()) < 1.0) continue;
     MountingCalibrator::Options without = options;
     for (const Method* m : modules) {
