@@ -2,6 +2,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "io/json_fields.hpp"
@@ -27,6 +28,13 @@ const char* lossName(LossType l) {
     default:
       return "trivial";
   }
+}
+
+/// The laser tables a job names by `sensor.model`; empty for another name.
+std::optional<MultiBeamModel> namedMultiBeamModel(const std::string& model) {
+  if (model == "VLP-16") return MultiBeamModel::VLP16();
+  if (model == "HDL-32E") return MultiBeamModel::HDL32E();
+  return std::nullopt;
 }
 
 void readSensor(const std::string& path, const Fields& top, Job* job) {
@@ -66,12 +74,9 @@ void readSensor(const std::string& path, const Fields& top, Job* job) {
       job->sensor = SensorModel::multiBeam(MultiBeamModel(job->sensor_model, specs, 0.0));
     } else {
       const std::string model = sensor.str("model");
-      if (model == "VLP-16")
-        job->sensor = SensorModel::multiBeam(MultiBeamModel::VLP16());
-      else if (model == "HDL-32E")
-        job->sensor = SensorModel::multiBeam(MultiBeamModel::HDL32E());
-      else
-        sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
+      const std::optional<MultiBeamModel> named = namedMultiBeamModel(model);
+      if (!named) sensor.fail("model", "unknown multi-beam model '" + model + "' (VLP-16, HDL-32E, or give a \"lasers\" table)");
+      job->sensor = SensorModel::multiBeam(*named);
       job->sensor_model = model;
     }
     // The maker's range accuracy: a named model's own (MultiBeamModel::rangeAccuracy), or given.
@@ -579,9 +584,10 @@ json sensorJson(const Job& job) {
       if (job.sensor.line.scan_angle_scale != 1) sensor["scan_angle_scale"] = job.sensor.line.scan_angle_scale;
       if (job.sensor.line.scan_angle_offset_rad != 0) sensor["scan_angle_offset_deg"] = rad2deg(job.sensor.line.scan_angle_offset_rad);
       break;
-    case SensorType::kMultiBeam:
+    case SensorType::kMultiBeam: {
       sensor["type"] = "multibeam";
-      if (job.sensor_model == "VLP-16" || job.sensor_model == "HDL-32E") {
+      const std::optional<MultiBeamModel> named = namedMultiBeamModel(job.sensor_model);
+      if (named) {
         sensor["model"] = job.sensor_model;
       } else {
         sensor["model"] = job.sensor_model.empty() ? "custom" : job.sensor_model;
@@ -598,13 +604,11 @@ json sensorJson(const Job& job) {
       }
       if (!job.laser_field.empty()) sensor["laser_field"] = job.laser_field;
       if (job.laser_table_tolerance_deg != 5.0) sensor["laser_table_tolerance_deg"] = job.laser_table_tolerance_deg;
-      if (job.sensor_model == "VLP-16" || job.sensor_model == "HDL-32E") {
-        const double own = (job.sensor_model == "VLP-16" ? MultiBeamModel::VLP16() : MultiBeamModel::HDL32E()).rangeAccuracy();
-        if (job.sensor.multibeam.rangeAccuracy() != own) sensor["range_accuracy_m"] = job.sensor.multibeam.rangeAccuracy();
-      } else if (job.sensor.multibeam.rangeAccuracy() > 0) {
+      // A named model's own accuracy is implied; another one, or a table's, is written.
+      if (job.sensor.multibeam.rangeAccuracy() != (named ? named->rangeAccuracy() : 0.0))
         sensor["range_accuracy_m"] = job.sensor.multibeam.rangeAccuracy();
-      }
       break;
+    }
     case SensorType::kVector:
       sensor["type"] = "vector";
       break;

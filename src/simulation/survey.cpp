@@ -487,12 +487,14 @@ class LineSimulator {
     spans.swap(merged);
   }
 
+  static constexpr double kRoiMargin = 3.0;  // [m] beyond a window's radius, inRoi keeps a pulse
+
   bool inRoi(double t, const Vec3& approx) const {
     if (roi.empty()) return true;
     for (const Window& w : windows) {
       if (t < w.t0 || t > w.t1) continue;
       const double dx = approx.x() - w.c.x(), dy = approx.y() - w.c.y();
-      if (dx * dx + dy * dy < (w.r + 3.0) * (w.r + 3.0)) return true;
+      if (dx * dx + dy * dy < (w.r + kRoiMargin) * (w.r + kRoiMargin)) return true;
     }
     return false;
   }
@@ -698,6 +700,7 @@ class LineSimulator {
         hi_offset_ = std::max(hi_offset_, spec.azimuth_offset_rad);
         origin_ = std::max(origin_, std::abs(spec.horizontal_offset_m));
       }
+      cache_.assign(2 * sim.windows.size(), {});  // two slots per window (bearing())
     }
 
     /// May a sequence fired from t_first to t_last reach an open window?
@@ -735,10 +738,9 @@ class LineSimulator {
 
     const Bearing& bearing(std::size_t w, double grid) {
       // Two slots per window, by the grid point's parity: a sequence asks for k and k + 1.
-      const long key = static_cast<long>(grid);
-      if (cache_.size() != 2 * sim_.windows.size()) cache_.assign(2 * sim_.windows.size(), {});
+      const long key = static_cast<long>(grid);  // ≥ 0: a span starts at or after the line's t0
       Slot& slot = cache_[2 * w + static_cast<std::size_t>(key & 1)];
-      if (!slot.valid || slot.first != key) slot = {key, true, compute(sim_.windows[w], sim_.f.t0 + grid * kStep)};
+      if (slot.first != key) slot = {key, compute(sim_.windows[w], sim_.f.t0 + grid * kStep)};
       return slot.bearing;
     }
 
@@ -748,15 +750,14 @@ class LineSimulator {
       const Vec3 o = p.p_m + p.R_mb * sim_.M_true.a_b;
       const Vec3 centre(win.c.x(), win.c.y(), sim_.scene.groundHeight(o.x(), o.y()));
       const Vec3 v_s = R_ms.transpose() * (centre - o);
-      const double rho = std::hypot(v_s.x(), v_s.y()), radius = win.r + 3.0 + origin_ + kSlack;
+      const double rho = std::hypot(v_s.x(), v_s.y()), radius = win.r + kRoiMargin + origin_ + kSlack;
       Bearing b;
       if (rho > radius) b = {std::atan2(v_s.x(), v_s.y()), std::asin(radius / rho)};
       return b;
     }
 
     struct Slot {
-      long first = -1;
-      bool valid = false;
+      long first = -1;  // the grid point held; −1: none yet
       Bearing bearing;
     };
     const LineSimulator& sim_;
