@@ -5,13 +5,16 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <ceres/sized_cost_function.h>
 
 #include "adjustment/corrected_cost.hpp"
+#include "geometry/column_grid.hpp"
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
 #include "geometry/point_geometry.hpp"
@@ -122,6 +125,101 @@ TEST(KdTree, EmptyAndSmallTreesAnswerWhatTheyHold) {
   EXPECT_DOUBLE_EQ(d2[1], 4.0);
   EXPECT_EQ(two.within(q, 1.0, true), std::vector<std::size_t>{0});  // on the boundary: inside
   EXPECT_TRUE(two.within(q, 0.999999, true).empty());
+}
+
+/// A strip-like cloud: a sloped ground, a wall (a tall column of points), a dense cluster with
+/// exact duplicates and a few far outliers.
+std::vector<float> stripCloud(std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<float> c;
+  auto add = [&](double x, double y, double z) {
+    c.push_back(static_cast<float>(x));
+    c.push_back(static_cast<float>(y));
+    c.push_back(static_cast<float>(z));
+  };
+  for (int i = 0; i < 4000; ++i) {
+    const double x = 60 * u(rng) - 30, y = 8 * u(rng) + 0.3 * x;  // a diagonal band
+    add(x, y, 0.1 * x + 0.01 * u(rng));
+  }
+  for (int i = 0; i < 600; ++i) add(5 + 0.01 * u(rng), 3 + 2 * u(rng), 6 * u(rng));  // a wall
+  for (int i = 0; i < 300; ++i) add(-4 + 1e-3 * (i % 5), 1 + 1e-3 * (i % 3), 0.5);   // a cluster with duplicates
+  add(900, -700, 40);
+  add(-1200, 50, -3);
+  return c;
+}
+
+/// Brute force in the grid's own arithmetic: float squared distances, sorted with ties by index.
+std::vector<std::pair<float, std::size_t>> bruteForce(const std::vector<float>& c, const float* q) {
+  std::vector<std::pair<float, std::size_t>> all;
+  for (std::size_t i = 0; i < c.size() / 3; ++i) {
+    float d2 = 0;
+    for (int d = 0; d < 3; ++d) {
+      const float e = c[3 * i + static_cast<std::size_t>(d)] - q[d];
+      d2 += e * e;
+    }
+    all.emplace_back(d2, i);
+  }
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+TEST(ColumnGrid, AnswersWhatBruteForceAndTheFloatKdTreeAnswer) {
+  for (std::uint32_t seed : {21u, 22u}) {
+    const std::vector<float> cloud = stripCloud(seed);
+    const detail::KdTree<float, 3> tree(cloud);
+    for (double per_column : {1.0, 5.0, 30.0}) {
+      const detail::ColumnGrid grid(cloud, per_column);
+      ASSERT_EQ(grid.size(), cloud.size() / 3);
+      std::mt19937 rng(seed + 7);
+      std::uniform_real_distribution<double> u(-40.0, 40.0);
+      for (int query = 0; query < 300; ++query) {
+        float q[3];
+        for (int d = 0; d < 3; ++d)  // on points, between them, and far outside the cloud
+          q[d] = query < 60 ? cloud[3 * static_cast<std::size_t>(query * 71) + static_cast<std::size_t>(d)]
+                            : static_cast<float>(query < 280 ? u(rng) / (d == 2 ? 8 : 1) : 3 * u(rng) * (d + 1));
+        const auto expected = bruteForce(cloud, q);
+        const std::size_t k = 1 + static_cast<std::size_t>(query % 31);
+        std::vector<std::size_t> idx(k), tree_idx(k);
+        std::vector<float> d2(k), tree_d2(k);
+        ASSERT_EQ(grid.nearest(q, k, std::numeric_limits<double>::infinity(), idx.data(), d2.data()), k);
+        tree.nearest(q, k, tree_idx.data(), tree_d2.data());
+        for (std::size_t j = 0; j < k; ++j) {
+          EXPECT_EQ(idx[j], expected[j].second) << "query " << query << " rank " << j;
+          EXPECT_EQ(d2[j], expected[j].first);
+          EXPECT_EQ(d2[j], tree_d2[j]);  // the same float distances as FLANN's
+        }
+        // A bound on the nearest: nothing when it lies beyond, the same answer when within.
+        for (double gate : {0.05, 0.5, 3.0}) {
+          const bool beyond = static_cast<double>(expected[0].first) > gate * gate;
+          std::vector<std::size_t> gi(k);
+          std::vector<float> gd(k);
+          const std::size_t got = grid.nearest(q, k, gate, gi.data(), gd.data());
+          EXPECT_EQ(got, beyond ? 0u : k) << "query " << query << " gate " << gate;
+          if (got == k) {
+            EXPECT_EQ(gi, idx);
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(ColumnGrid, EmptySmallAndFlatGridsAnswerWhatTheyHold) {
+  const detail::ColumnGrid empty;
+  const float q[3] = {0, 0, 0};
+  std::size_t idx[4];
+  float d2[4];
+  EXPECT_TRUE(empty.empty());
+  EXPECT_EQ(empty.nearest(q, 4, 1e9, idx, d2), 0u);
+  // Two points on one vertical line (a grid of one column), k larger than the grid: all of it.
+  const detail::ColumnGrid line(std::vector<float>{0, 0, 2, 0, 0, -1}, 10.0);
+  ASSERT_EQ(line.nearest(q, 4, 1e9, idx, d2), 2u);
+  EXPECT_EQ(idx[0], 1u);
+  EXPECT_EQ(d2[0], 1.0f);
+  EXPECT_EQ(d2[1], 4.0f);
+  EXPECT_EQ(line.nearest(q, 1, 0.999, idx, d2), 0u);  // nearest at 1 m: beyond 0.999 m
+  EXPECT_EQ(line.nearest(q, 1, 1.0, idx, d2), 1u);    // on the bound: within
 }
 
 TEST(PlaneRansac, FindsThePlaneThePointsWereDrawnFromAmongOutliers) {

@@ -1207,11 +1207,11 @@ class Estimation {
     // The blocks that are not eliminated first: dense while few (the mounting and the strip
     // offsets), sparse once per-strip trajectory corrections make them many (each observation
     // holds the blocks of its one or two strips only).
-    int kept = 6 + 3 * static_cast<int>(P_->stripOffsets().size());
+    int kept = 6 + 3 * static_cast<int>(P_->stripOffsets().size()), largest = 6;
     for (const auto& b : P_->nuisanceBlocks())
-      if (!b.eliminable) kept += b.size;
-    const bool sparse = kept > 120 && (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
-                                       ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE));
+      if (!b.eliminable) kept += b.size, largest = std::max(largest, b.size);
+    const bool sparse = kept - largest > 120 && (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+                                                 ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE));
     if (any_e) {
       so.linear_solver_type = sparse ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
       so.linear_solver_ordering = ordering;

@@ -15,7 +15,7 @@ namespace mountcal::detail {
 
 namespace {
 
-// Single precision in the trees: coordinates relative to one origin within a few hundred
+// Single precision in the grids: coordinates relative to one origin within a few hundred
 // metres resolve to micrometres; planes and distances use the double positions.
 
 /// ∂R_zyx(b)/∂b_k (R = Rz(κ)·Ry(φ)·Rx(ω); d/dθ exp(θ[e]×) = [e]× exp(θ[e]×)).
@@ -62,7 +62,7 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
   if (n && !p_m_[0].empty()) origin_ = p_m_[0][0];
   // A strip denser than thin_cell_m is thinned to one point per cubic cell of that size (the
   // first in file order): its neighbourhoods then span the same few centimetres in every
-  // strip, and the trees stay small. Residuals use the kept points only.
+  // strip, and the grids stay small. Residuals use the kept points only.
   keep_.resize(n);
   for (std::size_t s = 0; s < n; ++s) {
     const std::vector<Vec3> x0 = referencePoints(data, data.strips[s], data.mounting_used);
@@ -124,18 +124,20 @@ void DenseMatcher::place(const std::array<double, 6>& m, const LaserCorrections&
   }
 }
 
-/// k-d trees of every strip's kept points where they are now (none for a strip of fewer than k).
-void DenseMatcher::buildTrees(std::size_t k, CorrespondenceSet* out) {
+/// The column grids of every strip's kept points where they are now (none for a strip of fewer
+/// than k): each round moves every point and searches a few hundred places, which a grid's
+/// linear-time build serves where a k-d tree's build cost most of the matching.
+void DenseMatcher::buildGrids(std::size_t k, CorrespondenceSet* out) {
   const std::size_t n = x_.size();
-  tree_.clear();
-  tree_.resize(n);
+  grid_.clear();
+  grid_.resize(n);
   for (std::size_t s = 0; s < n; ++s) {
     out->points_searched += x_[s].size();
     const std::vector<std::size_t>& kept = keep_[s];
     if (kept.size() < k) continue;
     std::vector<float> coords(3 * kept.size());
     for (std::size_t j = 0; j < kept.size(); ++j) Eigen::Map<Eigen::Vector3f>{&coords[3 * j]} = (x_[s][kept[j]] - origin_).cast<float>();
-    tree_[s] = KdTree<float, 3>(std::move(coords));
+    grid_[s] = ColumnGrid(std::move(coords), static_cast<double>(k) / 4.0);  // columns of about k/4
   }
 }
 
@@ -184,10 +186,10 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   const auto t0 = std::chrono::steady_clock::now();
   CorrespondenceSet out;
   const std::size_t n = x_.size();
-  // Coordinates relative to one origin in the k-d trees: no kilometre-size values.
+  // Coordinates relative to one origin in the grids: no kilometre-size values.
   const std::size_t k_fine = static_cast<std::size_t>(o_.max_neighbours), k = coarse ? std::max<std::size_t>(30, k_fine) : k_fine;
-  buildTrees(k, &out);
-  const auto& tree = tree_;
+  buildGrids(k, &out);
+  const auto& grid = grid_;
   const double spacing = spacing_;
   const double r_fine = o_.radius_m > 0 ? o_.radius_m : std::max(0.25, 2.5 * spacing);
   const double R = coarse ? std::max(o_.coarse_radius_m, r_fine) : r_fine;
@@ -200,12 +202,12 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
   out.max_distance_m = gate;
   std::vector<std::size_t> idx(k), ia(k);
   std::vector<float> dist(k);
-  // The k nearest points of strip s around p; returns the squared distance of the nearest.
-  auto knn = [&](std::size_t s, const Vec3& p, std::vector<std::size_t>* I) {
+  // The k nearest points of strip s around p, unless its nearest is farther than max_nearest.
+  auto knn = [&](std::size_t s, const Vec3& p, std::vector<std::size_t>* I, double max_nearest) {
     const Eigen::Vector3f q = (p - origin_).cast<float>();
-    tree[s].nearest(q.data(), k, I->data(), dist.data());
-    for (std::size_t& j : *I) j = keep_[s][j];  // tree index → strip index
-    return static_cast<double>(dist[0]);
+    if (grid[s].nearest(q.data(), k, max_nearest, I->data(), dist.data()) == 0) return false;
+    for (std::size_t& j : *I) j = keep_[s][j];  // grid index → strip index
+    return true;
   };
   std::vector<DenseCandidate> cand;
   for (std::size_t a = 0; a < n; ++a) {
@@ -214,7 +216,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
       CorrespondencePairStats st;
       st.strip_a = data_.strips[a].id;
       st.strip_b = data_.strips[b].id;
-      if (tree[a].empty() || tree[b].empty()) {
+      if (grid[a].empty() || grid[b].empty()) {
         out.pairs.push_back(st);
         continue;
       }
@@ -225,7 +227,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
       for (std::size_t pi = 0; pi < pool.size(); pi += stride) {
         const std::size_t q = pool[pi];
         const Vec3& p = x_[a][q];
-        if (knn(b, p, &idx) > gate * gate) {
+        if (!knn(b, p, &idx, gate)) {
           ++st.rejected_far;
           continue;
         }
@@ -241,7 +243,7 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
           ++st.rejected_far;
           continue;
         }
-        knn(a, p, &ia);
+        knn(a, p, &ia, std::numeric_limits<double>::infinity());
         const PlaneFit fa = fitPlane(k, [&](std::size_t j) { return x_[a][ia[j]]; });
         if (fa.extent_m > R || fa.spread_ratio < o_.min_spread_ratio) {
           ++st.rejected_rough;

@@ -10,7 +10,7 @@
 
 #include "mountcal/data.hpp"
 #include "mountcal/core/sensor_model.hpp"
-#include "geometry/kd_tree.hpp"
+#include "geometry/column_grid.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 namespace mountcal::detail {
@@ -60,7 +60,7 @@ class DenseMatcher {
   CorrespondenceSet match(bool coarse, double fine_gate_m);
 
  private:
-  void buildTrees(std::size_t k, CorrespondenceSet* out);
+  void buildGrids(std::size_t k, CorrespondenceSet* out);
   void keepConsistent(bool coarse, std::size_t k, std::vector<DenseCandidate>* candidates, CorrespondenceSet* out) const;
 
   const CalibrationData& data_;
@@ -70,7 +70,7 @@ class DenseMatcher {
   std::vector<std::vector<Mat3>> R_mb_;
   Vec3 origin_ = Vec3::Zero();
   double spacing_ = 0.0;                        // the strips' largest plan spacing at the mounting used [m]
-  std::vector<KdTree<float, 3>> tree_;          // each strip's kept points at this round's positions − origin_
+  std::vector<ColumnGrid> grid_;                // each strip's kept points at this round's positions − origin_
   std::vector<std::vector<std::size_t>> keep_;  // each strip's points after thinning
 };
 
