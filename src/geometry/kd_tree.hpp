@@ -1,12 +1,13 @@
 #pragma once
 // Internal (not installed): the one k-d tree of the library, an exact FLANN single-index tree
 // over points of 2 or 3 coordinates. Every nearest-neighbour and radius search of the methods,
-// the job loader and the evaluation goes through it (tested against brute force in
-// tests/test_kernels.cpp).
+// the job loader and the evaluation goes through it — except the dense matching's, which moves
+// every point each round and searches its column grid (column_grid.hpp). Tested against brute
+// force in tests/test_kernels.cpp.
 //
-// FLANN is seen by src/geometry/kd_tree.cpp alone: its flann::Index instantiates every index
-// type FLANN has (k-means, LSH, autotuned, …), which cost each including translation unit up to
-// a minute of compile time under the sanitizers. The trees used are instantiated there:
+// FLANN is seen by src/geometry/kd_tree.cpp alone (which uses its single-index tree directly: a
+// flann::Index instantiates every index type FLANN has — k-means, LSH, autotuned, … — which cost
+// each including translation unit up to a minute of compile time under the sanitizers). The trees used are instantiated there:
 // <double, 2>, <double, 3> and <float, 3>.
 
 #include <cstddef>
@@ -44,6 +45,8 @@ class KdTree {
   /// Indices of every point within `radius` of `query` (the boundary checked in double
   /// precision, as FLANN takes the radius as a float), nearest first when `sorted`.
   std::vector<std::size_t> within(const Scalar* query, double radius, bool sorted) const;
+  /// within() into a vector the caller keeps (cleared first): no allocation once it has grown.
+  void within(const Scalar* query, double radius, bool sorted, std::vector<std::size_t>* out) const;
 
  private:
   struct Index;  // the FLANN index, defined in kd_tree.cpp

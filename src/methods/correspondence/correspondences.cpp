@@ -147,15 +147,16 @@ class PointTree {
   }
   /// Strip indices of every point within `radius` of p (any order).
   void within(const Vec3& p, double radius, std::vector<std::size_t>* out) {
+    tree_.within(p.data(), radius, /*sorted=*/false, &W_);
     out->clear();
-    for (std::size_t j : tree_.within(p.data(), radius, /*sorted=*/false)) out->push_back(index_[j]);
+    for (std::size_t j : W_) out->push_back(index_[j]);
   }
   bool empty() const { return tree_.empty(); }
 
  private:
   std::vector<std::size_t> index_;
   KdTree<double, 3> tree_;
-  std::vector<std::size_t> I_;
+  std::vector<std::size_t> I_, W_;
   std::vector<double> D_;
 };
 
@@ -237,6 +238,8 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
     return q;
   };
   pc.attitudes_stored = !SA.poses.empty() || !SB.poses.empty();
+  pc.samples_a.reserve(kept.size());
+  pc.points_b.reserve(ub.size());
   for (std::size_t i : kept) pc.samples_a.push_back(point(SA, A, i));
   for (std::size_t i : ub) pc.points_b.push_back(point(SB, B, i));
   return pc;
