@@ -1206,7 +1206,10 @@ class Estimation {
     ordering->AddElementToGroup(P_->mounting(), 1);
     // The blocks that are not eliminated first: dense while few (the mounting and the strip
     // offsets), sparse once per-strip trajectory corrections make them many (each observation
-    // holds the blocks of its one or two strips only).
+    // holds the blocks of its one or two strips only). The largest block is not counted: one
+    // block that every observation holds (the per-laser intrinsics) fills the normal equations
+    // whatever its size, and a sparse solver only adds its bookkeeping (Ceres' inner products
+    // were 17 % of the ten-seed laser test).
     int kept = 6 + 3 * static_cast<int>(P_->stripOffsets().size()), largest = 6;
     for (const auto& b : P_->nuisanceBlocks())
       if (!b.eliminable) kept += b.size, largest = std::max(largest, b.size);

@@ -23,6 +23,8 @@ ColumnGrid::ColumnGrid(std::vector<float> coords, double per_column) : coords_(s
   coords_.resize(size() * 3);
   const std::size_t n = size();
   if (n == 0) return;
+  ids_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) ids_[i] = static_cast<std::uint32_t>(i);
   x0_ = x1_ = coords_[0];
   y0_ = y1_ = coords_[1];
   for (std::size_t i = 0; i < n; ++i) {
@@ -68,10 +70,6 @@ void ColumnGrid::bin(double cell) {
   for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
   // The coordinates stored in column order (a column's points are read in one sweep), with
   // each one's index as given.
-  if (ids_.size() != n) {
-    ids_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) ids_[i] = static_cast<std::uint32_t>(i);
-  }
   std::vector<float> sorted(coords_.size());
   std::vector<std::uint32_t> ids(n), fill(start_.begin(), start_.end() - 1);
   for (std::size_t i = 0; i < n; ++i) {

@@ -22,7 +22,6 @@ class ColumnGrid {
 
   std::size_t size() const { return coords_.size() / 3; }
   bool empty() const { return coords_.empty(); }
-  double cellSize() const { return cell_; }
 
   /// The min(k, size()) nearest points of `query` (3 values), nearest first (ties by index):
   /// their indices and squared distances in the arrays given (room for k each). Returns how

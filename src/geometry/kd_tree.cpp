@@ -11,7 +11,7 @@ namespace mountcal::detail {
 
 namespace {
 
-/// FLANN's k-nearest result set, one per thread and k, cleared for each search: FLANN's own
+/// FLANN's k-nearest result set, one per thread and k (the caller clears it per search): FLANN's own
 /// search loop constructs one (an allocation) per call, which the sparse matching makes millions
 /// of times (a share of the sanitizer suite's time in the allocator, 2026-11-28).
 template <typename D>
@@ -22,7 +22,6 @@ flann::KNNSimpleResultSet<D>& knnResults(std::size_t k) {
     set = std::make_unique<flann::KNNSimpleResultSet<D>>(k);
     capacity = k;
   }
-  set->clear();
   return *set;
 }
 

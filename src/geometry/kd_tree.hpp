@@ -5,10 +5,10 @@
 // every point each round and searches its column grid (column_grid.hpp). Tested against brute
 // force in tests/test_kernels.cpp.
 //
-// FLANN is seen by src/geometry/kd_tree.cpp alone (which uses its single-index tree directly: a
+// FLANN is seen by src/geometry/kd_tree.cpp alone, which uses its single-index tree directly (a
 // flann::Index instantiates every index type FLANN has — k-means, LSH, autotuned, … — which cost
-// each including translation unit up to a minute of compile time under the sanitizers). The trees used are instantiated there:
-// <double, 2>, <double, 3> and <float, 3>.
+// each including translation unit up to a minute of compile time under the sanitizers). The trees
+// used are instantiated there: <double, 2>, <double, 3> and <float, 3>.
 
 #include <cstddef>
 #include <memory>
