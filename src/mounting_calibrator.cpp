@@ -225,7 +225,15 @@ std::string MountingCalibrator::Summary::ResolveCheck::text() const {
 MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData& data) const {
   const auto t_start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
-  const Options& options = options_;
+  // The trajectory's accuracy along its time, when the data carry it and the σ are not off.
+  Options with_series;
+  const Options* chosen = &options_;
+  if (data.trajectory_accuracy && !data.trajectory_accuracy->empty() && options_.trajectory.any() && !options_.trajectory.series) {
+    with_series = options_;
+    with_series.trajectory.series = data.trajectory_accuracy;
+    chosen = &with_series;
+  }
+  const Options& options = *chosen;
   Summary summary;
   summary.mounting_used = data.mounting_used;
   summary.mounting = data.mounting_used;

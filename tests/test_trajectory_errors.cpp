@@ -8,7 +8,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
@@ -141,6 +145,220 @@ MotionFunction straightFlight() {
     *w = Vec3::Zero();
     return true;
   };
+}
+
+// The trajectory's accuracy along its time (TrajectoryAccuracy::series): e(t) = σ(t) u(t), u a
+// unit Gauss–Markov process, so Var(â) = σ²/n + 1/n² Σ_strips Σ_ij σ(t_i) σ(t_j) exp(−|t_i − t_j|/τ)
+// (hand derivation, as above with σ_p inside the sums). Strip 1's σ grows linearly from 1 to 5 cm
+// over its samples, strip 2's is 3 cm; between records the series is linear.
+TEST(TrajectoryErrors, AnAccuracySeriesGivesTheVarianceOfAMeanOfSamplesOfChangingSigma) {
+  std::vector<Sample> s;
+  for (int k = 0; k < 40; ++k) s.push_back({"1", 100.0 + 0.3 * k, Vec3(0, 0, -100)});
+  for (int k = 0; k < 20; ++k) s.push_back({"2", 500.0 + 0.3 * k, Vec3(0, 0, -100)});
+  const double sigma = 0.01, tau = 2.0;
+  auto series = std::make_shared<TrajectoryAccuracySeries>();
+  auto record = [&](double t, double sx) {
+    series->time_s.push_back(t);
+    series->position_m.emplace_back(sx, 9.0, 9.0);  // only x is observed: y and z must not enter
+    series->attitude_rad.emplace_back(0.0, 0.0, 0.0);
+  };
+  record(100.0, 0.01);
+  record(100.0 + 0.3 * 39, 0.05);
+  record(400.0, 0.03);
+  record(600.0, 0.03);
+  auto sigmaAt = [](const Sample& x) { return x.strip == "1" ? 0.01 + 0.04 * (x.time_s - 100.0) / (0.3 * 39) : 0.03; };
+  double drift = 0;
+  for (const Sample& a : s)
+    for (const Sample& b : s)
+      if (a.strip == b.strip) drift += sigmaAt(a) * sigmaAt(b) * std::exp(-std::abs(a.time_s - b.time_s) / tau);
+  const double n = static_cast<double>(s.size());
+  drift /= n * n;
+  TrajectoryAccuracy acc = TrajectoryAccuracy::none();
+  acc.position_correlation_s = tau;
+  acc.series = series;
+  MeanSource source(s, sigma);
+  const auto S = MountingAdjustment(meanOptions(acc)).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  const double formal = sigma * sigma / n;
+  EXPECT_NEAR(S.formal_sigma[0], std::sqrt(formal), 1e-9);
+  EXPECT_NEAR(S.sigma[0], std::sqrt(formal + drift), 1e-6 * std::sqrt(formal + drift));
+  EXPECT_NE(S.sigma_model.find("as the trajectory states them"), std::string::npos) << S.sigma_model;
+}
+
+// A series stating the constants everywhere is the constant model, to rounding; one stating twice
+// them everywhere quadruples the trajectory part of every variance (Σ − Σ_formal), on a whole
+// calibration through MountingCalibrator (CalibrationData::trajectory_accuracy).
+TEST(TrajectoryErrors, AConstantAccuracySeriesIsTheConstantModelAndTwiceItFourTimesItsVariance) {
+  const auto& s = mountcal_tests::crossingField(7, true, 12.0);
+  CalibrationData data = toCalibrationData(s);
+  MountingCalibrator::Options o;
+  o.methods = {"planes"};
+  o.method<PlaneOptions>().automatic = true;
+  o.estimate = {true, true, false, true, true, true};
+  o.resolve_check = false;
+  const TrajectoryAccuracy& acc = o.trajectory;
+  const auto base = calibrate(data, o);
+  ASSERT_TRUE(base.IsSolutionUsable()) << base.message;
+  auto seriesOf = [&](double factor) {
+    auto series = std::make_shared<TrajectoryAccuracySeries>();
+    const double t = factor * acc.roll_pitch_sigma_deg * kDeg, k = factor * acc.heading_sigma_deg * kDeg, p = factor * acc.position_sigma_m;
+    for (double time : {data.trajectory->startTime(), data.trajectory->endTime()}) {
+      series->time_s.push_back(time);
+      series->position_m.emplace_back(p, p, p);
+      series->attitude_rad.emplace_back(t, t, k);
+    }
+    return series;
+  };
+  data.trajectory_accuracy = seriesOf(1.0);
+  const auto same = calibrate(data, o);
+  data.trajectory_accuracy = seriesOf(2.0);
+  const auto twice = calibrate(data, o);
+  ASSERT_TRUE(same.IsSolutionUsable() && twice.IsSolutionUsable());
+  for (int j = 0; j < 6; ++j) {
+    if (!base.estimated[j]) continue;
+    EXPECT_NEAR(same.sigma[j], base.sigma[j], 1e-9 * base.sigma[j]) << j;
+    EXPECT_EQ(same.mounting.toArray()[j], base.mounting.toArray()[j]) << j;  // the σ only, never the estimate
+    const double f = base.formal_sigma[j] * base.formal_sigma[j];
+    const double trajectory_part = base.sigma[j] * base.sigma[j] - f;
+    EXPECT_GT(trajectory_part, 0.1 * f) << j;  // a test that can see the factor
+    EXPECT_NEAR(twice.sigma[j] * twice.sigma[j] - f, 4.0 * trajectory_part, 1e-6 * 4.0 * trajectory_part) << j;
+  }
+  // Switched off, the series is not used.
+  o.trajectory = TrajectoryAccuracy::none();
+  const auto off = calibrate(data, o);
+  EXPECT_EQ(off.sigma_model, "formal");
+}
+
+// The smrmsg layout by hand: 10 little-endian float64 per record (time; N, E, D position RMS [m];
+// N, E, D velocity RMS [m/s]; roll, pitch, heading RMS [arc minutes]), written out of order.
+TEST(TrajectoryErrors, SmrmsgRecordsReadAsWrittenByHandAndBadOnesNamed) {
+  auto pack = [](std::initializer_list<double> values) {
+    std::string b;
+    for (double v : values) {
+      unsigned char raw[8];
+      std::uint64_t u;
+      std::memcpy(&u, &v, 8);
+      for (int k = 0; k < 8; ++k) raw[k] = static_cast<unsigned char>(u >> (8 * k));  // little-endian whatever the host
+      b.append(reinterpret_cast<const char*>(raw), 8);
+    }
+    return b;
+  };
+  const std::string path = mountcal_tests::tempPath("smrmsg", "a.out");
+  mountcal_tests::spit(path, pack({200.0, 0.02, 0.03, 0.05, 0.001, 0.001, 0.002, 0.3, 0.4, 1.2}) +
+                                 pack({100.0, 0.04, 0.01, 0.07, 0.001, 0.001, 0.002, 0.6, 0.8, 2.4}));
+  const std::vector<io::SmrmsgRecord> r = io::readSmrmsg(path);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].time_s, 100.0);  // sorted
+  EXPECT_EQ(r[1].east_m, 0.03);
+  EXPECT_EQ(r[1].heading_arcmin, 1.2);
+  const TrajectoryAccuracySeries a = io::smrmsgToAccuracy(r, 5.0);
+  EXPECT_EQ(a.time_s[0], 105.0);
+  EXPECT_EQ(a.position_m[1], Vec3(0.03, 0.02, 0.05));  // east, north, down → x, y, z
+  const double arcmin = kPi / 10800.0;
+  EXPECT_NEAR(a.attitude_rad[1].x(), std::sqrt(0.5 * (0.09 + 0.16)) * arcmin, 1e-18);
+  EXPECT_NEAR(a.attitude_rad[1].z(), 1.2 * arcmin, 1e-18);
+  Vec3 p, t;
+  a.at(155.0, &p, &t);  // midway
+  EXPECT_NEAR(p.x(), 0.02, 1e-15);
+  EXPECT_NEAR(t.z(), 1.8 * arcmin, 1e-15);
+  a.at(1e6, &p, &t);  // beyond the end: the last record's
+  EXPECT_EQ(p, a.position_m[1]);
+  std::string why;
+  EXPECT_TRUE(a.IsValid(&why)) << why;
+  auto refused = [&](const std::string& bytes, const std::string& where, const std::string& what) {
+    mountcal_tests::spit(path, bytes);
+    try {
+      io::readSmrmsg(path);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const FileError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(path), std::string::npos) << m;
+      EXPECT_NE(m.find(where), std::string::npos) << m;
+      EXPECT_NE(m.find(what), std::string::npos) << m;
+    }
+  };
+  const std::string good = pack({100.0, 0.04, 0.01, 0.07, 0.001, 0.001, 0.002, 0.6, 0.8, 2.4});
+  refused(good + "x", "byte 80", "not a multiple of the 80-byte");
+  refused("", "", "empty");
+  refused(good + pack({101.0, 0.04, 0.01, 0.07, 0.001, 0.001, 0.002, 0.6, 0.8, std::nan("")}), "record 1", "heading is not finite");
+  refused(pack({101.0, 0.04, 0.01, 0.07, 0.001, 0.001, 0.002, -0.6, 0.8, 2.4}), "record 0", "roll RMS error");
+  refused(pack({101.0, 140.0, 0.01, 0.07, 0.001, 0.001, 0.002, 0.6, 0.8, 2.4}), "record 0", "north position RMS error");
+  std::filesystem::remove(path);
+}
+
+// The job key: "stochastic": {"trajectory": {"smrmsg": …}} — loaded beside the strips, stated in
+// the σ model, written back by jobJson; the σ given with it, or a file of other times, refused.
+TEST(TrajectoryErrors, AJobTakesTheTrajectorysAccuracyFile) {
+  namespace fs = std::filesystem;
+  using nlohmann::json;
+  const std::string dir = mountcal_tests::tempPath("smrmsg_job", "field");
+  fs::create_directories(dir);
+  const std::string scenario = dir + "/scenario.json";
+  std::ofstream(scenario) << R"({"preset": "paper-calibration-field", "seed": 3, "roi_radius_m": 8})";
+  ASSERT_EQ(mountcal_tests::runCli("simulate " + scenario + " --out " + dir).code, 0);
+  json j = json::parse(mountcal_tests::slurp(dir + "/job.json"));
+  const Job plain = readJob(dir + "/job.json");
+  const LoadedJob loaded = loadJob(plain);
+  double t0 = 1e300, t1 = -1e300;
+  for (const StripData& st : loaded.data.strips)
+    for (double t : st.time_s) t0 = std::min(t0, t), t1 = std::max(t1, t);
+  auto writeFile = [&](const std::string& name, double from, double to, double scale) {
+    std::vector<io::SmrmsgRecord> recs;
+    for (double t = from; t <= to; t += (to - from) / 50)
+      recs.push_back({t, 0.02 * scale, 0.02 * scale, 0.03 * scale, 0, 0, 0, 0.12 * scale, 0.12 * scale, 0.24 * scale});
+    io::writeSmrmsg(dir + "/" + name, recs);
+  };
+  writeFile("acc.out", t0 - 10, t1 + 10, 1.0);
+  writeFile("acc3.out", t0 - 10, t1 + 10, 3.0);
+  writeFile("other_day.out", t1 + 5000, t1 + 9000, 1.0);
+  auto withFile = [&](const std::string& name, const std::string& file) {
+    json k = j;
+    k["stochastic"]["trajectory"] = {{"smrmsg", file}, {"attitude_correlation_s", 4.0}};
+    std::ofstream(dir + "/" + name) << k.dump(2);
+    return dir + "/" + name;
+  };
+  const Job job = readJob(withFile("job_acc.json", "acc.out"));
+  EXPECT_EQ(job.trajectory_accuracy_path, (fs::path(dir) / "acc.out").string());
+  EXPECT_EQ(job.options.trajectory.attitude_correlation_s, 4.0);
+  const LoadedJob with = loadJob(job);
+  ASSERT_TRUE(with.data.trajectory_accuracy);
+  EXPECT_EQ(with.data.trajectory_accuracy->time_s.size(), 51u);
+  // Written back: the file, not σ.
+  const std::string again = dir + "/again.json";
+  std::ofstream(again) << jobJson(job);
+  const json back = json::parse(mountcal_tests::slurp(again));
+  EXPECT_EQ(back["stochastic"]["trajectory"]["smrmsg"], "acc.out");
+  EXPECT_FALSE(back["stochastic"]["trajectory"].contains("position_sigma_m"));
+  EXPECT_EQ(readJob(again).trajectory_accuracy_path, job.trajectory_accuracy_path);
+  // Calibrated: the σ model says where its σ came from; three times the errors, larger σ, same mounting.
+  const auto S1 = calibrateJob(job, with, false).summary;
+  const Job job3 = readJob(withFile("job_acc3.json", "acc3.out"));
+  const auto S3 = calibrateJob(job3, loadJob(job3), false).summary;
+  ASSERT_TRUE(S1.IsSolutionUsable() && S3.IsSolutionUsable());
+  EXPECT_NE(S1.sigma_model.find("as the trajectory states them"), std::string::npos) << S1.sigma_model;
+  for (int i = 3; i < 6; ++i) {
+    EXPECT_GT(S3.sigma[i], S1.sigma[i]) << i;
+    EXPECT_EQ(S3.mounting.toArray()[i], S1.mounting.toArray()[i]) << i;
+  }
+  // Refused: a file of other times (at loading, naming it), σ given twice, a file that is not there.
+  const Job other = readJob(withFile("job_other.json", "other_day.out"));
+  try {
+    loadJob(other);
+    ADD_FAILURE() << "a file of other times was accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("other_day.out"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("do not reach strip"), std::string::npos) << e.what();
+  }
+  json twice = j;
+  twice["stochastic"]["trajectory"] = {{"smrmsg", "acc.out"}, {"position_sigma_m", 0.02}};
+  std::ofstream(dir + "/twice.json") << twice.dump(2);
+  const mountcal_tests::CommandRun r = mountcal_tests::runCli("calibrate --quiet " + dir + "/twice.json");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("stochastic.trajectory.position_sigma_m"), std::string::npos) << r.err;
+  const mountcal_tests::CommandRun missing = mountcal_tests::runCli("calibrate --quiet " + withFile("job_missing.json", "nothing.out"));
+  EXPECT_EQ(missing.code, 2) << missing.err;
+  EXPECT_NE(missing.err.find("nothing.out"), std::string::npos) << missing.err;
+  fs::remove_all(dir);
 }
 
 TEST(TimeOffset, AtOneSpeedItIsAnAlongTrackLeverArm) {
@@ -483,6 +701,83 @@ Honesty planesUnderDrift(int seeds) {
     }
   }
   return h;
+}
+
+/// `planes` on the crossing field over `seeds` surveys whose Gauss–Markov navigation drift is
+/// three times as large on lines 2 and 4 as on lines 1 and 3 (issue 26's drift, 2 cm and
+/// 0.002° / 0.004° at 1×): `stated` the σ with the trajectory's accuracy along time (a series of
+/// each line's factor, as an smrmsg states it), `constant` with the 1× constants alone.
+std::pair<Honesty, Honesty> planesUnderUnevenDrift(int seeds) {
+  std::pair<Honesty, Honesty> h;
+  const std::vector<double> scale = {1.0, 3.0, 1.0, 3.0};
+  for (int seed = 1; seed <= seeds; ++seed) {
+    simulation::Scene scene;
+    simulation::SurveyConfig c;
+    simulation::makePreset("paper-calibration-field", static_cast<std::uint64_t>(seed), &c, &scene);
+    c.noise = simulation::NoiseModel::withNavigationDrift(simulation::NoiseModel::DriftForm::kGaussMarkov);
+    c.noise.gnss_sigma_m = 0.005;
+    c.noise.drift_scale_by_line = scale;
+    c.roi_radius_m = 12.0;
+    const simulation::SimulatedSurvey s = simulation::simulate(c, scene);
+    CalibrationData data = simulation::toCalibrationData(s);
+    MountingCalibrator::Options o;
+    o.methods = {"planes"};
+    o.strip_offset_sigma_m = 0.005;
+    o.estimate = {true, true, false, true, true, true};
+    o.resolve_check = false;
+    const TrajectoryAccuracy& a = o.trajectory;
+    auto series = std::make_shared<TrajectoryAccuracySeries>();
+    for (std::size_t i = 0; i < data.strips.size(); ++i) {
+      const auto [lo, hi] = std::minmax_element(data.strips[i].time_s.begin(), data.strips[i].time_s.end());
+      const double f = scale[i];
+      for (double t : {*lo - 1.0, *hi + 1.0}) {
+        series->time_s.push_back(t);
+        series->position_m.push_back(Vec3::Constant(f * a.position_sigma_m));
+        series->attitude_rad.emplace_back(f * a.roll_pitch_sigma_deg * kDeg, f * a.roll_pitch_sigma_deg * kDeg,
+                                          f * a.heading_sigma_deg * kDeg);
+      }
+    }
+    const auto constant = calibrate(data, o);
+    data.trajectory_accuracy = series;
+    const auto stated = calibrate(data, o);
+    EXPECT_TRUE(constant.IsSolutionUsable() && stated.IsSolutionUsable()) << "seed " << seed;
+    const auto t = c.true_mounting.toArray();
+    for (auto [S, out] : {std::pair{&stated, &h.first}, std::pair{&constant, &h.second}}) {
+      const auto e = S->mounting.toArray();
+      for (std::size_t j = 0; j < 6; ++j) {
+        if (!S->estimated[j]) continue;
+        const double z = (e[j] - t[j]) / S->sigma[j];
+        out->z2_total[j] += z * z;
+        out->within[j] += std::abs(z) <= 2.0;
+        ++out->counted[j];
+      }
+    }
+  }
+  return h;
+}
+
+// The trajectory's accuracy along time (TrajectoryAccuracy::series, an smrmsg's σ): over 30
+// surveys whose drift is three times larger on two of the four lines, the plane method's σ with
+// the stated accuracy meet issue 26's criterion (RMS of error/σ within [0.7, 1.4], ≥ 85 % within
+// 2σ); with the 1× constants alone some σ are too small — a test that sees the difference.
+TEST(TrajectoryErrors, AnAccuracyFileOfUnevenLinesKeepsThePlaneSigmasHonest) {
+  const int seeds = mountcal_tests::seedsFor(30, 2);
+  const auto [stated, constant] = planesUnderUnevenDrift(seeds);
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
+  double worst_constant = 0;
+  for (std::size_t j = 0; j < 6; ++j) {
+    if (stated.counted[j] == 0) continue;
+    const double rms = std::sqrt(stated.z2_total[j] / stated.counted[j]),
+                 rms_constant = std::sqrt(constant.z2_total[j] / constant.counted[j]);
+    const double frac = static_cast<double>(stated.within[j]) / stated.counted[j];
+    std::printf("%-20s RMS of error/sigma %.2f (1x constants %.2f), %.0f %% within 2 sigma (constants %.0f %%)\n",
+                mountingParameterNames()[j].c_str(), rms, rms_constant, 100 * frac, 100.0 * constant.within[j] / constant.counted[j]);
+    worst_constant = std::max(worst_constant, rms_constant);
+    EXPECT_GE(rms, 0.7) << mountingParameterNames()[j] << ": σ too large";
+    EXPECT_LE(rms, 1.4) << mountingParameterNames()[j] << ": σ too small";
+    EXPECT_GE(frac, 0.85) << mountingParameterNames()[j];
+  }
+  EXPECT_GT(worst_constant, 1.4) << "the 1× constants should fail this test: it would not discriminate";
 }
 
 // Issue 26's criterion on the plane method: over 30 surveys with navigation drift, RMS of

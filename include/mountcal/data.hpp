@@ -56,6 +56,10 @@ struct CalibrationData {
   /// (a workflow's `mountcal match` jobs, read with readPairCandidates); strips then need only
   /// their ids. Null: found from the strips' points.
   std::shared_ptr<const std::vector<PairCandidates>> correspondence_candidates;
+  /// The trajectory's stated accuracy along its time (an SBET's smrmsg file, io::readSmrmsg), in
+  /// the strips' time scale. Null: the σ of MountingCalibrator::Options::trajectory. Set, and
+  /// those σ not switched off: its σ(t) take their place (TrajectoryAccuracy::series).
+  std::shared_ptr<const TrajectoryAccuracySeries> trajectory_accuracy;
 
   /// The pose that measured point `i` of `strip`: its per-point pose, else the trajectory at
   /// its time (`cursor` speeds up lookups in time order). Call requirePoses() first.

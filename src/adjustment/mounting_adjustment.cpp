@@ -96,6 +96,11 @@ bool TrajectoryAccuracy::IsValid(std::string* error) const {
     return failWith(error, "trajectory.position_correlation_s must be positive when position_sigma_m is");
   if ((roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0) && !(attitude_correlation_s > 0))
     return failWith(error, "trajectory.attitude_correlation_s must be positive when an attitude sigma is");
+  if (series && !series->empty()) {
+    if (!(position_correlation_s > 0 && attitude_correlation_s > 0))
+      return failWith(error, "trajectory: the correlation times must be positive with an accuracy series");
+    if (!series->IsValid(error)) return false;
+  }
   return true;
 }
 
@@ -706,9 +711,13 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
     std::vector<int> absorbed;                              // polynomial degrees the strip's terms absorb
   };
   const double t = deg2rad(acc.roll_pitch_sigma_deg), k = deg2rad(acc.heading_sigma_deg), p = acc.position_sigma_m;
-  Group pos{acc.position_correlation_s, acc.position_correlation_s / 20.0, Vec3::Constant(p * p), {}, {}, {}};
-  Group att{acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, Vec3(t * t, t * t, k * k), {}, {}, {}};
-  const bool use_pos = p > 0, use_att = attitude && (t > 0 || k > 0);
+  // With a series, σ(t) scale each epoch's columns (H diag σ(t)) and the processes have unit variance.
+  const TrajectoryAccuracySeries* series = acc.series && !acc.series->empty() ? acc.series.get() : nullptr;
+  Group pos{
+      acc.position_correlation_s, acc.position_correlation_s / 20.0, series ? Vec3(Vec3::Ones()) : Vec3(Vec3::Constant(p * p)), {}, {}, {}};
+  Group att{
+      acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, series ? Vec3(Vec3::Ones()) : Vec3(t * t, t * t, k * k), {}, {}, {}};
+  const bool use_pos = series || p > 0, use_att = attitude && (series || t > 0 || k > 0);
   TrajectoryTerm<Rows> out{zero, zero};
   if (!use_pos && !use_att) return out;
   const TrajectoryCorrections& corr = problem.corrections();
@@ -733,8 +742,14 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
         Jr -= J[b] * X.middleRows(first - kept, size);
     }
     for (const auto& e : rec.epochs) {
-      const Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
-      const Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
+      Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
+      Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
+      if (series) {
+        Vec3 s_p, s_a;
+        series->at(e.time_s, &s_p, &s_a);
+        hp = hp * s_p.asDiagonal();
+        ha = ha * s_a.asDiagonal();
+      }
       for (auto [g, h, on] : {std::tuple<Group*, const Mat63*, bool>{&pos, &hp, use_pos}, {&att, &ha, use_att}}) {
         if (!on) continue;
         const long long bin = std::llround(e.time_s / g->bin);
@@ -1330,6 +1345,7 @@ class Estimation {
           for (int b = 0; b < 6; ++b)
             if (est[a] && est[b]) cov(a, b) += extra(a, b);
         S_.sigma_model = "formal + trajectory errors in time";
+        if (o_.trajectory.series && !o_.trajectory.series->empty()) S_.sigma_model += " (their σ along time as the trajectory states them)";
       }
     }
     if (n_est > 0 && o_.time_offset_sigma_s > 0 && !o_.estimate_time_offset) {

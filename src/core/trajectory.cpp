@@ -133,4 +133,41 @@ Pose Trajectory::pose(double time_s, std::size_t* cursor) const {
   return interpolateInInterval(i, time_s);
 }
 
+void TrajectoryAccuracySeries::at(double t, Vec3* position, Vec3* attitude) const {
+  if (time_s.empty()) {
+    *position = *attitude = Vec3::Zero();
+    return;
+  }
+  const auto hi = std::upper_bound(time_s.begin(), time_s.end(), t);
+  if (hi == time_s.begin() || hi == time_s.end()) {
+    const std::size_t k = hi == time_s.begin() ? 0 : time_s.size() - 1;
+    *position = position_m[k];
+    *attitude = attitude_rad[k];
+    return;
+  }
+  const std::size_t b = static_cast<std::size_t>(hi - time_s.begin()), a = b - 1;
+  const double span = time_s[b] - time_s[a];
+  const double w = span > 0 ? (t - time_s[a]) / span : 0.0;
+  *position = (1 - w) * position_m[a] + w * position_m[b];
+  *attitude = (1 - w) * attitude_rad[a] + w * attitude_rad[b];
+}
+
+bool TrajectoryAccuracySeries::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& why) {
+    if (error) *error = why;
+    return false;
+  };
+  if (position_m.size() != time_s.size() || attitude_rad.size() != time_s.size())
+    return fail("trajectory accuracy series: " + std::to_string(time_s.size()) + " times, " + std::to_string(position_m.size()) +
+                " position and " + std::to_string(attitude_rad.size()) + " attitude errors");
+  for (std::size_t i = 0; i < time_s.size(); ++i) {
+    if (!std::isfinite(time_s[i]) || (i > 0 && time_s[i] < time_s[i - 1]))
+      return fail("trajectory accuracy series: record " + std::to_string(i) + ": time not finite or out of order");
+    for (int a = 0; a < 3; ++a)
+      if (!(position_m[i][a] >= 0) || !(attitude_rad[i][a] >= 0) || !std::isfinite(position_m[i][a]) || !std::isfinite(attitude_rad[i][a]))
+        return fail("trajectory accuracy series: record " + std::to_string(i) + ": an error σ negative or not finite");
+  }
+  return true;
+}
+
 }  // namespace mountcal

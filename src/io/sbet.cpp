@@ -1,5 +1,6 @@
 #include "mountcal/io/sbet.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -33,26 +34,35 @@ void checkRecords(const std::vector<SbetRecord>& recs, const std::string& path, 
   }
 }
 
-}  // namespace
-
-std::vector<SbetRecord> readSbet(const std::string& path) {
+/// The records of a headerless file of fixed-size records of float64 (`what`: "SBET", "smrmsg"),
+/// refused naming the file when it cannot be read, is empty, or its size is no multiple of one.
+template <typename Record>
+std::vector<Record> readRecords(const std::string& path, const std::string& what, const std::string& not_one) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "", "cannot open the SBET file");
+  if (!in) throw FileError(path, "", "cannot open the " + what + " file");
   in.seekg(0, std::ios::end);
   const std::streamoff end = in.tellg();
   // A pipe or a folder has no size: say so rather than print a bogus one.
   if (!in || end < 0) throw FileError(path, "", "cannot determine the file size (not a regular file?)");
   const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0);
-  if (size % 136 != 0) {
-    throw FileError(
-        path, "byte " + std::to_string(size - size % 136),
-        "size " + std::to_string(size) + " bytes is not a multiple of the 136-byte SBET record: the file is truncated or not an SBET");
+  constexpr std::uint64_t kSize = sizeof(Record);
+  if (size % kSize != 0) {
+    throw FileError(path, "byte " + std::to_string(size - size % kSize),
+                    "size " + std::to_string(size) + " bytes is not a multiple of the " + std::to_string(kSize) + "-byte " + what +
+                        " record: the file is truncated or not " + not_one);
   }
-  if (size == 0) throw FileError(path, "", "empty SBET file");
-  std::vector<SbetRecord> out(size / 136);
+  if (size == 0) throw FileError(path, "", "empty " + what + " file");
+  std::vector<Record> out(size / kSize);
   in.read(reinterpret_cast<char*>(out.data()), static_cast<std::streamsize>(size));
   if (!in) throw FileError(path, "", "read failed");
+  return out;
+}
+
+}  // namespace
+
+std::vector<SbetRecord> readSbet(const std::string& path) {
+  std::vector<SbetRecord> out = readRecords<SbetRecord>(path, "SBET", "an SBET");
   for (std::size_t i = 0; i < out.size(); ++i) {
     const double* v = reinterpret_cast<const double*>(&out[i]);
     for (int k = 0; k < 17; ++k) {
@@ -110,6 +120,51 @@ Trajectory sbetToTrajectory(const std::string& path, const std::vector<SbetRecor
   }
   if (samples.size() < 2) throw FileError(path, "", "a trajectory needs at least 2 records");
   return Trajectory(std::move(samples), interpolation);
+}
+
+std::vector<SmrmsgRecord> readSmrmsg(const std::string& path) {
+  std::vector<SmrmsgRecord> out = readRecords<SmrmsgRecord>(path, "smrmsg", "an SBET accuracy (smrmsg) file");
+  static const char* const kFields[10] = {"time",          "north position", "east position", "down position", "north velocity",
+                                          "east velocity", "down velocity",  "roll",          "pitch",         "heading"};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const double* v = reinterpret_cast<const double*>(&out[i]);
+    for (int k = 0; k < 10; ++k) {
+      const std::string where = "record " + std::to_string(i);
+      if (!std::isfinite(v[k])) throw FileError(path, where, std::string(kFields[k]) + " is not finite");
+      // RMS errors: none negative; none beyond a GNSS/INS solution's (metres: 100; arc minutes: 600, i.e. 10°).
+      const double limit = k >= 7 ? 600.0 : 100.0;
+      if (k > 0 && !(v[k] >= 0 && v[k] <= limit)) {
+        throw FileError(path, where,
+                        std::string(kFields[k]) + " RMS error " + std::to_string(v[k]) + " is not in [0, " +
+                            std::to_string(static_cast<int>(limit)) + "] (" +
+                            (k >= 7   ? "arc minutes"
+                             : k >= 4 ? "m/s"
+                                      : "m") +
+                            ")");
+      }
+    }
+  }
+  std::stable_sort(out.begin(), out.end(), [](const SmrmsgRecord& a, const SmrmsgRecord& b) { return a.time_s < b.time_s; });
+  return out;
+}
+
+void writeSmrmsg(const std::string& path, const std::vector<SmrmsgRecord>& records) {
+  writeFileAtomically(path, std::string(reinterpret_cast<const char*>(records.data()), records.size() * sizeof(SmrmsgRecord)));
+}
+
+TrajectoryAccuracySeries smrmsgToAccuracy(const std::vector<SmrmsgRecord>& records, double time_offset_s) {
+  constexpr double kArcMinute = kPi / (180.0 * 60.0);
+  TrajectoryAccuracySeries a;
+  a.time_s.reserve(records.size());
+  a.position_m.reserve(records.size());
+  a.attitude_rad.reserve(records.size());
+  for (const SmrmsgRecord& r : records) {
+    a.time_s.push_back(r.time_s + time_offset_s);
+    a.position_m.emplace_back(r.east_m, r.north_m, r.down_m);
+    const double roll_pitch = std::sqrt(0.5 * (r.roll_arcmin * r.roll_arcmin + r.pitch_arcmin * r.pitch_arcmin));
+    a.attitude_rad.push_back(kArcMinute * Vec3(roll_pitch, roll_pitch, r.heading_arcmin));
+  }
+  return a;
 }
 
 }  // namespace mountcal::io

@@ -453,6 +453,27 @@ void requireLaserTable(const Job& job, const CalibrationData& d) {
 }
 }  // namespace
 
+namespace {
+/// The job's smrmsg as a series in the strips' time scale (the trajectory's time_offset_s added),
+/// refused when a strip's time span lies wholly outside the file's (another flight's file, or
+/// week seconds against another time scale); a strip partly beyond it takes its end record's σ.
+std::shared_ptr<const TrajectoryAccuracySeries> loadTrajectoryAccuracy(const Job& job, const CalibrationData& d) {
+  const std::string& path = job.trajectory_accuracy_path;
+  auto series = std::make_shared<TrajectoryAccuracySeries>(io::smrmsgToAccuracy(io::readSmrmsg(path), job.time_offset_s));
+  for (const StripData& s : d.strips) {
+    if (s.time_s.empty()) continue;
+    const auto [lo, hi] = std::minmax_element(s.time_s.begin(), s.time_s.end());
+    if (*hi < series->time_s.front() || *lo > series->time_s.back()) {
+      char why[240];
+      std::snprintf(why, sizeof why, "its times %.3f–%.3f s do not reach strip '%s''s times %.3f–%.3f s", series->time_s.front(),
+                    series->time_s.back(), s.id.c_str(), *lo, *hi);
+      throw FileError(path, "", why);
+    }
+  }
+  return series;
+}
+}  // namespace
+
 LoadedJob loadJob(const Job& job) {
   LoadedJob out = loadJobTrajectory(job);
   CalibrationData& d = out.data;
@@ -473,6 +494,7 @@ LoadedJob loadJob(const Job& job) {
   }
   if (!out.frame.isLocal()) out.crs_heights = std::make_shared<const detail::PlanHeightIndex>(std::move(xyz_crs));
   requireLaserTable(job, d);
+  if (!job.trajectory_accuracy_path.empty()) d.trajectory_accuracy = loadTrajectoryAccuracy(job, d);
   if (!job.ties_path.empty()) d.ties = liftPicks(readPicks(job, job.ties_path, "tie"), out);
   if (!job.planes_path.empty()) d.plane_regions = regionsOnData(liftRegions(io::readPlanesCsv(job.planes_path), out), job.planes_path, d);
   if (!job.targets_path.empty())

@@ -193,9 +193,17 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
       if (st.str("trajectory") != "none") st.fail("trajectory", "expected \"none\" or an object of σ and τ");
       opts.trajectory = TrajectoryAccuracy::none();
     } else if (st.has("trajectory")) {
-      // Trajectory errors in time: the GNSS/INS solution's accuracy (SBET smrmsg), τ its periods.
+      // Trajectory errors in time: the GNSS/INS solution's accuracy (σ, or along time its SBET's
+      // smrmsg file), τ its periods.
       const Fields t = st.sub("trajectory", {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
-                                             "attitude_correlation_s"});
+                                             "attitude_correlation_s", "smrmsg"});
+      if (t.has("smrmsg")) {
+        for (const char* k : {"position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"})
+          if (t.has(k)) t.fail(k, "the σ are given twice: \"smrmsg\" states them along time (keep the correlation times only)");
+        const std::string file = t.str("smrmsg");
+        if (file.empty()) t.fail("smrmsg", "expected the path of an SBET accuracy (smrmsg) file");
+        job->trajectory_accuracy_path = detail::resolvePath(job->path, file);
+      }
       TrajectoryAccuracy& a = opts.trajectory;
       a.position_sigma_m = t.num("position_sigma_m", a.position_sigma_m, 0.0, 100.0);
       a.position_correlation_s = t.num("position_correlation_s", a.position_correlation_s, 0.01, 86400.0);
@@ -618,8 +626,9 @@ json sensorJson(const Job& job) {
 
 /// The calibration settings of a job file (SPEC §4): "method", "estimate", each method's options
 /// that differ from its defaults, "stochastic", "pulse_noise", "solver" — into `j` (a method's input
-/// already under its key joins its options object as "regions").
-void writeOptions(const MountingCalibrator::Options& opts, json* out) {
+/// already under its key joins its options object as "regions"). `accuracy_file` (the job's smrmsg,
+/// as the job names it): written in place of the trajectory's σ.
+void writeOptions(const MountingCalibrator::Options& opts, json* out, const std::string& accuracy_file = "") {
   json& j = *out;
   const MountingCalibrator::Options def;
   if (opts.methods.size() == 1) {
@@ -665,14 +674,19 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out) {
                                       {"heading_sigma_deg", tc.heading_sigma_deg}};
   const TrajectoryAccuracy& ta = opts.trajectory;
   const TrajectoryAccuracy& td = def.trajectory;
-  if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||
-      ta.roll_pitch_sigma_deg != td.roll_pitch_sigma_deg || ta.heading_sigma_deg != td.heading_sigma_deg ||
-      ta.attitude_correlation_s != td.attitude_correlation_s)
+  if (!accuracy_file.empty()) {
+    j["stochastic"]["trajectory"] = {{"smrmsg", accuracy_file},
+                                     {"position_correlation_s", ta.position_correlation_s},
+                                     {"attitude_correlation_s", ta.attitude_correlation_s}};
+  } else if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||
+             ta.roll_pitch_sigma_deg != td.roll_pitch_sigma_deg || ta.heading_sigma_deg != td.heading_sigma_deg ||
+             ta.attitude_correlation_s != td.attitude_correlation_s) {
     j["stochastic"]["trajectory"] = {{"position_sigma_m", ta.position_sigma_m},
                                      {"position_correlation_s", ta.position_correlation_s},
                                      {"roll_pitch_sigma_deg", ta.roll_pitch_sigma_deg},
                                      {"heading_sigma_deg", ta.heading_sigma_deg},
                                      {"attitude_correlation_s", ta.attitude_correlation_s}};
+  }
   if (opts.pulse_noise.any() || opts.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = opts.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},
@@ -734,7 +748,7 @@ std::string jobJson(const Job& job) {
     j["planes"] = "auto";
   else if (!job.planes_path.empty())
     j["planes"] = rel(job.planes_path);
-  writeOptions(opts, &j);
+  writeOptions(opts, &j, job.trajectory_accuracy_path.empty() ? "" : rel(job.trajectory_accuracy_path));
   json out = json::object();
   if (!job.result_path.empty()) out["result"] = rel(job.result_path);
   if (!job.report_path.empty()) out["report"] = rel(job.report_path);
@@ -745,7 +759,7 @@ std::string jobJson(const Job& job) {
 std::vector<std::string> jobInputPaths(const Job& job) {
   std::vector<std::string> in = {job.path};
   for (const std::string* p : {&job.trajectory_path, &job.ties_path, &job.gcps_path, &job.check_points_path, &job.check_planes_path,
-                               &job.planes_path, &job.targets_path})
+                               &job.planes_path, &job.targets_path, &job.trajectory_accuracy_path})
     if (!p->empty()) in.push_back(*p);
   for (const JobStrip& s : job.strips) in.push_back(s.path);
   return in;

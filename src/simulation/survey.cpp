@@ -175,7 +175,7 @@ struct LineDrift {
   }
 };
 
-LineDrift lineDrift(const NoiseModel& noise, detail::Rng& rng) {
+LineDrift lineDrift(const NoiseModel& noise, double scale, detail::Rng& rng) {
   LineDrift d;
   d.gauss_markov = noise.drift_form == NoiseModel::DriftForm::kGaussMarkov;
   auto make = [&](std::size_t a, double sigma, double p_min, double p_max) {
@@ -186,10 +186,10 @@ LineDrift lineDrift(const NoiseModel& noise, detail::Rng& rng) {
   };
   if (noise.drift_position_sigma_m > 0)
     for (std::size_t a = 0; a < 3; ++a)
-      make(a, noise.drift_position_sigma_m, noise.drift_position_period_min_s, noise.drift_position_period_max_s);
+      make(a, scale * noise.drift_position_sigma_m, noise.drift_position_period_min_s, noise.drift_position_period_max_s);
   if (noise.drift_attitude_sigma_rad > 0)
     for (std::size_t a = 0; a < 3; ++a)
-      make(3 + a, (a == 2 ? 2.0 : 1.0) * noise.drift_attitude_sigma_rad, noise.drift_attitude_period_min_s,
+      make(3 + a, (a == 2 ? 2.0 : 1.0) * scale * noise.drift_attitude_sigma_rad, noise.drift_attitude_period_min_s,
            noise.drift_attitude_period_max_s);
   return d;
 }
@@ -215,7 +215,8 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
     const LineFrame f = lineFrame(line, t_line);
     frames->push_back(f);
     const double pr = phase(rng), pp = phase(rng), ph = phase(rng), pz = phase(rng);
-    LineDrift drift = lineDrift(noise, rng);
+    const std::size_t li = frames->size() - 1;
+    LineDrift drift = lineDrift(noise, li < noise.drift_scale_by_line.size() ? noise.drift_scale_by_line[li] : 1.0, rng);
     const long n0 = -static_cast<long>(std::ceil(lead_s / dt));
     const long n1 = static_cast<long>(std::ceil((f.t1 - f.t0 + lead_s) / dt));
     for (long k = n0; k <= n1; ++k) {

@@ -48,7 +48,18 @@ void readNoise(const std::string& path, const detail::Fields& top, NoiseModel* m
   for (const auto& f : metres) known.insert(f.first);
   for (const auto& f : degrees) known.insert(f.first);
   known.insert("drift_form");
+  known.insert("drift_scale_by_line");
   const detail::Fields nf(path, n, "noise", known);
+  if (nf.has("drift_scale_by_line")) {
+    const nlohmann::json& a = nf.at("drift_scale_by_line");
+    if (!a.is_array()) nf.fail("drift_scale_by_line", "expected an array of factors, one per line");
+    m.drift_scale_by_line.clear();
+    for (const nlohmann::json& v : a) {
+      if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() <= 100))
+        nf.fail("drift_scale_by_line", "expected factors in [0, 100]");
+      m.drift_scale_by_line.push_back(v.get<double>());
+    }
+  }
   const std::string form = nf.str("drift_form", "band_limited");
   if (form == "gauss_markov")
     m.drift_form = NoiseModel::DriftForm::kGaussMarkov;

@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 
 #include "mountcal/core/mounting.hpp"
+#include "mountcal/core/trajectory.hpp"
 
 namespace ceres {
 class Problem;
@@ -128,17 +129,24 @@ struct PulseNoise {
 /// observations: without this term their σ are too small by the square root of how many share
 /// it. The defaults are a post-processed survey-grade GNSS/INS (Applanix POS AV / NovAtel SPAN
 /// class: position drift 2 cm, attitude 0.002° about the horizontal axes and 0.004° in heading);
-/// state yours (the SBET accuracy file's smoothed RMS) — the σ are as honest as these numbers.
-/// All zero: the formal σ (independent observations) alone.
+/// state yours, or give the trajectory's accuracy along its time (`series`: an SBET's smrmsg
+/// file) — the σ are as honest as these numbers. All zero: the formal σ (independent observations)
+/// alone.
 struct TrajectoryAccuracy {
   double position_sigma_m = 0.02;        ///< per axis [m]; the constant part is the strip offset
   double position_correlation_s = 30.0;  ///< τ of the position errors [s]
   double roll_pitch_sigma_deg = 0.002;   ///< attitude about the horizontal axes [deg]
   double heading_sigma_deg = 0.004;      ///< attitude about the vertical [deg]
   double attitude_correlation_s = 5.0;   ///< τ of the attitude errors [s]
-  bool any() const { return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0; }
+  /// The σ along time, as the GNSS/INS solution states them (io::readSmrmsg, io::smrmsgToAccuracy):
+  /// when set, σ(t) at each observation's epoch take the place of the three σ above (per axis:
+  /// the error process is e(t) = σ(t) u(t), u a unit Gauss–Markov process of the τ above, so
+  /// cov(e(t), e(t')) = σ(t) σ(t') exp(−|t − t'|/τ)). MountingCalibrator sets it from
+  /// CalibrationData::trajectory_accuracy unless the σ are switched off.
+  std::shared_ptr<const TrajectoryAccuracySeries> series;
+  bool any() const { return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0 || (series && !series->empty()); }
   /// No trajectory errors in time (a simulated survey without them; the formal σ alone).
-  static TrajectoryAccuracy none() { return {0.0, 30.0, 0.0, 0.0, 5.0}; }
+  static TrajectoryAccuracy none() { return {0.0, 30.0, 0.0, 0.0, 5.0, nullptr}; }
   bool IsValid(std::string* error) const;
 };
 

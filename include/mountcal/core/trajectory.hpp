@@ -5,6 +5,7 @@
 /// slerp; a time outside the trajectory is an error, never an extrapolation).
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "mountcal/core/rotation.hpp"
@@ -85,6 +86,20 @@ class Trajectory {
   std::vector<Vec3> dq_;        // rotation vector of q_i⁻¹ q_{i+1} (slerp increment)
   std::vector<Vec3> v_m_;       // velocity estimate per sample (cubic only) [m/s]
   PositionInterpolation interpolation_ = PositionInterpolation::kLinear;
+};
+
+/// A trajectory's stated accuracy along its time — what a GNSS/INS post-processor writes beside
+/// its solution (an SBET's "smrmsg" file, io::readSmrmsg): per record the 1σ position error along
+/// the mapping frame's axes and the 1σ attitude error about them. TrajectoryAccuracy::series.
+struct TrajectoryAccuracySeries {
+  std::vector<double> time_s;      ///< non-decreasing, in the strips' time scale [s]
+  std::vector<Vec3> position_m;    ///< σ along x, y, z (east, north, up in a tangent frame) [m]
+  std::vector<Vec3> attitude_rad;  ///< σ about x and y (the RMS of roll and pitch) and z (heading) [rad]
+  bool empty() const { return time_s.empty(); }
+  /// σ at time t: linear between the records around it, the first or last record's beyond them.
+  void at(double t, Vec3* position_m, Vec3* attitude_rad) const;
+  /// False (and why) for unequal lengths, times out of order, or a σ negative or not finite.
+  bool IsValid(std::string* error) const;
 };
 
 }  // namespace mountcal

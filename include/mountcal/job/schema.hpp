@@ -51,6 +51,9 @@ struct Job {
   io::PoseFields pose_fields;
   TrajectoryFormat trajectory_format = TrajectoryFormat::kCsv;
   double time_offset_s = 0.0;
+  /// `"stochastic": {"trajectory": {"smrmsg": …}}`: the trajectory's accuracy along its time (an
+  /// SBET's smrmsg file), read by loadJob into CalibrationData::trajectory_accuracy; empty: none.
+  std::string trajectory_accuracy_path;
   SensorModel sensor;
   std::string sensor_model;  ///< "VLP-16", "HDL-32E", "custom" (a lasers table) or empty
   /// Multi-beam: the LAS field holding each point's laser id (`sensor.laser_field`, e.g.

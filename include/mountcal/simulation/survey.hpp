@@ -127,6 +127,10 @@ struct NoiseModel {
   /// the calibrator's single stated τ. Scenario key `"drift_form"`.
   enum class DriftForm { kBandLimited, kGaussMarkov };
   DriftForm drift_form = DriftForm::kBandLimited;
+  /// The drift's RMS on line i is drift_scale_by_line[i] times the values above (a line flown with
+  /// fewer satellites, or farther from its base station); lines beyond the list: 1. The same
+  /// random numbers are drawn whatever the factors. Scenario key `"drift_scale_by_line"`.
+  std::vector<double> drift_scale_by_line;
 
   static NoiseModel none() { return {}; }
   /// realistic() plus survey-grade navigation drift: position 2 cm RMS (periods 10–100 s),
