@@ -129,18 +129,14 @@ std::vector<SmrmsgRecord> readSmrmsg(const std::string& path) {
   for (std::size_t i = 0; i < out.size(); ++i) {
     const double* v = reinterpret_cast<const double*>(&out[i]);
     for (int k = 0; k < 10; ++k) {
-      const std::string where = "record " + std::to_string(i);
-      if (!std::isfinite(v[k])) throw FileError(path, where, std::string(kFields[k]) + " is not finite");
+      if (!std::isfinite(v[k])) throw FileError(path, "record " + std::to_string(i), std::string(kFields[k]) + " is not finite");
       // RMS errors: none negative; none beyond a GNSS/INS solution's (metres: 100; arc minutes: 600, i.e. 10°).
       const double limit = k >= 7 ? 600.0 : 100.0;
       if (k > 0 && !(v[k] >= 0 && v[k] <= limit)) {
-        throw FileError(path, where,
+        const char* unit = k >= 7 ? "arc minutes" : k >= 4 ? "m/s" : "m";
+        throw FileError(path, "record " + std::to_string(i),
                         std::string(kFields[k]) + " RMS error " + std::to_string(v[k]) + " is not in [0, " +
-                            std::to_string(static_cast<int>(limit)) + "] (" +
-                            (k >= 7   ? "arc minutes"
-                             : k >= 4 ? "m/s"
-                                      : "m") +
-                            ")");
+                            std::to_string(static_cast<int>(limit)) + "] (" + unit + ")");
       }
     }
   }
