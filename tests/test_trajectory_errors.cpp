@@ -670,6 +670,18 @@ TEST(ModelSensitivity, ALeverArmTheDataRejectIsNotAnAmbiguity) {
 struct Honesty {
   std::array<double, 6> z2_total{}, z2_formal{};
   std::array<int, 6> within{}, counted{};
+  /// One calibration's errors against the truth, in its σ and its formal σ, per estimated parameter.
+  void add(const MountingCalibrator::Summary& S, const MountingParameters& truth) {
+    const auto e = S.mounting.toArray(), t = truth.toArray();
+    for (std::size_t j = 0; j < 6; ++j) {
+      if (!S.estimated[j]) continue;
+      const double z = (e[j] - t[j]) / S.sigma[j], zf = (e[j] - t[j]) / S.formal_sigma[j];
+      z2_total[j] += z * z;
+      z2_formal[j] += zf * zf;
+      within[j] += std::abs(z) <= 2.0;
+      ++counted[j];
+    }
+  }
 };
 
 /// `planes` on the crossing field over `seeds` surveys with navigation drift in time (band-limited
@@ -690,15 +702,7 @@ Honesty planesUnderDrift(int seeds) {
     o.estimate = {true, true, false, true, true, true};
     const auto S = calibrate(simulation::toCalibrationData(s), o);
     EXPECT_TRUE(S.IsSolutionUsable()) << "seed " << seed;
-    const auto e = S.mounting.toArray(), t = c.true_mounting.toArray();
-    for (std::size_t j = 0; j < 6; ++j) {
-      if (!S.estimated[j]) continue;
-      const double z = (e[j] - t[j]) / S.sigma[j], zf = (e[j] - t[j]) / S.formal_sigma[j];
-      h.z2_total[j] += z * z;
-      h.z2_formal[j] += zf * zf;
-      h.within[j] += std::abs(z) <= 2.0;
-      ++h.counted[j];
-    }
+    h.add(S, c.true_mounting);
   }
   return h;
 }
@@ -741,17 +745,8 @@ std::pair<Honesty, Honesty> planesUnderUnevenDrift(int seeds) {
     data.trajectory_accuracy = series;
     const auto stated = calibrate(data, o);
     EXPECT_TRUE(constant.IsSolutionUsable() && stated.IsSolutionUsable()) << "seed " << seed;
-    const auto t = c.true_mounting.toArray();
-    for (auto [S, out] : {std::pair{&stated, &h.first}, std::pair{&constant, &h.second}}) {
-      const auto e = S->mounting.toArray();
-      for (std::size_t j = 0; j < 6; ++j) {
-        if (!S->estimated[j]) continue;
-        const double z = (e[j] - t[j]) / S->sigma[j];
-        out->z2_total[j] += z * z;
-        out->within[j] += std::abs(z) <= 2.0;
-        ++out->counted[j];
-      }
-    }
+    h.first.add(stated, c.true_mounting);
+    h.second.add(constant, c.true_mounting);
   }
   return h;
 }
