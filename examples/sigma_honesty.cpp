@@ -7,6 +7,8 @@
 //                 [--model-attitude-drift]   (state the attitude drift as PulseNoise's random effect)
 //                 [--corrections P,A]        (estimate per-strip trajectory corrections: position
 //                                             degree P, attitude degree A; StochasticOptions::corrections)
+//                 [--priors-from-accuracy]   (the corrections' priors from the stated trajectory
+//                                             accuracy: TrajectoryCorrections::priors_from_accuracy)
 //                 [--per-seed]               (each seed's errors, σ and strip offsets against the truth)
 //                 [--offset-sigma M]         (the strip offsets' σ; default 0.005, the survey's strip-
 //                                             to-strip GNSS bias — the drift is TrajectoryAccuracy's)
@@ -60,7 +62,7 @@ void printSeed(int seed, const SimulatedSurvey& s, const MountingCalibrator::Sum
 int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift_gauss_markov";
   int seeds = 10, first_seed = 1;
-  bool model_drift = false, trajectory_none = false, per_seed = false;
+  bool model_drift = false, trajectory_none = false, per_seed = false, priors_from_accuracy = false;
   double offset_sigma = 0.005;  // the simulated survey's strip-to-strip GNSS bias (gnss_sigma_m below)
   int corr_position = 0, corr_attitude = 0;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
@@ -80,6 +82,8 @@ int main(int argc, char** argv) {
       trajectory_none = true;
     else if (a == "--per-seed")
       per_seed = true;
+    else if (a == "--priors-from-accuracy")
+      priors_from_accuracy = true;
     else if (a == "--attitude-tau" && i + 1 < argc)
       attitude_tau = std::atof(argv[++i]);
     else if (a == "--position-tau" && i + 1 < argc)
@@ -142,6 +146,7 @@ int main(int argc, char** argv) {
     if (trajectory_none) o.trajectory = TrajectoryAccuracy::none();
     o.corrections.position_degree = corr_position;
     o.corrections.attitude_degree = corr_attitude;
+    o.corrections.priors_from_accuracy = priors_from_accuracy;
     if (model_drift) {  // the attitude drift as the calibrator's random effect (ties only, today)
       o.pulse_noise.roll_pitch_deg = rad2deg(c.noise.drift_attitude_sigma_rad);
       o.pulse_noise.heading_deg = 2 * rad2deg(c.noise.drift_attitude_sigma_rad);

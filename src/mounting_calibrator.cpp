@@ -357,6 +357,10 @@ std::string MountingCalibrator::Summary::FullReport() const {
           rad2deg(c.attitude_start_rad.y()), rad2deg(c.attitude_start_rad.z()), rad2deg(c.attitude_end_rad.x()),
           rad2deg(c.attitude_end_rad.y()), rad2deg(c.attitude_end_rad.z()));
       r << buf;
+      std::snprintf(buf, sizeof buf, "  %-12s %8s  prior sigma at the end  %.3f %.3f %.3f m  attitude %.4f %.4f %.4f deg\n", "", "",
+                    c.prior_end_position_m.x(), c.prior_end_position_m.y(), c.prior_end_position_m.z(),
+                    rad2deg(c.prior_end_attitude_rad.x()), rad2deg(c.prior_end_attitude_rad.y()), rad2deg(c.prior_end_attitude_rad.z()));
+      r << buf;
     }
   }
   for (const auto& ms : model_sensitivity) r << "Model sensitivity: " << ms.text() << "\n";

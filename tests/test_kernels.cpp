@@ -426,6 +426,75 @@ class OffsetEcho final : public ceres::SizedCostFunction<3, 6, 3> {
   }
 };
 
+/// ∫∫ P_k(x) P_l(y) exp(−a |x − y|) dx dy over [−1, 1]², by hand: the square split at its diagonal,
+/// each triangle integrated in y, then in x (done symbolically with sympy, not by mountcal; a = 1.5 gives 0.27213069538799,
+/// 0.08039649917719 and −0.03606994458276).
+double legendreKernelIntegral(int k, int l, double a) {
+  const double e = std::exp(-2 * a);
+  if (k == 1 && l == 1) return 2 * (2 * std::pow(a, 3) + 3 * (1 - a * a) - (3 * a * a + 6 * a + 3) * e) / (3 * std::pow(a, 4));
+  if (k == 2 && l == 2)
+    return 2 *
+           (2 * std::pow(a, 5) + 5 * (-std::pow(a, 4) + 3 * a * a - 9) +
+            (5 * std::pow(a, 4) + 30 * std::pow(a, 3) + 75 * a * a + 90 * a + 45) * e) /
+           (5 * std::pow(a, 6));
+  // (1, 3)
+  return 2 *
+         (-std::pow(a, 4) + 5 * std::pow(a, 3) - 9 * a * a + 15 + (-std::pow(a, 4) - 7 * std::pow(a, 3) - 21 * a * a - 30 * a - 15) * e) /
+         std::pow(a, 6);
+}
+
+TEST(TrajectoryCorrections, PriorsFromTheAccuracyAreTheLegendreCoefficientsCovarianceOfTheGaussMarkovError) {
+  // A 45 s strip under a Gauss–Markov error of σ = 2 cm and τ = 15 s: in τ ∈ [−1, 1] the kernel is
+  // exp(−a |τ − τ'|) with a = 45 / (2 · 15) = 1.5, and cov(c_k, c_l) = σ² (2k+1)(2l+1)/4 I_kl(a).
+  const double sigma = 0.02, t0 = 100.0, t1 = 145.0, tau = 15.0, a = (t1 - t0) / (2 * tau);
+  EXPECT_NEAR(legendreKernelIntegral(1, 1, 1.5), 0.27213069538799, 1e-12);
+  EXPECT_NEAR(legendreKernelIntegral(2, 2, 1.5), 0.08039649917719, 1e-12);
+  EXPECT_NEAR(legendreKernelIntegral(1, 3, 1.5), -0.03606994458276, 1e-12);
+  const Eigen::MatrixXd C = detail::legendreCoefficientCovariance(3, t0, t1, tau, [&](double) { return sigma; });
+  const double s2 = sigma * sigma;
+  EXPECT_NEAR(C(0, 0), s2 * 9.0 / 4 * legendreKernelIntegral(1, 1, a), 1e-6 * C(0, 0));
+  EXPECT_NEAR(C(1, 1), s2 * 25.0 / 4 * legendreKernelIntegral(2, 2, a), 1e-6 * C(1, 1));
+  EXPECT_NEAR(C(0, 2), s2 * 21.0 / 4 * legendreKernelIntegral(1, 3, a), 1e-6 * C(0, 0));
+  EXPECT_NEAR(C(2, 0), C(0, 2), 1e-15);
+  EXPECT_NEAR(C(0, 1), 0.0, 1e-9 * C(0, 0));  // odd against even
+  // A σ twice as large on the strip's second half only: between 1× and 4× the variance.
+  const Eigen::MatrixXd C2 = detail::legendreCoefficientCovariance(1, t0, t1, tau, [&](double t) { return t > 122.5 ? 2 * sigma : sigma; });
+  EXPECT_GT(C2(0, 0), 1.5 * C(0, 0));
+  EXPECT_LT(C2(0, 0), 4.0 * C(0, 0));
+  // A much longer correlation time leaves little drift within the strip; a span of one instant none.
+  EXPECT_LT(detail::legendreCoefficientCovariance(1, t0, t1, 1e4, [&](double) { return sigma; })(0, 0), 0.01 * C(0, 0));
+  EXPECT_EQ(detail::legendreCoefficientCovariance(2, t0, t0, tau, [&](double) { return sigma; }).norm(), 0.0);
+
+  // The adjustment takes them as each strip's prior: its σ at the strip's end is √(Σ_kl C_kl),
+  // the stated σ (TrajectoryAccuracy: position 2 cm, τ 15 s; attitude 0.002° / 0.004°, τ 5 s).
+  TrajectoryAccuracy acc;
+  acc.position_sigma_m = sigma;
+  acc.position_correlation_s = tau;
+  TrajectoryCorrections tc;
+  tc.position_degree = 2;
+  tc.attitude_degree = 1;
+  tc.priors_from_accuracy = true;
+  AdjustmentProblem P({0, 0, 0, 0, 0, 0}, 0.02, LossType::kTrivial, 0.5, 1e-6);
+  P.setCorrections(tc, 0.0, acc);
+  for (double t : {t0, t1, 120.0})
+    P.setEpoch(P.addResidualBlock(new OffsetEcho, 0.0, {P.mounting(), P.stripOffset("a")}), "a", t, {0, 0, -100});
+  P.commit();
+  ASSERT_EQ(P.stripCorrections().size(), 1u);
+  const auto& sc = P.stripCorrections()[0];
+  const Eigen::MatrixXd Cp = detail::legendreCoefficientCovariance(2, t0, t1, tau, [&](double) { return sigma; });
+  for (int axis = 0; axis < 3; ++axis) EXPECT_NEAR(sc.prior_end_position_m[axis], std::sqrt(Cp.sum()), 1e-12) << axis;
+  const double heading = deg2rad(acc.heading_sigma_deg);
+  const Eigen::MatrixXd Ch = detail::legendreCoefficientCovariance(1, t0, t1, acc.attitude_correlation_s, [&](double) { return heading; });
+  EXPECT_NEAR(sc.prior_end_attitude_rad.z(), std::sqrt(Ch(0, 0)), 1e-15);
+  // Without the accuracy the option is refused, naming what to do.
+  StochasticOptions st;
+  st.corrections = tc;
+  st.trajectory = TrajectoryAccuracy::none();
+  std::string why;
+  EXPECT_FALSE(st.IsValid(&why));
+  EXPECT_NE(why.find("priors_from_accuracy"), std::string::npos) << why;
+}
+
 TEST(PointShifts, AreTheShiftsTheCorrectedCostAppliesAndTheHandFormula) {
   // A matching source matches where the adjustment puts its points (PointShifts): the strip
   // offset, the corrections and the time offset at a point's time and u must be exactly what

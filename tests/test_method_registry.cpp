@@ -285,6 +285,21 @@ TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked
   bad = j;
   bad["stochastic"].erase("time_offset_sigma_s");
   refused(bad, "estimate_time_offset");
+  // The priors from the trajectory's accuracy: read, written back without the σ keys, and
+  // refused beside them (one of the two would be ignored).
+  json from = j;
+  from["stochastic"]["corrections"] = {{"position_degree", 1}, {"attitude_degree", 1}, {"priors_from_accuracy", true}};
+  writeJson(path, from);
+  const Job acc = readJob(path);
+  EXPECT_TRUE(acc.options.corrections.priors_from_accuracy);
+  std::ofstream(again) << jobJson(acc);
+  const Job acc_back = readJob(again);
+  EXPECT_TRUE(acc_back.options.corrections.priors_from_accuracy);
+  EXPECT_EQ(acc_back.options.corrections.attitude_degree, 1);
+  EXPECT_FALSE(json::parse(jobJson(acc))["stochastic"]["corrections"].contains("position_sigma_m"));
+  bad = from;
+  bad["stochastic"]["corrections"]["heading_sigma_deg"] = 0.02;
+  refused(bad, "heading_sigma_deg");
 }
 
 TEST(ToyMethod, IsListedCalibratesFromAJobAndAppearsInTheResultAndTheReport) {

@@ -132,6 +132,32 @@ bool CorrectedCost::Evaluate(double const* const* parameters, double* residuals,
   return true;
 }
 
+Eigen::MatrixXd legendreCoefficientCovariance(int degree, double t0_s, double t1_s, double tau_s,
+                                              const std::function<double(double)>& sigma, int nodes) {
+  const Eigen::Index d = std::max(degree, 0);
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(d, d);
+  const double span = t1_s - t0_s;
+  if (d == 0 || !(span > 0) || nodes < 1) return C;
+  const Eigen::Index n = nodes;
+  const double h = span / static_cast<double>(n), ds = 2.0 / static_cast<double>(n), rho = std::exp(-h / tau_s);
+  // f(i, k) = P_k(τ_i) σ(t_i) ds, and g = f's running sum with the kernel's memory.
+  Eigen::MatrixXd f(n, d), g(n, d);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double tau = -1.0 + (static_cast<double>(i) + 0.5) * ds;
+    const double s = sigma(t0_s + (static_cast<double>(i) + 0.5) * h) * ds;
+    for (Eigen::Index k = 0; k < d; ++k) {
+      f(i, k) = legendre(static_cast<int>(k) + 1, tau) * s;
+      g(i, k) = f(i, k) + (i > 0 ? rho * g(i - 1, k) : 0.0);
+    }
+  }
+  // Σ_ij f_i f'_j ρ^|i−j| = Σ_i f_i g'_i + Σ_i f'_i g_i − Σ_i f_i f'_i
+  const Eigen::MatrixXd fg = f.transpose() * g;
+  C = fg + fg.transpose() - f.transpose() * f;
+  for (Eigen::Index k = 0; k < d; ++k)
+    for (Eigen::Index l = 0; l < d; ++l) C(k, l) *= (2.0 * static_cast<double>(k) + 3.0) * (2.0 * static_cast<double>(l) + 3.0) / 4.0;
+  return C;
+}
+
 Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
                               const std::vector<int>& degrees) {
   const Eigen::Index n = static_cast<Eigen::Index>(times.size());

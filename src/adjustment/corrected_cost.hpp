@@ -5,6 +5,7 @@
 /// source's cost through its strip-offset blocks — a strip offset o enters an observation as a
 /// shift of its point, so a correction δ(t, u) of that point is the offset o + δ.
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -35,6 +36,17 @@ Vec3 correctionShift(int position_degree, int attitude_degree, double tau, const
 /// `weights`) onto those polynomials. `times` ascending; no degrees: every share is 1.
 Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
                               const std::vector<int>& degrees);
+
+/// Covariance (degree × degree; rows and columns k = 1 … degree) of the Legendre coefficients of
+/// an error e(t) = σ(t) u(t) over a strip's span [t0, t1], u a unit Gauss–Markov process of
+/// correlation time `tau_s` (cov(e(t), e(t')) = σ(t) σ(t') exp(−|t − t'|/τ)): the coefficients of
+/// its least-squares projection on the span, c_k = (2k+1)/2 ∫ e P_k dτ over τ ∈ [−1, 1], so
+///   cov(c_k, c_l) = (2k+1)(2l+1)/4 ∫∫ P_k(τ) P_l(τ') σ(t) σ(t') exp(−|t − t'|/τ_c) dτ dτ'.
+/// The double integral by the midpoint rule on `nodes` epochs, in O(nodes) per pair (k, l): the
+/// kernel is ρ^|i−j| there, ρ = exp(−h/τ_c), summed by the recursion g_i = f_i + ρ g_{i−1}.
+/// `sigma(t)` ≥ 0; a span of one instant has a zero covariance.
+Eigen::MatrixXd legendreCoefficientCovariance(int degree, double t0_s, double t1_s, double tau_s,
+                                              const std::function<double(double)>& sigma, int nodes = 4096);
 
 /// Where one strip's offset block enters the source's cost and how the point moves there.
 struct CorrectionTerm {

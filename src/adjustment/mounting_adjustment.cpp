@@ -6,6 +6,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SparseCholesky>
@@ -109,8 +110,9 @@ bool TrajectoryCorrections::IsValid(std::string* error) const {
     return failWith(error, "corrections.position_degree must be 0 (the strip offset alone) to 3");
   if (attitude_degree < 0 || attitude_degree > 3)
     return failWith(error, "corrections.attitude_degree must be 0 (none) to 3 (a constant attitude error is the boresight itself)");
-  if (position_degree > 0 && !(position_sigma_m > 0 && position_sigma_m <= 100))
+  if (position_degree > 0 && !priors_from_accuracy && !(position_sigma_m > 0 && position_sigma_m <= 100))
     return failWith(error, "corrections.position_sigma_m must be in (0, 100] m when position_degree > 0");
+  if (priors_from_accuracy) return true;  // the σ keys are not used (StochasticOptions checks the accuracy)
   if (attitude_degree > 0 && !(roll_pitch_sigma_deg > 0 && roll_pitch_sigma_deg <= 10 && heading_sigma_deg > 0 && heading_sigma_deg <= 10))
     return failWith(error, "corrections.roll_pitch_sigma_deg and heading_sigma_deg must be in (0, 10] deg when attitude_degree > 0");
   return true;
@@ -120,6 +122,10 @@ bool StochasticOptions::IsValid(std::string* error) const {
   if (!pulse_noise.IsValid(error)) return false;
   if (!trajectory.IsValid(error)) return false;
   if (!corrections.IsValid(error)) return false;
+  if (corrections.any() && corrections.priors_from_accuracy && !trajectory.any())
+    return failWith(error,
+                    "corrections.priors_from_accuracy needs the trajectory's accuracy (stochastic.trajectory), "
+                    "which is switched off; state the corrections' σ instead");
   if (estimate_time_offset && !(time_offset_sigma_s > 0))
     return failWith(error, "estimate_time_offset needs time_offset_sigma_s > 0 (the time offset's prior)");
   if (!(strip_offset_sigma_m >= 0) || !std::isfinite(strip_offset_sigma_m))
@@ -217,22 +223,26 @@ class GaussMarkovStep final : public ceres::SizedCostFunction<3, 3, 3> {
 
 class BlockPrior final : public ceres::CostFunction {
  public:
-  BlockPrior(int size, std::vector<double> x0, std::vector<double> inv_sigma) : x0_(std::move(x0)), w_(std::move(inv_sigma)) {
-    set_num_residuals(size);
-    mutable_parameter_block_sizes()->push_back(size);
+  /// Independent components: r_a = (x_a − x0_a) / σ_a.
+  BlockPrior(int size, std::vector<double> x0, const std::vector<double>& inv_sigma)
+      : BlockPrior(std::move(x0), Eigen::VectorXd::Map(inv_sigma.data(), size).asDiagonal().toDenseMatrix()) {}
+  /// Correlated components: r = W (x − x0), W the square root of the prior's information.
+  BlockPrior(std::vector<double> x0, Eigen::MatrixXd W) : x0_(std::move(x0)), W_(std::move(W)) {
+    set_num_residuals(static_cast<int>(W_.rows()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(W_.cols()));
   }
   bool Evaluate(double const* const* p, double* r, double** J) const override {
-    const int n = static_cast<int>(x0_.size());
-    for (int a = 0; a < n; ++a) r[a] = (p[0][a] - x0_[a]) * w_[a];
-    if (J && J[0]) {
-      std::fill(J[0], J[0] + n * n, 0.0);
-      for (int a = 0; a < n; ++a) J[0][a * n + a] = w_[a];
-    }
+    const Eigen::Index n = W_.cols();
+    Eigen::VectorXd dx(n);
+    for (Eigen::Index a = 0; a < n; ++a) dx[a] = p[0][a] - x0_[static_cast<std::size_t>(a)];
+    Eigen::VectorXd::Map(r, W_.rows()) = W_ * dx;
+    if (J && J[0]) Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(J[0], W_.rows(), n) = W_;
     return true;
   }
 
  private:
-  std::vector<double> x0_, w_;
+  std::vector<double> x0_;
+  Eigen::MatrixXd W_;
 };
 
 /// A prior on one mounting parameter.
@@ -369,8 +379,10 @@ int AdjustmentProblem::addResidualBlock(ceres::CostFunction* cost, double loss_s
   return static_cast<int>(records_.size()) - 1;
 }
 
-void AdjustmentProblem::setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s) {
+void AdjustmentProblem::setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s,
+                                       const TrajectoryAccuracy& accuracy) {
   corrections_ = corrections;
+  correction_accuracy_ = accuracy;
   time_offset_sigma_s_ = time_offset_sigma_s;
 }
 
@@ -398,24 +410,24 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
   const int src = source_;
   source_ = -1;  // the priors belong to no source
   if (corr) {
-    const int dp = corrections_.position_degree, n = corrections_.size();
-    std::vector<double> w(static_cast<std::size_t>(n));
-    for (int j = 0; j < n; ++j) {
-      const int axis = j % 3;
-      w[static_cast<std::size_t>(j)] = j < 3 * dp
-                                           ? 1.0 / corrections_.position_sigma_m
-                                           : 1.0 / deg2rad(axis == 2 ? corrections_.heading_sigma_deg : corrections_.roll_pitch_sigma_deg);
-    }
+    const int n = corrections_.size();
     const std::vector<double> zero(static_cast<std::size_t>(n), 0.0);
     for (const auto& [id, o3] : offsets_) {
       auto it = span.find(o3);
       if (it == span.end()) continue;
+      StripCorrection sc{id, nullptr, 0.5 * (it->second.first + it->second.second), 0.5 * (it->second.second - it->second.first)};
+      const Eigen::MatrixXd cov = correctionPrior(it->second.first, it->second.second);
+      for (int a = 0; a < 3; ++a) {
+        sc.prior_end_position_m[a] = std::sqrt(endVariance(cov, a, 0, corrections_.position_degree));
+        sc.prior_end_attitude_rad[a] = std::sqrt(endVariance(cov, a, 3 * corrections_.position_degree, corrections_.attitude_degree));
+      }
+      // r = L⁻¹ c for cov = L Lᵀ: unit covariance.
+      const Eigen::MatrixXd W = cov.llt().matrixL().solve(Eigen::MatrixXd::Identity(n, n));
       // Non-eliminable: it shares residual blocks with the sources' own nuisance blocks.
-      double* block = addNuisanceBlock(n, zero.data(), nullptr, false);
-      addResidualBlock(new BlockPrior(n, zero, w), 0.0, {block});
+      sc.values = addNuisanceBlock(n, zero.data(), nullptr, false);
+      addResidualBlock(new BlockPrior(zero, W), 0.0, {sc.values});
       index[o3] = corrections_blocks_.size();
-      corrections_blocks_.push_back(
-          {id, block, 0.5 * (it->second.first + it->second.second), 0.5 * (it->second.second - it->second.first)});
+      corrections_blocks_.push_back(sc);
     }
   }
   if (time) {
@@ -449,6 +461,50 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
                                          n_corr, time);
     rec.blocks.insert(rec.blocks.end(), extra.begin(), extra.end());
   }
+}
+
+Eigen::MatrixXd AdjustmentProblem::correctionPrior(double t0_s, double t1_s) const {
+  const TrajectoryCorrections& tc = corrections_;
+  const int n = tc.size(), dp = tc.position_degree, da = tc.attitude_degree;
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(n, n);
+  if (!tc.priors_from_accuracy) {
+    for (int j = 0; j < n; ++j) {
+      const double s = j < 3 * dp ? tc.position_sigma_m : deg2rad(j % 3 == 2 ? tc.heading_sigma_deg : tc.roll_pitch_sigma_deg);
+      cov(j, j) = s * s;
+    }
+    return cov;
+  }
+  // Each axis: the Legendre coefficients of its stated error over [t0, t1]; the coefficient k of
+  // axis a sits at 3 (k − 1) + a of its group (position, then attitude).
+  const TrajectoryAccuracy& acc = correction_accuracy_;
+  const TrajectoryAccuracySeries* series = acc.series && !acc.series->empty() ? acc.series.get() : nullptr;
+  for (int group = 0; group < 2; ++group) {
+    const int degree = group == 0 ? dp : da, first = group == 0 ? 0 : 3 * dp;
+    const double tau = group == 0 ? acc.position_correlation_s : acc.attitude_correlation_s;
+    for (int a = 0; a < 3 && degree > 0; ++a) {
+      const double constant = group == 0 ? acc.position_sigma_m : deg2rad(a == 2 ? acc.heading_sigma_deg : acc.roll_pitch_sigma_deg);
+      const auto sigma = [&](double t) {
+        if (!series) return constant;
+        Vec3 p, q;
+        series->at(t, &p, &q);
+        return group == 0 ? p[a] : q[a];
+      };
+      const Eigen::MatrixXd C = detail::legendreCoefficientCovariance(degree, t0_s, t1_s, tau, sigma);
+      for (int k = 0; k < degree; ++k)
+        for (int l = 0; l < degree; ++l) cov(first + 3 * k + a, first + 3 * l + a) = C(k, l);
+    }
+  }
+  // A span of one instant, or an axis stated without error, has nothing to correct: a floor far
+  // below any survey's error keeps the prior invertible (1 µm, 1 nrad).
+  for (int j = 0; j < n; ++j) cov(j, j) = std::max(cov(j, j), j < 3 * dp ? 1e-12 : 1e-18);
+  return cov;
+}
+
+double AdjustmentProblem::endVariance(const Eigen::MatrixXd& cov, int axis, int first, int degree) {
+  double v = 0.0;  // var(Σ_k c_k), P_k(1) = 1
+  for (int k = 0; k < degree; ++k)
+    for (int l = 0; l < degree; ++l) v += cov(first + 3 * k + axis, first + 3 * l + axis);
+  return v;
 }
 
 PointShifts AdjustmentProblem::pointShifts() const {
@@ -1172,7 +1228,7 @@ class Estimation {
     P_ = std::make_unique<AdjustmentProblem>(m, o_.strip_offset_sigma_m, o_.loss, o_.loss_scale_m, o_.numeric_diff_relative_step);
     P_->setPulseNoise(o_.pulse_noise);
     if (o_.time_offset_sigma_s > 0) P_->setMotion(motion_);
-    if (!without_corrections_) P_->setCorrections(o_.corrections, o_.estimate_time_offset ? o_.time_offset_sigma_s : 0.0);
+    if (!without_corrections_) P_->setCorrections(o_.corrections, o_.estimate_time_offset ? o_.time_offset_sigma_s : 0.0, o_.trajectory);
     for (std::size_t k = 0; k < sources_.size(); ++k) {
       P_->setSource(static_cast<int>(k));
       sources_[k]->addBlocks(m, P_.get());
@@ -1673,6 +1729,8 @@ class Estimation {
       out.strip_id = b.strip_id;
       out.t_start_s = b.t_mid_s - b.half_span_s;
       out.t_end_s = b.t_mid_s + b.half_span_s;
+      out.prior_end_position_m = b.prior_end_position_m;
+      out.prior_end_attitude_rad = b.prior_end_attitude_rad;
       for (int j = 0; j < tc.size(); ++j) c_hat[static_cast<Eigen::Index>(i) * tc.size() + j] = b.values[j];
       for (int k = 1; k <= tc.position_degree; ++k)
         for (int a = 0; a < 3; ++a) {

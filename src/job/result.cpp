@@ -122,7 +122,9 @@ void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out)
                     {"position_start_m", vec(c.position_start_m)},
                     {"position_end_m", vec(c.position_end_m)},
                     {"attitude_start_deg", vec(a0)},
-                    {"attitude_end_deg", vec(a1)}});
+                    {"attitude_end_deg", vec(a1)},
+                    {"prior_sigma_end_m", vec(c.prior_end_position_m)},
+                    {"prior_sigma_end_deg", vec(c.prior_end_attitude_rad * (180.0 / kPi))}});
   }
   j["trajectory_corrections"] = corr;
   if (summary.resolve.done) {

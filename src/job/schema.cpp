@@ -167,11 +167,16 @@ void detail::readTrajectoryModel(const Fields& st, StochasticOptions* options) {
     st.fail("estimate_time_offset", "needs \"time_offset_sigma_s\" > 0, the time offset's prior σ");
   if (st.has("corrections")) {
     // Per-strip trajectory corrections in time (Legendre polynomials over each strip's span).
-    const Fields c =
-        st.sub("corrections", {"position_degree", "attitude_degree", "position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"});
+    const Fields c = st.sub("corrections", {"position_degree", "attitude_degree", "position_sigma_m", "roll_pitch_sigma_deg",
+                                            "heading_sigma_deg", "priors_from_accuracy"});
     TrajectoryCorrections& tc = opts.corrections;
     tc.position_degree = c.integer("position_degree", tc.position_degree, 0, 3);
     tc.attitude_degree = c.integer("attitude_degree", tc.attitude_degree, 0, 3);
+    tc.priors_from_accuracy = c.boolean("priors_from_accuracy", tc.priors_from_accuracy);
+    if (tc.priors_from_accuracy)
+      for (const char* key : {"position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"})
+        if (c.has(key))
+          c.fail(key, "is the priors' own σ; with \"priors_from_accuracy\" they come from \"trajectory\" — state one or the other");
     tc.position_sigma_m = c.num("position_sigma_m", tc.position_sigma_m, 1e-6, 100.0);
     tc.roll_pitch_sigma_deg = c.num("roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg, 1e-6, 10.0);
     tc.heading_sigma_deg = c.num("heading_sigma_deg", tc.heading_sigma_deg, 1e-6, 10.0);
@@ -666,12 +671,17 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
   const TrajectoryCorrections& tcd = def.corrections;
   if (tc.position_degree != tcd.position_degree || tc.attitude_degree != tcd.attitude_degree ||
       tc.position_sigma_m != tcd.position_sigma_m || tc.roll_pitch_sigma_deg != tcd.roll_pitch_sigma_deg ||
-      tc.heading_sigma_deg != tcd.heading_sigma_deg)
-    j["stochastic"]["corrections"] = {{"position_degree", tc.position_degree},
-                                      {"attitude_degree", tc.attitude_degree},
-                                      {"position_sigma_m", tc.position_sigma_m},
-                                      {"roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg},
-                                      {"heading_sigma_deg", tc.heading_sigma_deg}};
+      tc.heading_sigma_deg != tcd.heading_sigma_deg || tc.priors_from_accuracy != tcd.priors_from_accuracy) {
+    if (tc.priors_from_accuracy)
+      j["stochastic"]["corrections"] = {
+          {"position_degree", tc.position_degree}, {"attitude_degree", tc.attitude_degree}, {"priors_from_accuracy", true}};
+    else
+      j["stochastic"]["corrections"] = {{"position_degree", tc.position_degree},
+                                        {"attitude_degree", tc.attitude_degree},
+                                        {"position_sigma_m", tc.position_sigma_m},
+                                        {"roll_pitch_sigma_deg", tc.roll_pitch_sigma_deg},
+                                        {"heading_sigma_deg", tc.heading_sigma_deg}};
+  }
   const TrajectoryAccuracy& ta = opts.trajectory;
   const TrajectoryAccuracy& td = def.trajectory;
   if (!accuracy_file.empty()) {

@@ -173,6 +173,13 @@ struct TrajectoryCorrections {
   double position_sigma_m = 0.05;       ///< prior of each position coefficient, per axis [m]
   double roll_pitch_sigma_deg = 0.005;  ///< prior of each attitude coefficient about x, y [deg]
   double heading_sigma_deg = 0.01;      ///< prior of each attitude coefficient about z [deg]
+  /// The priors from the trajectory's stated accuracy (StochasticOptions::trajectory, its σ along
+  /// time where given) instead of the three σ above: per strip and axis, the covariance of the
+  /// Legendre coefficients that its stated Gauss–Markov error has over that strip's span
+  /// (detail::legendreCoefficientCovariance) — a long strip or a short correlation time gives a
+  /// drift room to bend, a short strip under a long correlation time little. Needs the trajectory
+  /// errors on (TrajectoryAccuracy::any()).
+  bool priors_from_accuracy = false;
   bool any() const { return position_degree > 0 || attitude_degree > 0; }
   /// Coefficients per strip: 3 d_p position, then 3 d_a attitude.
   int size() const { return 3 * position_degree + 3 * attitude_degree; }
@@ -368,7 +375,9 @@ class AdjustmentProblem {
   void addRandomEffectPriors();
   /// Trajectory corrections and the time offset to estimate (StochasticOptions), set before the
   /// sources add their blocks; they are attached to the residual blocks in commit().
-  void setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s);
+  /// With TrajectoryCorrections::priors_from_accuracy the priors come from `accuracy` per strip.
+  void setCorrections(const TrajectoryCorrections& corrections, double time_offset_sigma_s,
+                      const TrajectoryAccuracy& accuracy = TrajectoryAccuracy::none());
   /// Hands every residual block to Ceres (called by the adjustment once the problem is complete).
   /// Blocks are kept until then, so that the trajectory corrections (StochasticOptions::
   /// corrections) and the time offset can be attached to those with epochs: their cost becomes
@@ -381,6 +390,9 @@ class AdjustmentProblem {
     std::string strip_id;
     double* values = nullptr;
     double t_mid_s = 0.0, half_span_s = 0.0;
+    /// The prior's σ of the correction at the span's end (Σ_k c_k, P_k(1) = 1) per axis:
+    /// position [m], attitude [rad].
+    Vec3 prior_end_position_m = Vec3::Zero(), prior_end_attitude_rad = Vec3::Zero();
   };
   const std::vector<StripCorrection>& stripCorrections() const { return corrections_blocks_; }
   /// The trajectory corrections set by setCorrections (degrees 0: none beyond the strip offset).
@@ -475,7 +487,8 @@ class AdjustmentProblem {
   std::map<std::pair<std::string, long long>, double*> attitude_errors_;
   int source_ = -1;
   TrajectoryCorrections corrections_;
-  double time_offset_sigma_s_ = 0.0;  ///< > 0: the time offset is estimated
+  TrajectoryAccuracy correction_accuracy_ = TrajectoryAccuracy::none();  ///< for priors_from_accuracy
+  double time_offset_sigma_s_ = 0.0;                                     ///< > 0: the time offset is estimated
   std::vector<StripCorrection> corrections_blocks_;
   double* time_offset_block_ = nullptr;
   bool committed_ = false;
@@ -483,6 +496,11 @@ class AdjustmentProblem {
   std::map<const double*, std::string> reported_names_;
   std::map<const double*, Eigen::MatrixXd> reported_covariance_;
   void attachCorrections(bool corrections, bool time_offset);
+  /// The prior covariance of one strip's correction coefficients over its span [t0, t1]
+  /// (TrajectoryCorrections order): the stated σ, or the trajectory accuracy's Legendre covariance.
+  Eigen::MatrixXd correctionPrior(double t0_s, double t1_s) const;
+  /// var(Σ_k c_k) of one axis (the correction at the span's end) in a correctionPrior covariance.
+  static double endVariance(const Eigen::MatrixXd& cov, int axis, int first, int degree);
 };
 
 /// A kind of observation of the mounting (a method). A source never solves: it adds blocks.
@@ -602,6 +620,9 @@ struct AdjustmentSummary {
     double t_start_s = 0.0, t_end_s = 0.0;
     Vec3 position_start_m = Vec3::Zero(), position_end_m = Vec3::Zero();  ///< without the strip offset
     Vec3 attitude_start_rad = Vec3::Zero(), attitude_end_rad = Vec3::Zero();
+    /// The prior's σ of the correction at the span's end, per axis (from the stated σ, or from
+    /// the trajectory's accuracy: TrajectoryCorrections::priors_from_accuracy).
+    Vec3 prior_end_position_m = Vec3::Zero(), prior_end_attitude_rad = Vec3::Zero();
   };
   std::vector<StripCorrection> strip_corrections;
 
