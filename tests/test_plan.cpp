@@ -171,6 +171,26 @@ TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
   const Prediction corrected = predict(load(k));
   for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
     EXPECT_GE(corrected.sigma[p], 0.999 * plain.sigma[p]) << mountingParameterNames()[p];
+  // Priors from the plan's navigation accuracy: a plan without drift has none to derive them from.
+  k["stochastic"]["corrections"]["priors_from_accuracy"] = true;
+  try {
+    load(k);
+    ADD_FAILURE() << "priors_from_accuracy accepted without a drift";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("priors_from_accuracy"), std::string::npos) << e.what();
+  }
+  // With the plan's drift stated, the priors follow it: each σ still at least the plain plan's.
+  json d = k;
+  d["noise"] = {{"drift_position_sigma_m", 0.02}, {"drift_attitude_sigma_deg", 0.002}};
+  const Prediction drift_plain = [&] {
+    json p = d;
+    p.erase("stochastic");
+    return predict(load(p));
+  }();
+  const Prediction drift_corrected = predict(load(d));
+  for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
+    EXPECT_GE(drift_corrected.sigma[p], 0.999 * drift_plain.sigma[p]) << mountingParameterNames()[p];
+  k["stochastic"]["corrections"].erase("priors_from_accuracy");
   k["stochastic"]["corrections"]["attitude_degree"] = 7;
   try {
     load(k);

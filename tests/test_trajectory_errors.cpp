@@ -189,11 +189,12 @@ TEST(TrajectoryErrors, AnAccuracySeriesGivesTheVarianceOfAMeanOfSamplesOfChangin
 // them everywhere quadruples the trajectory part of every variance (Σ − Σ_formal), on a whole
 // calibration through MountingCalibrator (CalibrationData::trajectory_accuracy).
 TEST(TrajectoryErrors, AConstantAccuracySeriesIsTheConstantModelAndTwiceItFourTimesItsVariance) {
+  // The field's given regions (the kernel is the same for every method; automatic patches cost
+  // 6 s here in Release and 49 s under the sanitizers, for nothing this test checks).
   const auto& s = mountcal_tests::crossingField(7, true, 12.0);
   CalibrationData data = toCalibrationData(s);
   MountingCalibrator::Options o;
   o.methods = {"planes"};
-  o.method<PlaneOptions>().automatic = true;
   o.estimate = {true, true, false, true, true, true};
   o.resolve_check = false;
   const TrajectoryAccuracy& acc = o.trajectory;
@@ -916,7 +917,12 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
   const CalibrationData d = withTrajectoryErrors(s, [&](const CalibrationData&, std::vector<TrajectorySample>* samples) {
     for (TrajectorySample& smp : *samples) smp.time_s += delta;
   });
-  for (const char* method : {"vtpm", "planes", "correspondences"}) {
+  // Under the sanitizers the correspondences alone (their matching at the shifted points is the
+  // path of their own; the wrapped cost is the same for every method, and the planes run it in
+  // KnownDriftAndAttitudeErrorsPerStripAreAbsorbedByEveryMethod).
+  const std::vector<const char*> methods = mountcal_tests::kSanitizerBuild ? std::vector<const char*>{"correspondences"}
+                                                                           : std::vector<const char*>{"vtpm", "planes", "correspondences"};
+  for (const char* method : methods) {
     MountingCalibrator::Options o;
     o.methods = {method};
     o.estimate = {true, true, false, true, true, true};
