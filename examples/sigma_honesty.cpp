@@ -141,6 +141,7 @@ int main(int argc, char** argv) {
     o.method<PlaneOptions>().automatic = automatic;
     o.strip_offset_sigma_m = offset_sigma;
     o.estimate = {true, true, false, true, true, true};
+    o.resolve_check = false;  // the estimate and its σ are what is measured here
     o.trajectory.attitude_correlation_s = attitude_tau;
     o.trajectory.position_correlation_s = position_tau;
     if (trajectory_none) o.trajectory = TrajectoryAccuracy::none();

@@ -305,6 +305,9 @@ struct GravityCase {
   bool resolve_settles;  ///< a re-solve from the result stays within 2σ (issue 26; Car: missed, 3.8σ)
   /// The untuned job's median against the tuned one's (issue 26 asks 1.10; Truck: missed, 1.13).
   double untuned_factor;
+  /// The result names its mounting model-dependent (issue 26: Car's heading, which the laser
+  /// offsets move by 2° solved against 0.3° to first order).
+  bool model_dependent;
 };
 class GravityCalibration : public ::testing::TestWithParam<GravityCase> {};
 
@@ -344,6 +347,17 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
     EXPECT_LT(S.resolve.largestInSigma(), 2.0) << S.resolve.text();
   else
     EXPECT_TRUE(S.resolve.unsettled()) << "settles now: " << S.resolve.text() << " — mark it so";
+  // Issue 26: the Car heading's σ does not cover what the models disagree on — the result says so.
+  bool model_dependent = false;
+  for (const auto& ms : S.model_sensitivity) model_dependent |= ms.model_dependent();
+  std::string texts;
+  for (const auto& ms : S.model_sensitivity) texts += ms.text() + "\n";
+  EXPECT_EQ(model_dependent, c.model_dependent) << texts;
+  if (c.model_dependent) {
+    bool warned = false;
+    for (const std::string& r : S.verdict().reasons) warned |= r.find("model-dependent") != std::string::npos;
+    EXPECT_TRUE(warned) << texts;
+  }
 }
 
 // Issue 26: without hand tuning the job takes its defaults from the data — a multi-beam sensor
@@ -375,9 +389,9 @@ TEST_P(GravityCalibration, UntunedJobComesCloseToTheTunedOne) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, GravityCalibration,
-                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true, 1.10},
-                                           GravityCase{"car", "Car.las", 0.20, 0.0230, false, 1.10},
-                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108, true, 1.10}),
+                         ::testing::Values(GravityCase{"truck", "Truck.las", 0.35, 0.0225, true, 1.10, false},
+                                           GravityCase{"car", "Car.las", 0.20, 0.0230, false, 1.10, true},
+                                           GravityCase{"tent", "Tent.las", 0.020, 0.0108, true, 1.10, false}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 // apply writes one file for the two strips of one input, every record moved by the new mounting
