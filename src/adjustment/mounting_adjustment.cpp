@@ -422,7 +422,10 @@ void AdjustmentProblem::attachCorrections(bool corr, bool time) {
         sc.prior_end_attitude_rad[a] = std::sqrt(endVariance(cov, a, 3 * corrections_.position_degree, corrections_.attitude_degree));
       }
       // r = L⁻¹ c for cov = L Lᵀ: unit covariance.
-      const Eigen::MatrixXd W = cov.llt().matrixL().solve(Eigen::MatrixXd::Identity(n, n));
+      // (A covariance too close to singular for Cholesky keeps its variances alone.)
+      const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+      const Eigen::MatrixXd W = llt.info() == Eigen::Success ? Eigen::MatrixXd(llt.matrixL().solve(Eigen::MatrixXd::Identity(n, n)))
+                                                             : Eigen::MatrixXd(cov.diagonal().cwiseSqrt().cwiseInverse().asDiagonal());
       // Non-eliminable: it shares residual blocks with the sources' own nuisance blocks.
       sc.values = addNuisanceBlock(n, zero.data(), nullptr, false);
       addResidualBlock(new BlockPrior(zero, W), 0.0, {sc.values});
