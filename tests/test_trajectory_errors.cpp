@@ -1004,8 +1004,7 @@ TEST(TrajectoryErrors, PlaneSigmasAreHonestUnderNavigationDrift) {
 // RMS 0.71–1.09, 90–100 % within 2σ. About 20 s in Release.
 TEST(TrajectoryErrors, FeatureSigmasAreHonestUnderGaussMarkovDrift) {
   const int seeds = mountcal_tests::seedsFor(12, 1);
-  std::array<double, 6> z2{};
-  std::array<int, 6> within{}, counted{};
+  Honesty h;
   for (int seed = 1; seed <= seeds; ++seed) {
     simulation::Scene scene;
     simulation::SurveyConfig c;
@@ -1020,26 +1019,20 @@ TEST(TrajectoryErrors, FeatureSigmasAreHonestUnderGaussMarkovDrift) {
     o.resolve_check = false;  // the estimate and its σ only
     const auto S = calibrate(simulation::toCalibrationData(s), o);
     ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << ": " << S.message;
-    const auto e = S.mounting.toArray(), t = c.true_mounting.toArray();
-    for (std::size_t j = 0; j < 6; ++j) {
-      if (!S.estimated[j]) continue;
-      ASSERT_GT(S.sigma[j], 0.0) << "seed " << seed << ": " << mountingParameterNames()[j] << " claims σ = 0";
-      const double z = (e[j] - t[j]) / S.sigma[j];
-      z2[j] += z * z;
-      within[j] += std::abs(z) <= 2.0;
-      ++counted[j];
-    }
+    for (std::size_t j = 0; j < 6; ++j)
+      if (S.estimated[j]) ASSERT_GT(S.sigma[j], 0.0) << "seed " << seed << ": " << mountingParameterNames()[j] << " claims σ = 0";
+    h.add(S, c.true_mounting);
   }
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 12 seeds");
   for (std::size_t j = 0; j < 6; ++j) {
-    if (counted[j] == 0) continue;
-    EXPECT_EQ(counted[j], seeds);
-    const double rms = std::sqrt(z2[j] / counted[j]);
-    std::printf("%-20s RMS of error/sigma %.2f, %d of %d within 2 sigma\n", mountingParameterNames()[j].c_str(), rms, within[j],
-                counted[j]);
+    if (h.counted[j] == 0) continue;
+    EXPECT_EQ(h.counted[j], seeds);
+    const double rms = std::sqrt(h.z2_total[j] / h.counted[j]);
+    std::printf("%-20s RMS of error/sigma %.2f, %d of %d within 2 sigma\n", mountingParameterNames()[j].c_str(), rms, h.within[j],
+                h.counted[j]);
     EXPECT_GE(rms, 0.55) << mountingParameterNames()[j] << ": σ too large";
     EXPECT_LE(rms, 1.5) << mountingParameterNames()[j] << ": σ too small";
-    EXPECT_GE(within[j], 10) << mountingParameterNames()[j];
+    EXPECT_GE(h.within[j], 10) << mountingParameterNames()[j];
   }
 }
 

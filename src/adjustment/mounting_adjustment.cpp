@@ -395,6 +395,19 @@ void AdjustmentProblem::commit() {
   committed_ = true;
 }
 
+namespace {
+
+/// var(Σ_k c_k) of one axis (the correction at the span's end, P_k(1) = 1) in a
+/// correctionPrior covariance: the coefficients k of axis a sit at first + 3 (k − 1) + a.
+double endVariance(const Eigen::MatrixXd& cov, int axis, int first, int degree) {
+  double v = 0.0;
+  for (int k = 0; k < degree; ++k)
+    for (int l = 0; l < degree; ++l) v += cov(first + 3 * k + axis, first + 3 * l + axis);
+  return v;
+}
+
+}  // namespace
+
 void AdjustmentProblem::attachCorrections(bool corr, bool time) {
   // Each strip's span: the times of its observations (TrajectoryCorrections' τ ∈ [−1, 1]).
   std::map<const double*, std::pair<double, double>> span;  // offset block → (t_min, t_max)
@@ -501,13 +514,6 @@ Eigen::MatrixXd AdjustmentProblem::correctionPrior(double t0_s, double t1_s) con
   // below any survey's error keeps the prior invertible (1 µm, 1 nrad).
   for (int j = 0; j < n; ++j) cov(j, j) = std::max(cov(j, j), j < 3 * dp ? 1e-12 : 1e-18);
   return cov;
-}
-
-double AdjustmentProblem::endVariance(const Eigen::MatrixXd& cov, int axis, int first, int degree) {
-  double v = 0.0;  // var(Σ_k c_k), P_k(1) = 1
-  for (int k = 0; k < degree; ++k)
-    for (int l = 0; l < degree; ++l) v += cov(first + 3 * k + axis, first + 3 * l + axis);
-  return v;
 }
 
 PointShifts AdjustmentProblem::pointShifts() const {

@@ -499,8 +499,6 @@ class AdjustmentProblem {
   /// The prior covariance of one strip's correction coefficients over its span [t0, t1]
   /// (TrajectoryCorrections order): the stated σ, or the trajectory accuracy's Legendre covariance.
   Eigen::MatrixXd correctionPrior(double t0_s, double t1_s) const;
-  /// var(Σ_k c_k) of one axis (the correction at the span's end) in a correctionPrior covariance.
-  static double endVariance(const Eigen::MatrixXd& cov, int axis, int first, int degree);
 };
 
 /// A kind of observation of the mounting (a method). A source never solves: it adds blocks.
