@@ -1019,8 +1019,11 @@ TEST(TrajectoryErrors, FeatureSigmasAreHonestUnderGaussMarkovDrift) {
     o.resolve_check = false;  // the estimate and its σ only
     const auto S = calibrate(simulation::toCalibrationData(s), o);
     ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << ": " << S.message;
-    for (std::size_t j = 0; j < 6; ++j)
-      if (S.estimated[j]) ASSERT_GT(S.sigma[j], 0.0) << "seed " << seed << ": " << mountingParameterNames()[j] << " claims σ = 0";
+    for (std::size_t j = 0; j < 6; ++j) {
+      if (S.estimated[j]) {
+        ASSERT_GT(S.sigma[j], 0.0) << "seed " << seed << ": " << mountingParameterNames()[j] << " claims σ = 0";
+      }
+    }
     h.add(S, c.true_mounting);
   }
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 12 seeds");

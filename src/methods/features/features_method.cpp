@@ -107,10 +107,11 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
   std::ostringstream r;
   r << detail::printfString(
       "\nFeatures (seed 002): %d targets, %d views; centre RMS before (%.4f, %.4f, %.4f) m, after (%.4f, %.4f, %.4f) m; "
-      "sigma %s: along the normal %.4f m, in the plane %.4f m; extraction %.3f s, matching %.3f s\n",
+      "sigma %s: along the normal %.4f m, in the plane %.4f m (along the track %.4f m, across it %.4f m); extraction %.3f s, "
+      "matching %.3f s\n",
       targets_used, views_used, rms_before_m.x(), rms_before_m.y(), rms_before_m.z(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z(),
-      sigma_estimated ? "estimated (variance components)" : "as stated", sigma_normal_m, sigma_in_plane_m, extraction_time_s,
-      matching_time_s);
+      sigma_estimated ? "estimated (variance components)" : "as stated", sigma_normal_m, sigma_in_plane_m, sigma_along_track_m,
+      sigma_across_track_m, extraction_time_s, matching_time_s);
   r << "  target        A     B     relation   H [m]   y_A [m]   D [m]   offset along/cross/down [m]      ICP it  RMS [m]\n";
   for (const FeaturePairOffset& p : pairs) {
     r << detail::printfString("  %-12s %-5s %-5s %-9s %7.2f %8.2f %7.2f   %+8.4f %+8.4f %+8.4f   %6d %8.4f\n", p.target_id.c_str(),
@@ -213,6 +214,8 @@ std::string FeatureSection::resultJson(const AdjustmentSummary&) const {
                    {"rms_after_m", vec3Json(rms_after_m)},
                    {"sigma_normal_m", sigma_normal_m},
                    {"sigma_in_plane_m", sigma_in_plane_m},
+                   {"sigma_along_track_m", sigma_along_track_m},
+                   {"sigma_across_track_m", sigma_across_track_m},
                    {"sigma_estimated", sigma_estimated},
                    {"extraction_time_s", extraction_time_s},
                    {"matching_time_s", matching_time_s}};

@@ -161,8 +161,11 @@ struct FeatureSection : MethodSection {
   std::vector<Residual> residuals;
   Vec3 rms_before_m = Vec3::Zero(), rms_after_m = Vec3::Zero();  ///< per mapping axis [m]
   /// σ of a target centre along its normal and across its plane used in the last solve (stated,
-  /// or estimated from the residuals) [m].
+  /// or estimated from the residuals) [m]. Estimated, the in-plane σ is two components — along the
+  /// viewing strip's track and across it, both in the target's plane (a scanner samples a target
+  /// in rows and along its scan lines at different spacings) — and sigma_in_plane_m their RMS.
   double sigma_normal_m = 0.0, sigma_in_plane_m = 0.0;
+  double sigma_along_track_m = 0.0, sigma_across_track_m = 0.0;
   bool sigma_estimated = false;
   double extraction_time_s = 0.0, matching_time_s = 0.0;  ///< [s]
   /// With laser_elevation_sigma_deg > 0: per laser id the estimated elevation offset (in
@@ -253,13 +256,15 @@ class FeatureObservations final : public ObservationSource {
     std::vector<Mat3> R_mb;
     std::vector<int> laser;  ///< each point's laser id (per-laser elevation offsets only)
     Vec3 normal = Vec3::UnitZ();
-    double time_s = 0.0;  ///< mean time of the points [s]
+    Vec3 forward = Vec3::UnitY();  ///< the strip's horizontal forward direction (FeatureView::forward) [-]
+    double time_s = 0.0;           ///< mean time of the points [s]
   };
   void select(const std::array<double, 6>& m);
   std::vector<std::vector<ViewPoints>> points_;
   std::array<double, 6> selected_at_{};
   bool selected_ = false, settled_ = false;
-  double sigma_n_ = 0.002, sigma_t_ = 0.02;
+  /// σ of a centre along the normal, and in the plane along and across the viewing strip's track [m].
+  double sigma_n_ = 0.002, sigma_t_ = 0.02, sigma_a_ = 0.02, sigma_c_ = 0.02;
   FeatureOptions options_;
   MountingParameters used_;
   std::vector<Target> targets_;
