@@ -584,4 +584,15 @@ TEST(ResidualShare, IsWhatTheAbsorbedPolynomialsLeaveByHand) {
   // Epochs many τ apart are independent: the mean of two takes half of each one's variance.
   const Eigen::VectorXd far = mountcal::detail::residualShare({0.0, 300.0}, {1.0, 1.0}, tau, {0});
   EXPECT_NEAR(far(0), 0.5 * (1 - std::exp(-10.0)), 1e-12);
+  // An offset that takes κ of the mean (a random effect, κ = 1 − σ²_post/σ²_prior): e₀ − κ(e₀ + e₁)/2
+  // keeps (1 − κ/2)² + κ²/4 − 2 (1 − κ/2)(κ/2) ρ; κ = 1 is the full mean above, κ = 0 keeps all.
+  for (double kappa : {0.0, 0.3, 0.5, 1.0}) {
+    const Eigen::VectorXd part = mountcal::detail::residualShare({0.0, 10.0}, {1.0, 1.0}, tau, {0}, kappa);
+    const double expected = std::pow(1 - kappa / 2, 2) + kappa * kappa / 4 - 2 * (1 - kappa / 2) * (kappa / 2) * rho;
+    EXPECT_NEAR(part(0), expected, 1e-12) << "kappa " << kappa;
+    EXPECT_NEAR(part(1), expected, 1e-12) << "kappa " << kappa;
+  }
+  // With a line absorbed too, only the constant is shared: κ = 1 gives the full projection.
+  const Eigen::VectorXd line = mountcal::detail::residualShare({0.0, 5.0, 10.0}, {1.0, 1.0, 1.0}, tau, {0, 1}, 1.0);
+  EXPECT_NEAR(line(1), 4 * vrv / 6, 1e-12);
 }

@@ -159,7 +159,7 @@ Eigen::MatrixXd legendreCoefficientCovariance(int degree, double t0_s, double t1
 }
 
 Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
-                              const std::vector<int>& degrees) {
+                              const std::vector<int>& degrees, double constant_absorbed) {
   const Eigen::Index n = static_cast<Eigen::Index>(times.size());
   if (degrees.empty() || n == 0) return Eigen::VectorXd::Ones(n);
   const double t0 = times.front(), span = std::max(times.back() - times.front(), 1e-9);
@@ -173,7 +173,12 @@ Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vecto
       rho(i, j) = std::exp(-std::abs(times[static_cast<std::size_t>(i)] - times[static_cast<std::size_t>(j)]) / tau);
   }
   const Eigen::MatrixXd BtW = B.transpose() * w.asDiagonal();
-  const Eigen::MatrixXd P = B * (BtW * B).completeOrthogonalDecomposition().pseudoInverse() * BtW;
+  Eigen::MatrixXd P = B * (BtW * B).completeOrthogonalDecomposition().pseudoInverse() * BtW;
+  const double kappa = std::clamp(constant_absorbed, 0.0, 1.0);
+  if (kappa < 1.0 && std::find(degrees.begin(), degrees.end(), 0) != degrees.end() && w.sum() > 0) {
+    // The W-orthogonal projection on the constant (the weighted mean) is nested in P's span.
+    P -= (1.0 - kappa) * Eigen::VectorXd::Ones(n) * (w.transpose() / w.sum());
+  }
   const Eigen::MatrixXd R = Eigen::MatrixXd::Identity(n, n) - P;
   return (R * rho * R.transpose()).diagonal().cwiseMax(0.0);
 }

@@ -34,8 +34,11 @@ Vec3 correctionShift(int position_degree, int attitude_degree, double tau, const
 /// polynomial in time of the listed degrees (the strip offset: degree 0; trajectory corrections:
 /// 1, 2, …): the diagonal of (I − P) ρ (I − P)ᵀ, P the least-squares projection (weights
 /// `weights`) onto those polynomials. `times` ascending; no degrees: every share is 1.
+/// `constant_absorbed` κ ∈ [0, 1]: how much of a strip-constant error the strip's offset takes
+/// (a random effect with a prior takes only the data's share of it: κ = 1 − σ²_posterior / σ²_prior);
+/// the degree-0 part of P is then κ times the weighted mean (P = P_all − (1 − κ) P_0).
 Eigen::VectorXd residualShare(const std::vector<double>& times, const std::vector<double>& weights, double tau,
-                              const std::vector<int>& degrees);
+                              const std::vector<int>& degrees, double constant_absorbed = 1.0);
 
 /// Covariance (degree × degree; rows and columns k = 1 … degree) of the Legendre coefficients of
 /// an error e(t) = σ(t) u(t) over a strip's span [t0, t1], u a unit Gauss–Markov process of

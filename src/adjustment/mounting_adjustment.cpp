@@ -674,8 +674,10 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
 /// condition). Nuisance blocks on a manifold enter in their tangent space. `X` (optional):
 /// N_ee⁻¹ N_ek, the eliminated blocks' response to the kept ones (rows: columns `kept`… of
 /// `cols`), for the reduced Jacobian J_k − J_e X of any residual.
+/// `offset_variance` (optional): per strip offset its posterior variance per axis with the kept
+/// columns held (the diagonal of N_ee⁻¹ there; its prior is one of the records).
 void reducedSystem(AdjustmentProblem& problem, int kept, Eigen::MatrixXd* N_red, Eigen::VectorXd* diag, Eigen::MatrixXd* X_out = nullptr,
-                   Columns* cols_out = nullptr) {
+                   Columns* cols_out = nullptr, std::map<const double*, Vec3>* offset_variance = nullptr) {
   const Columns cols = columnsOf(problem);
   const int n = cols.n, k = kept;
   std::vector<Eigen::Triplet<double>> trip;
@@ -704,13 +706,29 @@ void reducedSystem(AdjustmentProblem& problem, int kept, Eigen::MatrixXd* N_red,
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Nee);
   Eigen::MatrixXd X;
   if (ldlt.info() == Eigen::Success) X = ldlt.solve(Nek);
-  if (ldlt.info() != Eigen::Success || !X.allFinite()) {
+  const bool regularised = ldlt.info() != Eigen::Success || !X.allFinite();
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> reg;
+  if (regularised) {
     // A nuisance direction the data leave free (it cannot couple to the mounting): regularise.
     Eigen::SparseMatrix<double> R = Nee;
     const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(Nee.diagonal()).cwiseAbs().maxCoeff());
     for (int i = 0; i < n - k; ++i) R.coeffRef(i, i) += eps;
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> reg(R);
+    reg.compute(R);
     X = reg.solve(Nek);
+  }
+  if (offset_variance && problem.stripOffsetSigma() > 0) {
+    const auto& offsets = problem.stripOffsets();
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n - k, 3 * static_cast<Eigen::Index>(offsets.size()));
+    Eigen::Index c = 0;
+    for (const auto& entry : offsets)
+      for (int a = 0; a < 3; ++a) E(cols.col.at(entry.second).first - k + a, c++) = 1.0;
+    const Eigen::MatrixXd V = regularised ? Eigen::MatrixXd(reg.solve(E)) : Eigen::MatrixXd(ldlt.solve(E));
+    c = 0;
+    for (const auto& entry : offsets) {
+      Vec3 v;
+      for (int a = 0; a < 3; ++a, ++c) v(a) = V(cols.col.at(entry.second).first - k + a, c);
+      (*offset_variance)[entry.second] = v;
+    }
   }
   *N_red = Nkk - Nek.transpose() * X;
   *N_red = 0.5 * (*N_red + N_red->transpose());
@@ -759,13 +777,18 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   Eigen::MatrixXd N_red, X;
   Eigen::VectorXd diag;
   Columns cols;
-  reducedSystem(problem, kept, &N_red, &diag, &X, &cols);
+  // The offsets' posterior variances only where a kind's σ hold their own epochs' errors.
+  bool any_in_sigma = false;
+  for (const auto& rec : problem.records())
+    for (const auto& e : rec.epochs) any_in_sigma = any_in_sigma || e.in_sigma;
+  std::map<const double*, Vec3> offset_var;
+  reducedSystem(problem, kept, &N_red, &diag, &X, &cols, any_in_sigma ? &offset_var : nullptr);
   if (N_red_out) *N_red_out = N_red;
   using Mat63 = Eigen::Matrix<double, Rows, 3>;
   const Mat zero = Mat::Zero(kept, kept);
   const Mat63 zero3 = Mat63::Zero(kept, 3);
-  struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ and its count
-    Mat hch;
+  struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ per axis of C and its count
+    std::array<Mat, 3> hch;
     double count = 0;
   };
   struct Group {
@@ -820,8 +843,8 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
         const long long bin = std::llround(e.time_s / g->bin);
         g->H[e.offset].try_emplace(bin, zero3).first->second += *h;
         if (!e.in_sigma) continue;
-        Own& o = g->own[e.offset].try_emplace(bin, Own{zero, 0.0}).first->second;
-        o.hch += *h * g->var.asDiagonal() * h->transpose();
+        Own& o = g->own[e.offset].try_emplace(bin, Own{{zero, zero, zero}, 0.0}).first->second;
+        for (int a = 0; a < 3; ++a) o.hch[static_cast<std::size_t>(a)] += g->var(a) * h->col(a) * h->col(a).transpose();
         o.count += 1;
       }
     }
@@ -836,9 +859,17 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
         times.push_back(static_cast<double>(b) * g->bin);
         weights.push_back(o.count);
       }
-      const Eigen::VectorXd share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{});
-      Eigen::Index i = 0;
-      for (const auto& [b, o] : bins) out.self += share(i++) * o.hch;
+      // The offset is a random effect: of a strip-constant error it takes only what the data
+      // resolve, κ = 1 − σ²_posterior / σ²_prior per axis (a strip whose few observations hardly
+      // determine its offset keeps nearly all of its own error in their residuals).
+      const auto v = offset_var.find(strip);
+      const double prior = problem.stripOffsetSigma() * problem.stripOffsetSigma();
+      for (int a = 0; a < 3; ++a) {
+        const double kappa = g == &pos && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
+        const Eigen::VectorXd share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{}, kappa);
+        Eigen::Index i = 0;
+        for (const auto& [b, o] : bins) out.self += share(i++) * o.hch[static_cast<std::size_t>(a)];
+      }
     }
     for (const auto& [strip, bins] : g->H) {
       (void)strip;

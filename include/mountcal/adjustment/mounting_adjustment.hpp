@@ -123,7 +123,10 @@ struct PulseNoise {
 /// in that σ the part of each observation's own trajectory error that its strip's estimated
 /// terms (offset, corrections) do not absorb — for a Gauss–Markov error the share left by
 /// removing those polynomials in time (detail::residualShare); only that part is taken off, and
-/// never more than nine tenths of what the estimated σ state.
+/// never more than nine tenths of what the estimated σ state. The strip offset, a random effect
+/// with its prior, takes of a strip-constant error only the share its data resolve,
+/// κ = 1 − σ²_posterior / σ²_prior per axis: a strip whose few observations hardly determine its
+/// offset (nine targets of a UAV flight) keeps most of its own error in their residuals.
 ///
 /// Thousands of point-to-plane distances that share one trajectory error are not independent
 /// observations: without this term their σ are too small by the square root of how many share
