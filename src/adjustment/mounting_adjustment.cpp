@@ -864,9 +864,14 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       // determine its offset keeps nearly all of its own error in their residuals).
       const auto v = offset_var.find(strip);
       const double prior = problem.stripOffsetSigma() * problem.stripOffsetSigma();
+      Eigen::VectorXd share;
+      double share_kappa = std::nan("");  // axes of one κ (every attitude axis: 1) share one computation
       for (int a = 0; a < 3; ++a) {
         const double kappa = g == &pos && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
-        const Eigen::VectorXd share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{}, kappa);
+        if (!(kappa == share_kappa)) {
+          share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{}, kappa);
+          share_kappa = kappa;
+        }
         Eigen::Index i = 0;
         for (const auto& [b, o] : bins) out.self += share(i++) * o.hch[static_cast<std::size_t>(a)];
       }

@@ -684,8 +684,7 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
     target_points.push_back(std::move(pts));
     target_means.push_back(std::move(means));
   }
-  if (options_.sigma_in_plane_m > 0) sigma_t_ = options_.sigma_in_plane_m;
-  sigma_a_ = sigma_c_ = sigma_t_;
+  if (options_.sigma_in_plane_m > 0) sigma_a_ = sigma_c_ = options_.sigma_in_plane_m;
   const auto t1 = clock();
   section_.extraction_time_s = std::chrono::duration<double>(t1 - t0).count();
 
@@ -823,7 +822,7 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
       std::vector<double*> blocks = {problem->mounting(), T.block, problem->stripOffset(v.strip_id)};
       if (lasers) cost->AddParameterBlock(laser_->lasers()), blocks.push_back(lasers);
       cost->SetNumResiduals(3);
-      blocks_[k].push_back(problem->addResidualBlock(cost, sigma_t_, blocks));
+      blocks_[k].push_back(problem->addResidualBlock(cost, sigmaInPlane(), blocks));
       problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m, options_.sigma_in_plane_m <= 0);
     }
   }
@@ -860,7 +859,6 @@ void FeatureObservations::solved(const AdjustmentProblem& problem) {
   sigma_n_ = sn;
   sigma_a_ = sa;
   sigma_c_ = sc;
-  sigma_t_ = std::sqrt(0.5 * (sa * sa + sc * sc));
   selected_ = false;  // rebuild the weights with the new σ
 }
 
@@ -868,7 +866,7 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
                                  const AnalysisOptions& /*analysis*/) {
   section_.residuals.clear();
   section_.sigma_normal_m = sigma_n_;
-  section_.sigma_in_plane_m = sigma_t_;
+  section_.sigma_in_plane_m = sigmaInPlane();
   section_.sigma_along_track_m = sigma_a_;
   section_.sigma_across_track_m = sigma_c_;
   section_.sigma_estimated = options_.sigma_in_plane_m <= 0;

@@ -24,6 +24,7 @@
 ///     sampling of the target's outline). The mean is linear in R_bs(M): c_i(M) needs one 3×9
 ///     product per evaluation however many points the target holds.
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -264,7 +265,9 @@ class FeatureObservations final : public ObservationSource {
   std::array<double, 6> selected_at_{};
   bool selected_ = false, settled_ = false;
   /// σ of a centre along the normal, and in the plane along and across the viewing strip's track [m].
-  double sigma_n_ = 0.002, sigma_t_ = 0.02, sigma_a_ = 0.02, sigma_c_ = 0.02;
+  double sigma_n_ = 0.002, sigma_a_ = 0.02, sigma_c_ = 0.02;
+  /// The in-plane σ as one figure: the RMS of the two components [m].
+  double sigmaInPlane() const { return std::sqrt(0.5 * (sigma_a_ * sigma_a_ + sigma_c_ * sigma_c_)); }
   FeatureOptions options_;
   MountingParameters used_;
   std::vector<Target> targets_;
