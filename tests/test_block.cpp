@@ -43,6 +43,10 @@ MountingCalibrator::Options correspondenceOptions(int threads) {
   // These tests compare mountings (threads, pair files); the re-solve check, which doubles a
   // matching calibration's time, is tested in test_observability.cpp and on the Gravity data.
   o.resolve_check = false;
+  // The block's strips move against each other by about 2 m during the calibration: pair files
+  // matched for the default 1 m would refuse those samples (and warn), where the whole search
+  // grows its margin from the data — matched for 4 m, both hold every neighbourhood whole.
+  o.method<CorrespondenceOptions>().apriori_misalignment_m = 4.0;
   return o;
 }
 
@@ -123,6 +127,8 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   from_files.correspondence_candidates = given;
   const MountingCalibrator::Summary split = calibrate(from_files, o);
   ASSERT_TRUE(split.IsSolutionUsable()) << split.message;
+  EXPECT_EQ(whole.section<CorrespondenceSection>().misalignment_growths, 0);  // so the two searched alike
+  EXPECT_EQ(split.section<CorrespondenceSection>().rejected_moved, 0);
   expectSameMounting(split.mounting, whole.mounting, 1e-9, "pair files against the whole search");
   EXPECT_EQ(split.mounting.toArray(), whole.mounting.toArray());  // to the last bit, in fact
   EXPECT_EQ(split.section<CorrespondenceSection>().used, whole.section<CorrespondenceSection>().used);
@@ -135,6 +141,21 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   EXPECT_NEAR(got.y(), truth.y() + rad2deg(0.1 / 300.0), 0.01);
   EXPECT_NEAR(got.z(), truth.z(), 0.01);
   fs::remove_all(dir);
+  // Pair files matched for a misalignment the strips then exceed (the default 1 m) cannot grow:
+  // the samples whose neighbours reach past them are refused, and the warning says what to match for.
+  auto o1 = o;
+  o1.method<CorrespondenceOptions>().apriori_misalignment_m = 1.0;
+  auto narrow = std::make_shared<std::vector<PairCandidates>>();
+  for (const auto& [a, b] : candidateStripPairs(d, o1.method<CorrespondenceOptions>()))
+    narrow->push_back(findPairCandidates(d, a, b, o1.method<CorrespondenceOptions>()));
+  from_files.correspondence_candidates = narrow;
+  const MountingCalibrator::Summary short_pairs = calibrate(from_files, o1);
+  const CorrespondenceSection& cs = short_pairs.section<CorrespondenceSection>();
+  EXPECT_GT(cs.rejected_moved, 0);
+  EXPECT_EQ(cs.misalignment_growths, 0);
+  EXPECT_GT(cs.needed_misalignment_m, 1.0);
+  ASSERT_EQ(cs.warnings().size(), 1u);
+  EXPECT_NE(cs.warnings()[0].find("mountcal match"), std::string::npos) << cs.warnings()[0];
 }
 
 TEST(Block, ThreadsDoNotChangeTheResult) {
@@ -261,6 +282,7 @@ TEST(Workflow, SnakemakeBlockEqualsOneCalibrateAndRematchesOnlyADeletedPair) {
     // every calibrate of the block; tested in test_observability.cpp).
     nlohmann::json j = nlohmann::json::parse(slurp(job));
     j["solver"]["resolve_check"] = false;
+    j["correspondences"]["apriori_misalignment_m"] = 4.0;  // the strips move by about 2 m (correspondenceOptions)
     std::ofstream(job) << j.dump(2);
   }
   r = sh(cli() + " calibrate " + job + " --result " + (dir / "serial.json").string() + " --quiet --threads 2");

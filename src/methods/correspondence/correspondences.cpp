@@ -21,6 +21,11 @@
 
 namespace mountcal {
 
+namespace {
+/// The a-priori misalignment's own bound (CorrespondenceOptions::IsValid) [m].
+constexpr double kMaxMisalignmentM = 1000.0;
+}  // namespace
+
 std::array<double, 5> CorrespondenceOptions::laserPriorSigmas() const {
   return {deg2rad(laser_elevation_sigma_deg), deg2rad(laser_azimuth_sigma_deg), laser_range_sigma_m, laser_vertical_sigma_m,
           laser_horizontal_sigma_m};
@@ -38,7 +43,8 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
     return false;
   };
   auto nonneg = [](double v) { return v >= 0 && std::isfinite(v); };
-  if (!nonneg(apriori_misalignment_m) || apriori_misalignment_m > 1000) return fail("apriori_misalignment_m must be in [0, 1000]");
+  if (!nonneg(apriori_misalignment_m) || apriori_misalignment_m > kMaxMisalignmentM)
+    return fail("apriori_misalignment_m must be in [0, 1000]");
   if (!nonneg(radius_m) || radius_m > 1000) return fail("radius_m must be in [0, 1000] (0: from the point spacing)");
   if (!nonneg(sample_spacing_m) || sample_spacing_m > 10000) return fail("sample_spacing_m must be in [0, 10000]");
   if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
@@ -57,6 +63,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!(laser_vertical_sigma_m >= 0 && laser_vertical_sigma_m <= 1)) return fail("laser_vertical_sigma_m must be in [0, 1]");
   if (!(laser_horizontal_sigma_m >= 0 && laser_horizontal_sigma_m <= 1)) return fail("laser_horizontal_sigma_m must be in [0, 1]");
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
+  if (max_misalignment_growths < 0 || max_misalignment_growths > 20) return fail("max_misalignment_growths must be in [0, 20]");
   if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
   if (!nonneg(sigma_m)) return fail("sigma_m must be finite and non-negative");
   return true;
@@ -207,6 +214,7 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
   const double search_first = std::max(r, firstGate(options, r));  // the first round's neighbour radius
   std::vector<std::size_t> na, nb, around;
   std::vector<std::size_t> kept, ub;
+  std::vector<char> in_b(B.x0.size(), 0);
   for (std::size_t i : samples) {
     tree_b.nearest(A.x0[i], K, search_first, &nb);
     tree_a.nearest(A.x0[i], K, r, &na);
@@ -222,10 +230,10 @@ PairCandidates extractPair(const CalibrationData& data, int ia, int ib, const St
     // neighbour's distance plus the largest discrepancy expected between the strips.
     const double d_k = (B.x0[nb.back()] - A.x0[i]).norm();
     tree_b.within(A.x0[i], d_k + options.apriori_misalignment_m, &around);
-    ub.insert(ub.end(), around.begin(), around.end());
+    for (std::size_t j : around) in_b[j] = 1;  // balls overlap: marked, not listed again and again
   }
-  std::sort(ub.begin(), ub.end());
-  ub.erase(std::unique(ub.begin(), ub.end()), ub.end());
+  for (std::size_t j = 0; j < in_b.size(); ++j)
+    if (in_b[j]) ub.push_back(j);
   // Poses without a cursor: at a trajectory sample's own time the interval a cursor lands in
   // can differ in the last bit; the solve from a pair file looks the time up the same way.
   auto point = [&](const StripData& S, const StripRef& R, std::size_t i) {
@@ -291,13 +299,34 @@ class Matcher {
     for (const PairCandidates& p : pairs_) spacing_ = std::max({spacing_, p.spacing_a_m, p.spacing_b_m});
     // Each pair's k-d tree of B's points at the mounting used, for every matching.
     trees_.resize(pairs_.size());
+    ball_.resize(pairs_.size());
     parallelFor(pairs_.size(), threads_, [&](std::size_t k) {
       std::vector<Vec3> x0(pairs_[k].points_b.size());
       std::vector<std::size_t> all(x0.size());
       for (std::size_t j = 0; j < x0.size(); ++j) x0[j] = pairs_[k].points_b[j].x0_m, all[j] = j;
       trees_[k] = std::make_unique<PointTree>(x0, std::move(all));
+      ball_[k] = completeRadii(pairs_[k], trees_[k].get());
     });
     r_ = opts.radius_m > 0 ? opts.radius_m : std::max(0.25, 2.5 * spacing_);
+  }
+
+  /// Per sample of a pair, the radius about its place at the mounting used within which the
+  /// candidates hold every point of B (extractPair): the K-th neighbour's distance d_k plus the
+  /// a-priori misalignment — and, where fewer than K points lie within the first round's
+  /// search radius, that radius too (B has no other point there).
+  std::vector<double> completeRadii(const PairCandidates& pc, PointTree* tree) const {
+    const auto K = static_cast<std::size_t>(o_.max_neighbours);
+    const double search_first = std::max(pc.radius_m, firstGate(o_, pc.radius_m));
+    std::vector<double> out(pc.samples_a.size(), 0.0);
+    std::vector<std::size_t> nb;
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      const Vec3& x = pc.samples_a[k].x0_m;
+      tree->nearest(x, K, search_first, &nb);
+      if (nb.empty()) continue;
+      const double d_k = (pc.points_b[nb.back()].x0_m - x).norm();
+      out[k] = nb.size() < K ? std::max(search_first, d_k + o_.apriori_misalignment_m) : d_k + o_.apriori_misalignment_m;
+    }
+    return out;
   }
 
   static std::vector<std::pair<int, int>> pairsOf(const CalibrationData& data, const std::vector<StripRef>& refs,
@@ -333,8 +362,11 @@ class Matcher {
     std::vector<double> gates(pairs_.size(), 0.0);
     // Each pair on its own thread: its points at m, then every sample (selection from the
     // candidate neighbourhoods, the plane fits and the gates). Slots merged in pair order.
-    parallelFor(pairs_.size(), threads_,
-                [&](std::size_t pi) { gates[pi] = matchPair(pi, motion, shifts, first_round, &out.pairs[pi], &per_pair[pi]); });
+    std::vector<double> needed(pairs_.size(), 0.0);
+    parallelFor(pairs_.size(), threads_, [&](std::size_t pi) {
+      gates[pi] = matchPair(pi, motion, shifts, first_round, &out.pairs[pi], &per_pair[pi], &needed[pi]);
+    });
+    for (double v : needed) out.needed_misalignment_m = std::max(out.needed_misalignment_m, v);
     std::vector<Candidate> cand;
     for (std::size_t pi = 0; pi < pairs_.size(); ++pi) {
       out.points_searched += pairs_[pi].overlap_points;
@@ -359,7 +391,7 @@ class Matcher {
   /// The candidates of pair pi at the mounting of `motion`, with its statistics; returns the
   /// pair's distance gate [m].
   double matchPair(std::size_t pi, const MountingMotion& motion, const PointShifts& shifts, bool first_round,
-                   CorrespondencePairStats* stats, std::vector<Candidate>* candidates) {
+                   CorrespondencePairStats* stats, std::vector<Candidate>* candidates, double* needed_misalignment) {
     CorrespondencePairStats& st = *stats;
     const PairCandidates& pr = pairs_[pi];
     st.strip_a = pr.strip_a;
@@ -401,8 +433,21 @@ class Matcher {
       const Vec3 q = p - (xb[found[0]] - pr.points_b[found[0]].x0_m);
       tree.nearest(q, K, 1e300, &found);
       nb.clear();
+      double reach = 0;  // the neighbourhood's extent about q at the mounting used
       for (std::size_t t : found)
-        if ((xb[t] - p).squaredNorm() <= search_r * search_r) nb.push_back(static_cast<std::uint32_t>(t));
+        if ((xb[t] - p).squaredNorm() <= search_r * search_r) {
+          nb.push_back(static_cast<std::uint32_t>(t));
+          reach = std::max(reach, (pr.points_b[t].x0_m - q).norm());
+        }
+      // Complete only while the ball of the neighbours about q lies within the ball about the
+      // sample's place at the mounting used that the candidates hold whole. (A neighbourhood cut
+      // short by the search radius, at the edge of B's coverage, is checked on the points it has.)
+      const double beyond = (q - qa.x0_m).norm() + reach - ball_[pi][k];
+      if (beyond > 0) {
+        ++st.rejected_moved;
+        *needed_misalignment = std::max(*needed_misalignment, o_.apriori_misalignment_m + beyond);
+        continue;
+      }
       if (static_cast<int>(nb.size()) < o_.min_neighbours) {
         ++st.rejected_sparse;
         continue;
@@ -602,7 +647,8 @@ class Matcher {
   std::vector<std::pair<int, int>> index_;  // strip indices of each pair
   std::vector<PairCandidates> pairs_;
   std::vector<std::unique_ptr<PointTree>> trees_;
-  std::vector<Ref> refs_;  // of the last matching's correspondences
+  std::vector<std::vector<double>> ball_;  // per pair and sample: completeRadii
+  std::vector<Ref> refs_;                  // of the last matching's correspondences
   double spacing_ = 0, r_ = 0;
 };
 
@@ -816,14 +862,36 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   }
 }
 
+void CorrespondenceObservations::matchGrowing(const std::array<double, 6>& mounting) {
+  section_.candidates_given = data_.correspondence_candidates != nullptr;
+  if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
+  const bool first_round = mounting == data_.mounting_used.toArray();
+  set_ = matcher_->match(mounting, first_round, shifts_);
+  // The strips moved against each other beyond the misalignment the candidates were found for:
+  // found again from the strips with a margin of what this matching needed, grown by half (the
+  // solve that follows may move them further), at least doubled.
+  while (set_.needed_misalignment_m > 0 && !section_.candidates_given &&
+         section_.misalignment_growths < options_.max_misalignment_growths && options_.apriori_misalignment_m < kMaxMisalignmentM) {
+    section_.search_time_s += set_.seconds;
+    options_.apriori_misalignment_m =
+        std::min(kMaxMisalignmentM, std::max(2.0 * options_.apriori_misalignment_m, 1.5 * set_.needed_misalignment_m));
+    ++section_.misalignment_growths;
+    matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
+    set_ = matcher_->match(mounting, first_round, shifts_);
+  }
+  section_.apriori_misalignment_m = options_.apriori_misalignment_m;
+  section_.needed_misalignment_m = set_.needed_misalignment_m;
+  section_.rejected_moved = 0;
+  for (const CorrespondencePairStats& p : set_.pairs) section_.rejected_moved += p.rejected_moved;
+}
+
 void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
   if (options_.dense) {
     addDenseBlocks(mounting, problem);
     return;
   }
-  if (!matcher_) matcher_ = std::make_unique<detail::Matcher>(data_, options_, threads_);
-  detail::Matcher& matcher = *matcher_;
-  set_ = matcher.match(mounting, mounting == data_.mounting_used.toArray(), shifts_);
+  matchGrowing(mounting);
+  const detail::Matcher& matcher = *matcher_;
   ++section_.rounds;
   section_.search_time_s += set_.seconds;
   section_.points_searched += set_.points_searched;

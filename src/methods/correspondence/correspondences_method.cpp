@@ -27,7 +27,10 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
       OptionTable<T>()
           .number(
               "apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000,
-              "largest strip-to-strip discrepancy expected before calibration")
+              "largest strip-to-strip discrepancy expected before calibration; grown from the data when the strips move further")
+          .integer(
+              "max_misalignment_growths", [](T& o) -> int& { return o.max_misalignment_growths; }, 0, 20,
+              "how often the candidates may be found again with a grown a-priori misalignment")
           .number(
               "radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
           .number(
@@ -182,11 +185,17 @@ std::string CorrespondenceSection::text(const AdjustmentSummary&) const {
       "\nCorrespondences: %d used after %d matchings (r %.2f m, spacing %.2f m, sigma %.4f m); |distance| median %.4f -> %.4f m, "
       "RMS %.4f -> %.4f m\n",
       used, rounds, radius_m, spacing_m, sigma_m, median_before_m, median_after_m, rms_before_m, rms_after_m);
-  r << "  pair        samples  kept  sparse rough  far normal  MAD budget   median before/after [m]   RMS before/after [m]\n";
+  if (misalignment_growths > 0)
+    r << detail::printfString(
+        "  The strips moved against each other beyond the a-priori misalignment: candidates found again %d time(s), "
+        "for %.2f m\n",
+        misalignment_growths, apriori_misalignment_m);
+  r << "  pair        samples  kept  sparse rough  far normal  MAD budget moved   median before/after [m]   RMS before/after [m]\n";
   for (const CorrespondencePairStats& p : pairs) {
-    r << detail::printfString("  %-5s %-5s %7d %5d %7d %5d %4d %6d %4d %6d   %10.4f %10.4f   %10.4f %10.4f\n", p.strip_a.c_str(),
+    r << detail::printfString("  %-5s %-5s %7d %5d %7d %5d %4d %6d %4d %6d %5d   %10.4f %10.4f   %10.4f %10.4f\n", p.strip_a.c_str(),
                               p.strip_b.c_str(), p.samples, p.kept, p.rejected_sparse, p.rejected_rough, p.rejected_far, p.rejected_normal,
-                              p.rejected_mad, p.rejected_budget, p.median_before_m, p.median_after_m, p.rms_before_m, p.rms_after_m);
+                              p.rejected_mad, p.rejected_budget, p.rejected_moved, p.median_before_m, p.median_after_m, p.rms_before_m,
+                              p.rms_after_m);
   }
   if (!lasers.empty()) r << laserText(*this);
   return r.str();
@@ -206,7 +215,8 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
                       {"far", p.rejected_far},
                       {"normal", p.rejected_normal},
                       {"mad", p.rejected_mad},
-                      {"budget", p.rejected_budget}}},
+                      {"budget", p.rejected_budget},
+                      {"moved", p.rejected_moved}}},
                     {"median_before_m", p.median_before_m},
                     {"rms_before_m", p.rms_before_m},
                     {"median_after_m", p.median_after_m},
@@ -224,6 +234,8 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
                           {"rms_after_m", rms_after_m},
                           {"search_time_s", search_time_s},
                           {"points_searched", points_searched},
+                          {"apriori_misalignment_m", apriori_misalignment_m},
+                          {"misalignment_growths", misalignment_growths},
                           {"pairs", list}};
   if (!lasers.empty()) j["intrinsics"] = laserJson(*this);
   return j.dump();
@@ -237,12 +249,13 @@ std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
     << cell(radius_m, "%.2f") << " m, point spacing " << cell(spacing_m, "%.2f") << " m, σ " << cell(sigma_m) << " m); |distance| median "
     << cell(median_before_m) << " → " << cell(median_after_m) << " m, RMS " << cell(rms_before_m) << " → " << cell(rms_after_m) << " m</p>";
   h << "<table><tr><th>strips</th><th>samples</th><th>kept</th><th>sparse</th><th>rough</th><th>far</th><th>normals</th><th>MAD</th>"
-       "<th>budget</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS after [m]</th></tr>";
+       "<th>budget</th><th>moved</th><th>median before [m]</th><th>median after [m]</th><th>RMS before [m]</th><th>RMS after [m]</th></tr>";
   for (const CorrespondencePairStats& p : pairs) {
     h << "<tr><td class=l>" << htmlEscape(p.strip_a) << " / " << htmlEscape(p.strip_b) << "</td><td>" << p.samples << "</td><td>" << p.kept
       << "</td><td>" << p.rejected_sparse << "</td><td>" << p.rejected_rough << "</td><td>" << p.rejected_far << "</td><td>"
-      << p.rejected_normal << "</td><td>" << p.rejected_mad << "</td><td>" << p.rejected_budget << "</td><td>" << cell(p.median_before_m)
-      << "</td><td>" << cell(p.median_after_m) << "</td><td>" << cell(p.rms_before_m) << "</td><td>" << cell(p.rms_after_m) << "</td></tr>";
+      << p.rejected_normal << "</td><td>" << p.rejected_mad << "</td><td>" << p.rejected_budget << "</td><td>" << p.rejected_moved
+      << "</td><td>" << cell(p.median_before_m) << "</td><td>" << cell(p.median_after_m) << "</td><td>" << cell(p.rms_before_m)
+      << "</td><td>" << cell(p.rms_after_m) << "</td></tr>";
   }
   h << "</table>";
   return h.str();
@@ -250,6 +263,14 @@ std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
 
 std::vector<std::string> CorrespondenceSection::warnings() const {
   std::vector<std::string> w;
+  if (rejected_moved > 0) {
+    w.push_back(detail::printfString(
+        "%d correspondence samples not used: the strips moved against each other beyond the a-priori misalignment of %.2f m that "
+        "their candidate neighbourhoods were found for (%.2f m needed)%s",
+        rejected_moved, apriori_misalignment_m, needed_misalignment_m,
+        candidates_given ? "; match the pairs again (mountcal match) with correspondences.apriori_misalignment_m at least that"
+                         : "; raise correspondences.apriori_misalignment_m or max_misalignment_growths"));
+  }
   for (std::size_t i = 0; i < lasers.size(); ++i) {
     const LaserCorrection& l = lasers[i];
     const double angle = std::max(std::abs(l.elevation_rad), std::abs(l.azimuth_rad)) * 180 / kPi;

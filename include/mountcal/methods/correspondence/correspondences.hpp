@@ -42,8 +42,15 @@ struct LaserLayout;
 struct CorrespondenceOptions {
   static constexpr const char* kMethod = "correspondences";
   /// The largest strip-to-strip discrepancy expected before calibration [m] (first-round
-  /// distance gate: max(3 r, 2 × this)).
+  /// distance gate: max(3 r, 2 × this)); also the margin of each sample's candidate
+  /// neighbourhood (PairCandidates). A start, not a limit: when a matching finds that the strips
+  /// have moved against each other beyond it (a sample's neighbours at the current mounting
+  /// reach past what its candidates hold), the candidates are found again with a margin grown
+  /// from what the data showed — at most `max_misalignment_growths` times; candidates given as
+  /// pair files cannot grow (those samples are rejected, and the section warns).
   double apriori_misalignment_m = 1.0;
+  /// How often the candidates may be found again with a grown misalignment [-].
+  int max_misalignment_growths = 4;
   double radius_m = 0.0;              ///< r, the plane-fit radius; 0: 2.5 × the point spacing [m]
   double sample_spacing_m = 0.0;      ///< 0: 2 r [m]
   int min_neighbours = 8;             ///< in radius r [-]
@@ -128,6 +135,10 @@ struct CorrespondencePairStats {
   int samples = 0;  ///< samples of A in the overlap
   int kept = 0;     ///< after every rejection and the budget
   int rejected_sparse = 0, rejected_rough = 0, rejected_far = 0, rejected_normal = 0, rejected_mad = 0, rejected_budget = 0;
+  /// Samples whose neighbours at this matching's mounting reach past the candidates found at the
+  /// mounting used (the strips moved against each other beyond the a-priori misalignment): their
+  /// neighbourhood may miss points of the strip, so they are not used [-].
+  int rejected_moved = 0;
   double median_before_m = 0, rms_before_m = 0;  ///< |distance| at M_used [m]
   double median_after_m = 0, rms_after_m = 0;    ///< at M̂ with the strip offsets [m]
 };
@@ -140,8 +151,11 @@ struct CorrespondenceSet {
   double spacing_m = 0.0;                      ///< point spacing measured [m]
   double sigma_m = 0.0;                        ///< σ of a distance [m]
   double max_distance_m = 0.0;                 ///< largest distance gate used [m]
-  double seconds = 0.0;                        ///< wall time [s]
-  std::size_t points_searched = 0;             ///< strip points in overlap hulls (throughput) [-]
+  /// The a-priori misalignment that would have held every rejected_moved sample's neighbourhood
+  /// (0 when none was rejected so) [m].
+  double needed_misalignment_m = 0.0;
+  double seconds = 0.0;             ///< wall time [s]
+  std::size_t points_searched = 0;  ///< strip points in overlap hulls (throughput) [-]
 };
 
 /// The correspondences of every overlapping strip pair at `mounting` (MountingIndex order
@@ -232,6 +246,13 @@ struct CorrespondenceSection : MethodSection {
   double median_before_m = 0, rms_before_m = 0, median_after_m = 0, rms_after_m = 0;  ///< |distance| [m]
   double search_time_s = 0;                                                           ///< all matchings [s]
   std::size_t points_searched = 0;
+  /// The a-priori misalignment the last candidates were found with: the option's, or grown from
+  /// the data (`misalignment_growths` times) [m].
+  double apriori_misalignment_m = 0.0;
+  int misalignment_growths = 0;
+  bool candidates_given = false;       ///< pair files (cannot grow)
+  double needed_misalignment_m = 0.0;  ///< the last matching's CorrespondenceSet::needed_misalignment_m [m]
+  int rejected_moved = 0;              ///< the last matching's samples rejected so, over all pairs
   /// Dense mode with per-laser intrinsics: the groups estimated (keys of the result file's
   /// `intrinsics`, LaserCorrection's order), per laser id the estimates and their σ (NaN for a
   /// group not estimated or a laser no used correspondence saw), and each laser's largest
@@ -270,6 +291,9 @@ class CorrespondenceObservations final : public ObservationSource {
   CorrespondenceSet set_;
   std::vector<int> blocks_;
   std::unique_ptr<detail::Matcher> matcher_;
+  // A matching at `mounting`, the candidates found again with a grown a-priori misalignment
+  // while the strips have moved against each other beyond it.
+  void matchGrowing(const std::array<double, 6>& mounting);
   std::unique_ptr<detail::DenseMatcher> dense_;
   double* laser_block_ = nullptr;  // this round's per-laser intrinsics block (dense mode; detail::LaserLayout)
   std::vector<double> laser_dl_;   // its values, carried from solve to solve [rad, m]
