@@ -128,7 +128,7 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   const MountingCalibrator::Summary split = calibrate(from_files, o);
   ASSERT_TRUE(split.IsSolutionUsable()) << split.message;
   EXPECT_EQ(whole.section<CorrespondenceSection>().misalignment_growths, 0);  // so the two searched alike
-  EXPECT_EQ(split.section<CorrespondenceSection>().rejected_moved, 0);
+  EXPECT_EQ(split.section<CorrespondenceSection>().rejectedMoved(), 0);
   expectSameMounting(split.mounting, whole.mounting, 1e-9, "pair files against the whole search");
   EXPECT_EQ(split.mounting.toArray(), whole.mounting.toArray());  // to the last bit, in fact
   EXPECT_EQ(split.section<CorrespondenceSection>().used, whole.section<CorrespondenceSection>().used);
@@ -151,7 +151,7 @@ TEST(Block, PairFilesGiveTheSameMountingAsTheWholeSearch) {
   from_files.correspondence_candidates = narrow;
   const MountingCalibrator::Summary short_pairs = calibrate(from_files, o1);
   const CorrespondenceSection& cs = short_pairs.section<CorrespondenceSection>();
-  EXPECT_GT(cs.rejected_moved, 0);
+  EXPECT_GT(cs.rejectedMoved(), 0);
   EXPECT_EQ(cs.misalignment_growths, 0);
   EXPECT_GT(cs.needed_misalignment_m, 1.0);
   ASSERT_EQ(cs.warnings().size(), 1u);

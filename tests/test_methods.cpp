@@ -270,7 +270,7 @@ TEST(CorrespondenceMethod, StripsMovingBeyondTheAprioriMisalignmentGrowItFromThe
   const CorrespondenceSection& cs = S.section<CorrespondenceSection>();
   EXPECT_GE(cs.misalignment_growths, 1);
   EXPECT_GT(cs.apriori_misalignment_m, 5.0);
-  EXPECT_EQ(cs.rejected_moved, 0);  // the last matching's neighbourhoods are whole
+  EXPECT_EQ(cs.rejectedMoved(), 0);  // the last matching's neighbourhoods are whole
   EXPECT_TRUE(cs.warnings().empty());
   EXPECT_NE(S.FullReport().find("candidates found again"), std::string::npos);
   // Without the growth the samples whose neighbours reach past their candidates are refused —
@@ -278,7 +278,7 @@ TEST(CorrespondenceMethod, StripsMovingBeyondTheAprioriMisalignmentGrowItFromThe
   o.method<CorrespondenceOptions>().max_misalignment_growths = 0;
   const auto N = calibrate(withControl(s), o);
   const CorrespondenceSection& ns = N.section<CorrespondenceSection>();
-  EXPECT_GT(ns.rejected_moved, 0);
+  EXPECT_GT(ns.rejectedMoved(), 0);
   EXPECT_LT(ns.used, cs.used / 2);
   EXPECT_GT(ns.needed_misalignment_m, 5.0);
   ASSERT_EQ(ns.warnings().size(), 1u);

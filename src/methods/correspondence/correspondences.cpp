@@ -881,8 +881,6 @@ void CorrespondenceObservations::matchGrowing(const std::array<double, 6>& mount
   }
   section_.apriori_misalignment_m = options_.apriori_misalignment_m;
   section_.needed_misalignment_m = set_.needed_misalignment_m;
-  section_.rejected_moved = 0;
-  for (const CorrespondencePairStats& p : set_.pairs) section_.rejected_moved += p.rejected_moved;
 }
 
 void CorrespondenceObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {

@@ -261,9 +261,15 @@ std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
   return h.str();
 }
 
+int CorrespondenceSection::rejectedMoved() const {
+  int n = 0;
+  for (const CorrespondencePairStats& p : pairs) n += p.rejected_moved;
+  return n;
+}
+
 std::vector<std::string> CorrespondenceSection::warnings() const {
   std::vector<std::string> w;
-  if (rejected_moved > 0) {
+  if (const int rejected_moved = rejectedMoved(); rejected_moved > 0) {
     w.push_back(detail::printfString(
         "%d correspondence samples not used: the strips moved against each other beyond the a-priori misalignment of %.2f m that "
         "their candidate neighbourhoods were found for (%.2f m needed)%s",

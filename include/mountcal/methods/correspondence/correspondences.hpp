@@ -252,7 +252,8 @@ struct CorrespondenceSection : MethodSection {
   int misalignment_growths = 0;
   bool candidates_given = false;       ///< pair files (cannot grow)
   double needed_misalignment_m = 0.0;  ///< the last matching's CorrespondenceSet::needed_misalignment_m [m]
-  int rejected_moved = 0;              ///< the last matching's samples rejected so, over all pairs
+  /// The last matching's samples rejected as moved (CorrespondencePairStats::rejected_moved), over all pairs.
+  int rejectedMoved() const;
   /// Dense mode with per-laser intrinsics: the groups estimated (keys of the result file's
   /// `intrinsics`, LaserCorrection's order), per laser id the estimates and their σ (NaN for a
   /// group not estimated or a laser no used correspondence saw), and each laser's largest
