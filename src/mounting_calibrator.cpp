@@ -434,6 +434,8 @@ MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
     doubt(buf);
   }
   if (resolve.unsettled()) doubt(resolve.text());
+  for (const auto& s : sections)
+    for (const std::string& d : s->doubts()) doubt(d);
   int outliers = 0, observations = 0;
   for (const auto& s : sections) outliers += s->outliers();
   for (const auto& k : kinds) observations += k.residuals;

@@ -156,6 +156,9 @@ class MethodSection {
   virtual std::string html(const AdjustmentSummary& summary) const = 0;
   /// Warnings for the report: rejected input, outliers found (one sentence each).
   virtual std::vector<std::string> warnings() const { return {}; }
+  /// Findings that make the result doubtful (one sentence each): the verdict's reasons
+  /// (MountingCalibrator::Summary::verdict) and the report's warnings.
+  virtual std::vector<std::string> doubts() const { return {}; }
   /// Observations flagged as outliers [-].
   virtual int outliers() const { return 0; }
   /// Residual arrows and marks for the report's plan view (empty: none).

@@ -238,6 +238,11 @@ struct CorrespondenceSection : MethodSection {
   std::string resultJson(const AdjustmentSummary& summary) const override;
   std::string html(const AdjustmentSummary& summary) const override;
   std::vector<std::string> warnings() const override;
+  /// Per-laser parameters estimated beyond kLaserPriorDoubt times their prior σ (one sentence
+  /// naming them): the data pull them where the prior says a sensor's table is not off — they
+  /// absorb another error (the poses, the mounting, a wrong matching) or the table is wrong.
+  std::vector<std::string> doubts() const override;
+  static constexpr double kLaserPriorDoubt = 4.0;
   LaserCorrections laserCorrections() const override;
   int used = 0;
   int rounds = 0;  ///< matchings
@@ -260,6 +265,7 @@ struct CorrespondenceSection : MethodSection {
   /// |correlation| of a parameter with a boresight angle.
   std::vector<std::string> laser_groups;
   LaserCorrections lasers, laser_sigma;
+  LaserCorrection laser_prior_sigma;  ///< each group's prior σ (0: not estimated) [rad, m]
   std::vector<double> laser_boresight_correlation;
   std::vector<int> laser_points;  ///< used correspondences' points per laser (A's and B's)
   /// Correlation screening (Glennie: laser parameters are highly correlated): each pair of one
