@@ -157,6 +157,8 @@ struct Recovery {
   double worst_boresight_deg = 0, worst_boresight_ratio = 0;
   int parameters = 0, within_2sigma = 0, within_3sigma = 0;
   double sum_ratio2 = 0;
+  std::array<double, 5> group_sum_ratio2{};  // per group: Σ (error/σ)²
+  std::array<int, 5> group_parameters{};
 };
 
 Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& S) {
@@ -179,6 +181,8 @@ Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& 
       r.within_2sigma += ratio <= 2;
       r.within_3sigma += ratio <= 3;
       r.sum_ratio2 += ratio * ratio;
+      r.group_sum_ratio2[g] += ratio * ratio;
+      ++r.group_parameters[g];
       const std::string tag = "laser " + std::to_string(i) + " " + keys[g];
       bool separated = true;
       for (const std::string& u : c.laser_unseparated)
@@ -286,6 +290,8 @@ TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
   for (const char* model : {"VLP-16", "HDL-32E"}) {
     int parameters = 0, within2 = 0, within3 = 0;
     double sum_ratio2 = 0, worst = 0, worst_boresight = 0;
+    std::array<double, 5> group_sum2{};
+    std::array<int, 5> group_n{};
     for (std::uint64_t seed = 1; seed <= 10; ++seed) {
       const auto s = intrinsicsSurvey(model, seed, true);
       const auto S = calibrateIntrinsics(*s, priorsFor(model), true, 300, false);
@@ -295,6 +301,7 @@ TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
       EXPECT_LE(r.worst_boresight_ratio, 3.0) << model << " seed " << seed;
       parameters += r.parameters, within2 += r.within_2sigma, within3 += r.within_3sigma;
       sum_ratio2 += r.sum_ratio2;
+      for (std::size_t g = 0; g < 5; ++g) group_sum2[g] += r.group_sum_ratio2[g], group_n[g] += r.group_parameters[g];
       worst = std::max(worst, r.worst_ratio), worst_boresight = std::max(worst_boresight, r.worst_boresight_ratio);
     }
     const double rms = std::sqrt(sum_ratio2 / parameters), share2 = double(within2) / parameters, share3 = double(within3) / parameters;
@@ -302,6 +309,10 @@ TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
         "%s, 10 seeds with the preset's noise: %d laser parameters, RMS of |error|/sigma %.2f, %.1f %% within 2 sigma, %.1f %% within "
         "3 sigma, worst %.1f; boresight worst %.2f sigma\n",
         model, parameters, rms, 100 * share2, 100 * share3, worst, worst_boresight);
+    std::printf("  RMS of |error|/sigma per group:");
+    for (std::size_t g = 0; g < 5; ++g)
+      if (group_n[g] > 0) std::printf(" %s %.2f", kLaserGroups[g].name, std::sqrt(group_sum2[g] / group_n[g]));
+    std::printf("\n");
     EXPECT_GE(rms, 0.6) << model;
     EXPECT_LE(rms, 1.4) << model;
     EXPECT_GE(share2, 0.90) << model;
@@ -550,4 +561,28 @@ TEST(LaserIntrinsics, OffsetsBeyondFourPriorSigmaAreDoubted) {
   EXPECT_EQ(d[0].find("laser 2"), std::string::npos) << d[0];
   // The report's warnings carry it too.
   EXPECT_EQ(c.warnings().front(), d[0]);
+}
+
+// The planes' and features' shared elevation block (src/methods/common/laser_elevations.*): the
+// same rule on the elevation offsets, against the option's prior σ; the verdict reads it.
+TEST(LaserIntrinsics, PlanesAndFeaturesDoubtElevationOffsetsBeyondFourPriorSigma) {
+  auto check = [](auto section) {
+    section.laser_elevation_prior_deg = 0.15;
+    section.lasers.assign(3, LaserCorrection{});
+    section.laser_points = {50, 0, 50};
+    section.laser_elevation_sigma_deg = {0.01, std::nan(""), 0.01};
+    section.lasers[0].elevation_rad = deg2rad(0.59);
+    section.lasers[1].elevation_rad = deg2rad(3.0);  // no points: not judged
+    EXPECT_TRUE(section.doubts().empty()) << section.doubts().front();
+    section.lasers[2].elevation_rad = deg2rad(0.75);
+    const std::vector<std::string> d = section.doubts();
+    ASSERT_EQ(d.size(), 1u) << section.method();
+    EXPECT_NE(d[0].find("1 per-laser offset beyond 4 times its prior σ (laser 2 elevation +0.75 deg (5.0 prior σ))"), std::string::npos)
+        << d[0];
+    EXPECT_EQ(section.warnings().front(), d[0]);
+    section.laser_elevation_prior_deg = 0.0;  // not estimated
+    EXPECT_TRUE(section.doubts().empty()) << section.method();
+  };
+  check(PlaneSection{});
+  check(FeatureSection{});
 }

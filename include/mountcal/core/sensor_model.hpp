@@ -85,6 +85,10 @@ inline constexpr LaserGroup kLaserGroups[5] = {{&LaserCorrection::elevation_rad,
                                                {&LaserCorrection::range_m, "range", "m", 1},
                                                {&LaserCorrection::vertical_m, "vertical", "m", 1},
                                                {&LaserCorrection::horizontal_m, "horizontal", "m", 1}};
+/// A per-laser parameter estimated beyond this many times its prior σ makes a result doubtful
+/// (MethodSection::doubts()): with the prior a true description of a table's errors (a Gaussian),
+/// one parameter in 16 000 lies beyond 4σ — over 160 parameters, one survey in 100.
+inline constexpr double kLaserPriorDoubt = 4.0;
 
 /// A measured laser vector split into what the corrections act on (taken from the scanner's
 /// origin: the table's own origin offsets v_i, H_i enter only to second order, |v_i| δ ≤ 0.2 mm

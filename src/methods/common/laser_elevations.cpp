@@ -82,6 +82,29 @@ std::string laserElevationIntrinsics(const LaserElevations& e) {
   return nlohmann::json{{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig}, {"laser_points", pts}}.dump();
 }
 
+std::vector<std::string> laserPriorDoubts(const LaserCorrections& lasers, const std::vector<int>& points,
+                                          const LaserCorrection& prior_sigma) {
+  std::string far;
+  int count = 0;
+  for (std::size_t i = 0; i < lasers.size(); ++i) {
+    if (i < points.size() && points[i] == 0) continue;
+    for (const LaserGroup& g : kLaserGroups) {
+      const double prior = prior_sigma.*g.field, value = lasers[i].*g.field;
+      if (!(prior > 0) || !(std::abs(value) > kLaserPriorDoubt * prior)) continue;
+      if (count++ < 4)
+        far += printfString("%slaser %zu %s %+.3g %s (%.1f prior σ)", far.empty() ? "" : ", ", i, g.name, value * g.to_unit, g.unit,
+                            std::abs(value) / prior);
+    }
+  }
+  if (count == 0) return {};
+  if (count > 4) far += printfString(" and %d more", count - 4);
+  return {printfString(
+      "%d per-laser offset%s beyond %.0f times %s prior σ (%s): the data pull %s where the prior says a table is not off — %s may "
+      "absorb another error (the poses, the mounting, a wrong matching) or the laser table is wrong",
+      count, count == 1 ? "" : "s", kLaserPriorDoubt, count == 1 ? "its" : "their", far.c_str(), count == 1 ? "it" : "them",
+      count == 1 ? "it" : "they")};
+}
+
 OneOfBlock::OneOfBlock(ceres::CostFunction* inner, int index, int size) : inner_(inner), index_(index), size_(size) {
   set_num_residuals(inner->num_residuals());
   *mutable_parameter_block_sizes() = inner->parameter_block_sizes();

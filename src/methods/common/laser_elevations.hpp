@@ -34,6 +34,12 @@ std::string laserElevationHtml(const LaserElevations& e, const std::string& titl
 /// The result file's `intrinsics` (apply and evaluate read them): offsets, σ and points by laser id (JSON text).
 std::string laserElevationIntrinsics(const LaserElevations& e);
 
+/// MethodSection::doubts() of per-laser intrinsics: the parameters of `lasers` estimated beyond
+/// kLaserPriorDoubt times their group's prior σ (`prior_sigma`, 0 for a group not estimated; lasers
+/// with `points[i] == 0` skipped) — empty, or one sentence naming up to four of them.
+std::vector<std::string> laserPriorDoubts(const LaserCorrections& lasers, const std::vector<int>& points,
+                                          const LaserCorrection& prior_sigma);
+
 /// Per-laser elevation offsets δω_l as one block of the adjustment (exact turn of a laser vector:
 /// r' = cos δω r + sin δω u, u = elevationTangent(r), LaserCorrector): each δω_l ~ N(0, σ), their
 /// mean over the lasers the observations use held at 0 (a common offset is the boresight pitch's).

@@ -3,6 +3,7 @@
 
 #include <sstream>
 
+#include "../common/laser_elevations.hpp"
 #include "../common/section_format.hpp"
 
 namespace mountcal {
@@ -291,29 +292,7 @@ std::vector<std::string> CorrespondenceSection::warnings() const {
   return w;
 }
 
-std::vector<std::string> CorrespondenceSection::doubts() const {
-  // A laser parameter k prior σ from 0: with the prior a true description of the table's errors
-  // (a Gaussian), beyond 4σ one parameter in 16 000 — over 160 parameters, one survey in 100.
-  std::string far;
-  int count = 0;
-  for (std::size_t i = 0; i < lasers.size(); ++i) {
-    if (i < laser_points.size() && laser_points[i] == 0) continue;
-    for (const LaserGroup& g : kLaserGroups) {
-      const double prior = laser_prior_sigma.*g.field, value = lasers[i].*g.field;
-      if (!(prior > 0) || !(std::abs(value) > kLaserPriorDoubt * prior)) continue;
-      if (count++ < 4)
-        far += detail::printfString("%slaser %zu %s %+.3g %s (%.1f prior σ)", far.empty() ? "" : ", ", i, g.name, value * g.to_unit, g.unit,
-                                    std::abs(value) / prior);
-    }
-  }
-  if (count == 0) return {};
-  if (count > 4) far += detail::printfString(" and %d more", count - 4);
-  return {detail::printfString(
-      "%d per-laser offset%s beyond %.0f times %s prior σ (%s): the data pull %s where the prior says a table is not off — %s may "
-      "absorb another error (the poses, the mounting, a wrong matching) or the laser table is wrong",
-      count, count == 1 ? "" : "s", kLaserPriorDoubt, count == 1 ? "its" : "their", far.c_str(), count == 1 ? "it" : "them",
-      count == 1 ? "it" : "they")};
-}
+std::vector<std::string> CorrespondenceSection::doubts() const { return detail::laserPriorDoubts(lasers, laser_points, laser_prior_sigma); }
 
 LaserCorrections CorrespondenceSection::laserCorrections() const { return lasers; }
 

@@ -902,6 +902,7 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     detail::LaserElevations e = laser_->finish(problem, points);
     section_.lasers = std::move(e.lasers);
     section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
+    section_.laser_elevation_prior_deg = options_.laser_elevation_sigma_deg;
     section_.laser_points = std::move(e.points);
   }
 }

@@ -270,8 +270,12 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
   return h.str();
 }
 
+std::vector<std::string> FeatureSection::doubts() const {
+  return detail::laserPriorDoubts(lasers, laser_points, LaserCorrection{deg2rad(laser_elevation_prior_deg), 0, 0, 0, 0});
+}
+
 std::vector<std::string> FeatureSection::warnings() const {
-  std::vector<std::string> w;
+  std::vector<std::string> w = doubts();
   if (!rejected.empty()) w.push_back(std::to_string(rejected.size()) + " targets or strip views rejected");
   if (!lasers.empty())
     w.push_back(

@@ -5,6 +5,7 @@
 
 #include "../common/laser_elevations.hpp"
 #include "../common/section_format.hpp"
+#include "mountcal/core/rotation.hpp"
 #include "mountcal/report/svg_plot.hpp"
 
 namespace mountcal {
@@ -200,8 +201,13 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
 }
 
 std::vector<std::string> PlaneSection::warnings() const {
-  if (rejected.empty()) return {};
-  return {std::to_string(rejected.size()) + " plane patches or strip parts rejected"};
+  std::vector<std::string> w = doubts();
+  if (!rejected.empty()) w.push_back(std::to_string(rejected.size()) + " plane patches or strip parts rejected");
+  return w;
+}
+
+std::vector<std::string> PlaneSection::doubts() const {
+  return detail::laserPriorDoubts(lasers, laser_points, LaserCorrection{deg2rad(laser_elevation_prior_deg), 0, 0, 0, 0});
 }
 
 int PlaneSection::outliers() const {

@@ -242,7 +242,6 @@ struct CorrespondenceSection : MethodSection {
   /// naming them): the data pull them where the prior says a sensor's table is not off — they
   /// absorb another error (the poses, the mounting, a wrong matching) or the table is wrong.
   std::vector<std::string> doubts() const override;
-  static constexpr double kLaserPriorDoubt = 4.0;
   LaserCorrections laserCorrections() const override;
   int used = 0;
   int rounds = 0;  ///< matchings

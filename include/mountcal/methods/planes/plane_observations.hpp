@@ -110,7 +110,10 @@ struct PlaneSection : MethodSection {
   LaserCorrections lasers;
   std::vector<double> laser_elevation_sigma_deg;
   std::vector<int> laser_points;
+  double laser_elevation_prior_deg = 0.0;  ///< the offsets' prior σ (the option's) [deg]
   LaserCorrections laserCorrections() const override { return lasers; }
+  /// Elevation offsets estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
+  std::vector<std::string> doubts() const override;
 };
 
 /// A planar patch found in the overlaps (findPlanarPatches).
