@@ -407,24 +407,26 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
   const PlaneSection& ps = S.section<PlaneSection>();
   const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
-  ASSERT_EQ(ps.lasers.size(), truth.size());
+  ASSERT_EQ(ps.laser_elevations.lasers.size(), truth.size());
   ASSERT_EQ(S.laserCorrections().size(), truth.size());  // what apply and evaluate are given
   {                                                      // and what the result file carries to them
     const std::string path = ::testing::TempDir() + "planes_lasers_result.json";
     std::ofstream(path) << resultJson(S, nullptr);
     const LaserCorrections read = readResultLaserCorrections(path);
     ASSERT_EQ(read.size(), truth.size());
-    for (std::size_t i = 0; i < read.size(); ++i) EXPECT_NEAR(read[i].elevation_rad, ps.lasers[i].elevation_rad, 1e-12) << i;
+    for (std::size_t i = 0; i < read.size(); ++i)
+      EXPECT_NEAR(read[i].elevation_rad, ps.laser_elevations.lasers[i].elevation_rad, 1e-12) << i;
   }
   double worst_ratio = 0, worst_determined = 0;
   int seen = 0, determined = 0;
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    if (ps.laser_points[i] == 0) continue;
+    if (ps.laser_elevations.points[i] == 0) continue;
     ++seen;
-    const double err = std::abs(ps.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg, sigma = ps.laser_elevation_sigma_deg[i];
+    const double err = std::abs(ps.laser_elevations.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg,
+                 sigma = ps.laser_elevations.sigma_deg[i];
     ASSERT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i;
     worst_ratio = std::max(worst_ratio, err / sigma);
-    if (ps.laser_points[i] >= kPlanePoints) ++determined, worst_determined = std::max(worst_determined, err);
+    if (ps.laser_elevations.points[i] >= kPlanePoints) ++determined, worst_determined = std::max(worst_determined, err);
   }
   double boresight = 0;
   const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
@@ -475,8 +477,9 @@ TEST(LaserIntrinsics, PlanesElevationSigmasAreHonestUnderSurveyNoise) {
     const PlaneSection& ps = S.section<PlaneSection>();
     const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
     for (std::size_t i = 0; i < truth.size(); ++i) {
-      if (ps.laser_points[i] == 0) continue;
-      const double r = std::abs(ps.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg / ps.laser_elevation_sigma_deg[i];
+      if (ps.laser_elevations.points[i] == 0) continue;
+      const double r =
+          std::abs(ps.laser_elevations.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg / ps.laser_elevations.sigma_deg[i];
       ++n, within2 += r <= 2, within3 += r <= 3, ss += r * r, worst = std::max(worst, r);
     }
     const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
@@ -566,20 +569,20 @@ TEST(LaserIntrinsics, OffsetsBeyondFourPriorSigmaAreDoubted) {
 // same rule on the elevation offsets, against the option's prior σ; the verdict reads it.
 TEST(LaserIntrinsics, PlanesAndFeaturesDoubtElevationOffsetsBeyondFourPriorSigma) {
   auto check = [](auto section) {
-    section.laser_elevation_prior_deg = 0.15;
-    section.lasers.assign(3, LaserCorrection{});
-    section.laser_points = {50, 0, 50};
-    section.laser_elevation_sigma_deg = {0.01, std::nan(""), 0.01};
-    section.lasers[0].elevation_rad = deg2rad(0.59);
-    section.lasers[1].elevation_rad = deg2rad(3.0);  // no points: not judged
+    section.laser_elevations.prior_deg = 0.15;
+    section.laser_elevations.lasers.assign(3, LaserCorrection{});
+    section.laser_elevations.points = {50, 0, 50};
+    section.laser_elevations.sigma_deg = {0.01, std::nan(""), 0.01};
+    section.laser_elevations.lasers[0].elevation_rad = deg2rad(0.59);
+    section.laser_elevations.lasers[1].elevation_rad = deg2rad(3.0);  // no points: not judged
     EXPECT_TRUE(section.doubts().empty()) << section.doubts().front();
-    section.lasers[2].elevation_rad = deg2rad(0.75);
+    section.laser_elevations.lasers[2].elevation_rad = deg2rad(0.75);
     const std::vector<std::string> d = section.doubts();
     ASSERT_EQ(d.size(), 1u) << section.method();
     EXPECT_NE(d[0].find("1 per-laser offset beyond 4 times its prior σ (laser 2 elevation +0.75 deg (5.0 prior σ))"), std::string::npos)
         << d[0];
     EXPECT_EQ(section.warnings().front(), d[0]);
-    section.laser_elevation_prior_deg = 0.0;  // not estimated
+    section.laser_elevations.prior_deg = 0.0;  // not estimated
     EXPECT_TRUE(section.doubts().empty()) << section.method();
   };
   check(PlaneSection{});

@@ -69,6 +69,17 @@ struct LaserCorrection {
 /// One correction per laser id; empty: none.
 using LaserCorrections = std::vector<LaserCorrection>;
 
+/// Per-laser elevation offsets that a method estimated from observations of its own kind (the
+/// planes' and the features' `laser_elevation_sigma_deg`), by laser id: their section's table,
+/// result-file entry and doubts come from it.
+struct LaserElevationOffsets {
+  LaserCorrections lasers;        ///< elevation_rad set, the other groups 0; empty when not estimated
+  std::vector<double> sigma_deg;  ///< σ in the mounting's stochastic model; NaN for a laser without points [deg]
+  std::vector<int> points;        ///< each laser's observations in the adjustment
+  double prior_deg = 0.0;         ///< the offsets' prior σ (the option's) [deg]
+  bool empty() const { return lasers.empty(); }
+};
+
 /// One group of LaserCorrection: its member, its name (as in the result file's
 /// `laser_<name>_offset_<unit>`), the unit a file writes it in, and the factor from the library's
 /// unit (rad, m) to that one.

@@ -36,8 +36,8 @@ double* LaserElevationBlock::add(AdjustmentProblem* problem, const std::vector<b
   return block_;
 }
 
-LaserElevations LaserElevationBlock::finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const {
-  LaserElevations out;
+LaserElevationOffsets LaserElevationBlock::finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const {
+  LaserElevationOffsets out;
   if (!block_) return out;
   const int L = lasers();
   const std::size_t n = static_cast<std::size_t>(L);
@@ -55,7 +55,7 @@ LaserElevations LaserElevationBlock::finish(const AdjustmentProblem& adjustment,
   return out;
 }
 
-std::string laserElevationTable(const LaserElevations& e, const std::string& title, const std::string& points_label) {
+std::string laserElevationTable(const LaserElevationOffsets& e, const std::string& title, const std::string& points_label) {
   std::string r = title + "\n  laser  offset [deg]  sigma [deg]  " + points_label + "\n";
   for (std::size_t i = 0; i < e.lasers.size(); ++i)
     r += printfString("  %5zu  %+12.4f  %11.4f  %*d\n", i, rad2deg(e.lasers[i].elevation_rad), e.sigma_deg[i],
@@ -63,7 +63,7 @@ std::string laserElevationTable(const LaserElevations& e, const std::string& tit
   return r;
 }
 
-std::string laserElevationHtml(const LaserElevations& e, const std::string& title, const std::string& points_label) {
+std::string laserElevationHtml(const LaserElevationOffsets& e, const std::string& title, const std::string& points_label) {
   std::string h = "<h3>" + htmlEscape(title) + "</h3><table><tr><th>laser</th><th>offset [°]</th><th>σ [°]</th><th>" +
                   htmlEscape(points_label) + "</th></tr>";
   for (std::size_t i = 0; i < e.lasers.size(); ++i)
@@ -72,7 +72,7 @@ std::string laserElevationHtml(const LaserElevations& e, const std::string& titl
   return h + "</table>";
 }
 
-std::string laserElevationIntrinsics(const LaserElevations& e) {
+std::string laserElevationIntrinsics(const LaserElevationOffsets& e) {
   nlohmann::json off = nlohmann::json::array(), sig = nlohmann::json::array(), pts = nlohmann::json::array();
   for (std::size_t i = 0; i < e.lasers.size(); ++i) {
     off.push_back(rad2deg(e.lasers[i].elevation_rad));
@@ -80,6 +80,10 @@ std::string laserElevationIntrinsics(const LaserElevations& e) {
     pts.push_back(e.points[i]);
   }
   return nlohmann::json{{"laser_elevation_offset_deg", off}, {"laser_elevation_sigma_deg", sig}, {"laser_points", pts}}.dump();
+}
+
+std::vector<std::string> laserElevationDoubts(const LaserElevationOffsets& e) {
+  return laserPriorDoubts(e.lasers, e.points, LaserCorrection{deg2rad(e.prior_deg), 0, 0, 0, 0});
 }
 
 std::vector<std::string> laserPriorDoubts(const LaserCorrections& lasers, const std::vector<int>& points,

@@ -19,20 +19,16 @@
 
 namespace mountcal::detail {
 
-/// The per-laser elevation offsets a section reports (by laser id).
-struct LaserElevations {
-  LaserCorrections lasers;        ///< elevation_rad set, the other groups 0
-  std::vector<double> sigma_deg;  ///< σ in the mounting's stochastic model; NaN for a laser without points [deg]
-  std::vector<int> points;        ///< observations of each laser in the adjustment
-};
-
 /// A section's table of per-laser elevation offsets: one line per laser id under `title`;
 /// `points_label` heads the count column.
-std::string laserElevationTable(const LaserElevations& e, const std::string& title, const std::string& points_label);
+std::string laserElevationTable(const LaserElevationOffsets& e, const std::string& title, const std::string& points_label);
 /// The same as an HTML table under an `<h3>` of `title`.
-std::string laserElevationHtml(const LaserElevations& e, const std::string& title, const std::string& points_label);
+std::string laserElevationHtml(const LaserElevationOffsets& e, const std::string& title, const std::string& points_label);
 /// The result file's `intrinsics` (apply and evaluate read them): offsets, σ and points by laser id (JSON text).
-std::string laserElevationIntrinsics(const LaserElevations& e);
+std::string laserElevationIntrinsics(const LaserElevationOffsets& e);
+
+/// MethodSection::doubts() of a section's elevation offsets: laserPriorDoubts against their prior.
+std::vector<std::string> laserElevationDoubts(const LaserElevationOffsets& e);
 
 /// MethodSection::doubts() of per-laser intrinsics: the parameters of `lasers` estimated beyond
 /// kLaserPriorDoubt times their group's prior σ (`prior_sigma`, 0 for a group not estimated; lasers
@@ -56,7 +52,7 @@ class LaserElevationBlock {
     if (block_) std::copy(block_, block_ + lasers(), values_.begin());
   }
   /// The estimates, their σ (AdjustmentProblem::reportedCovariance) and `points` per laser.
-  LaserElevations finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const;
+  LaserElevationOffsets finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const;
 
  private:
   std::vector<double> values_;  // carried from solve to solve [rad]

@@ -899,11 +899,9 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     for (const auto& vps : points_)
       for (const ViewPoints& vp : vps)
         for (int l : vp.laser) ++points[static_cast<std::size_t>(l)];
-    detail::LaserElevations e = laser_->finish(problem, points);
-    section_.lasers = std::move(e.lasers);
-    section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
-    section_.laser_elevation_prior_deg = options_.laser_elevation_sigma_deg;
-    section_.laser_points = std::move(e.points);
+    LaserElevationOffsets e = laser_->finish(problem, points);
+    e.prior_deg = options_.laser_elevation_sigma_deg;
+    section_.laser_elevations = std::move(e);
   }
 }
 

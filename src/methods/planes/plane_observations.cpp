@@ -511,11 +511,9 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
   for (PatchResidual& pr : section_.patches)
     pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
   if (laser_) {
-    detail::LaserElevations e = laser_->finish(problem, laserPoints());
-    section_.lasers = std::move(e.lasers);
-    section_.laser_elevation_sigma_deg = std::move(e.sigma_deg);
-    section_.laser_elevation_prior_deg = options_.laser_elevation_sigma_deg;
-    section_.laser_points = std::move(e.points);
+    LaserElevationOffsets e = laser_->finish(problem, laserPoints());
+    e.prior_deg = options_.laser_elevation_sigma_deg;
+    section_.laser_elevations = std::move(e);
   }
 }
 

@@ -122,10 +122,9 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
                               aspectDeg(p.normal), p.rms_before_m, p.rms_after_m, p.outlier ? "  outlier" : "");
   }
-  if (!lasers.empty())
+  if (!laser_elevations.empty())
     r << detail::laserElevationTable(
-        {lasers, laser_elevation_sigma_deg, laser_points},
-        "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the patches use):", "patch points");
+        laser_elevations, "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the patches use):", "patch points");
   for (const RejectedPatch& p : rejected)
     r << "rejected patch " << p.patch_id << (p.strip_id.empty() ? "" : " on strip " + p.strip_id) << ": " << p.reason << "\n";
   return r.str();
@@ -156,7 +155,7 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
                  {"patches", list},
                  {"rejected", rej}};
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
-  if (!lasers.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics({lasers, laser_elevation_sigma_deg, laser_points}));
+  if (!laser_elevations.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics(laser_elevations));
   return j.dump();
 }
 
@@ -195,8 +194,7 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
-  if (!lasers.empty())
-    h << detail::laserElevationHtml({lasers, laser_elevation_sigma_deg, laser_points}, "Per-laser elevation offsets", "patch points");
+  if (!laser_elevations.empty()) h << detail::laserElevationHtml(laser_elevations, "Per-laser elevation offsets", "patch points");
   return h.str();
 }
 
@@ -206,9 +204,7 @@ std::vector<std::string> PlaneSection::warnings() const {
   return w;
 }
 
-std::vector<std::string> PlaneSection::doubts() const {
-  return detail::laserPriorDoubts(lasers, laser_points, LaserCorrection{deg2rad(laser_elevation_prior_deg), 0, 0, 0, 0});
-}
+std::vector<std::string> PlaneSection::doubts() const { return detail::laserElevationDoubts(laser_elevations); }
 
 int PlaneSection::outliers() const {
   int n = 0;

@@ -169,14 +169,9 @@ struct FeatureSection : MethodSection {
   double sigma_along_track_m = 0.0, sigma_across_track_m = 0.0;
   bool sigma_estimated = false;
   double extraction_time_s = 0.0, matching_time_s = 0.0;  ///< [s]
-  /// With laser_elevation_sigma_deg > 0: per laser id the estimated elevation offset (in
-  /// LaserCorrection), its σ [deg] (NaN for a laser no target view holds) and each laser's points
-  /// in the targets' views.
-  LaserCorrections lasers;
-  std::vector<double> laser_elevation_sigma_deg;
-  std::vector<int> laser_points;
-  double laser_elevation_prior_deg = 0.0;  ///< the offsets' prior σ (the option's) [deg]
-  LaserCorrections laserCorrections() const override { return lasers; }
+  /// With laser_elevation_sigma_deg > 0: the estimated per-laser elevation offsets.
+  LaserElevationOffsets laser_elevations;
+  LaserCorrections laserCorrections() const override { return laser_elevations.lasers; }
   /// Elevation offsets estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
   std::vector<std::string> doubts() const override;
 };

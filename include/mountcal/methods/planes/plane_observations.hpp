@@ -105,13 +105,9 @@ struct PlaneSection : MethodSection {
   std::vector<PatchResidual> patches;
   std::vector<RejectedPatch> rejected;
   double rms_before_m = 0.0, rms_after_m = 0.0;  ///< over all points [m]
-  /// With laser_elevation_sigma_deg > 0: per laser id the estimated elevation offset, its σ in
-  /// the mounting's stochastic model (NaN for a laser without patch points) and its patch points.
-  LaserCorrections lasers;
-  std::vector<double> laser_elevation_sigma_deg;
-  std::vector<int> laser_points;
-  double laser_elevation_prior_deg = 0.0;  ///< the offsets' prior σ (the option's) [deg]
-  LaserCorrections laserCorrections() const override { return lasers; }
+  /// With laser_elevation_sigma_deg > 0: the estimated per-laser elevation offsets.
+  LaserElevationOffsets laser_elevations;
+  LaserCorrections laserCorrections() const override { return laser_elevations.lasers; }
   /// Elevation offsets estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
   std::vector<std::string> doubts() const override;
 };
