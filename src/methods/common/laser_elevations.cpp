@@ -26,6 +26,7 @@ double* LaserElevationBlock::add(AdjustmentProblem* problem, const std::vector<b
   const int L = lasers();
   if (L == 0) return nullptr;
   block_ = problem->addNuisanceBlock(L, values_.data(), nullptr, false);
+  prior_deg_ = sigma_deg;
   problem->reportCovariance(block_, "the per-laser elevation offsets");  // σ with the trajectory errors in time, as the mounting's
   std::vector<int> mean;
   for (int i = 0; i < L; ++i) {
@@ -39,6 +40,7 @@ double* LaserElevationBlock::add(AdjustmentProblem* problem, const std::vector<b
 LaserElevationOffsets LaserElevationBlock::finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const {
   LaserElevationOffsets out;
   if (!block_) return out;
+  out.prior_deg = prior_deg_;
   const int L = lasers();
   const std::size_t n = static_cast<std::size_t>(L);
   out.lasers.assign(n, LaserCorrection{});

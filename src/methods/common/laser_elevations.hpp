@@ -51,12 +51,14 @@ class LaserElevationBlock {
   void solved() {
     if (block_) std::copy(block_, block_ + lasers(), values_.begin());
   }
-  /// The estimates, their σ (AdjustmentProblem::reportedCovariance) and `points` per laser.
+  /// The estimates, their σ (AdjustmentProblem::reportedCovariance), `points` per laser and the
+  /// prior σ they were added with.
   LaserElevationOffsets finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const;
 
  private:
   std::vector<double> values_;  // carried from solve to solve [rad]
   double* block_ = nullptr;     // this round's block
+  double prior_deg_ = 0.0;      // the priors' σ add() was given [deg]
 };
 
 /// A cost function of blocks (…, 1) seen as (…, L): its last block is element `index` of a

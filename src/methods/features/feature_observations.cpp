@@ -899,9 +899,7 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     for (const auto& vps : points_)
       for (const ViewPoints& vp : vps)
         for (int l : vp.laser) ++points[static_cast<std::size_t>(l)];
-    LaserElevationOffsets e = laser_->finish(problem, points);
-    e.prior_deg = options_.laser_elevation_sigma_deg;
-    section_.laser_elevations = std::move(e);
+    section_.laser_elevations = laser_->finish(problem, points);
   }
 }
 

@@ -510,11 +510,7 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
   const double scale = robustScaleFromNorms(rms, 1);
   for (PatchResidual& pr : section_.patches)
     pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
-  if (laser_) {
-    LaserElevationOffsets e = laser_->finish(problem, laserPoints());
-    e.prior_deg = options_.laser_elevation_sigma_deg;
-    section_.laser_elevations = std::move(e);
-  }
+  if (laser_) section_.laser_elevations = laser_->finish(problem, laserPoints());
 }
 
 }  // namespace mountcal
