@@ -1337,6 +1337,10 @@ class Estimation {
     } else {
       so.linear_solver_type = sparse ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
     }
+    // Eigen's sparse Cholesky for the same reason as the covariance's QR (covariance()): no BLAS
+    // whose rounding follows the heap; the trajectory tests' times are unchanged by it.
+    if (sparse && ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE))
+      so.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
     so.max_num_iterations = capped() ? o_.max_iterations_per_matching : o_.max_iterations;
     so.function_tolerance = o_.function_tolerance;
     so.parameter_tolerance = o_.parameter_tolerance;
@@ -1409,6 +1413,12 @@ class Estimation {
     if (n_est > 0) {
       ceres::Covariance::Options co;
       co.algorithm_type = ceres::SPARSE_QR;
+      // Eigen's sparse QR, not SuiteSparseQR: SuiteSparse passes its fronts to the system BLAS,
+      // and Debian's ATLAS rounds a product differently with the alignment of the matrices it is
+      // given — heap state: the same job gave other last digits of every σ in the second call of a
+      // Python process, or with another environment's size (scripts/experiments/laser-sigma/README.md).
+      // Eigen's has no BLAS under it; the suite's times (tests/costs) did not change with it.
+      co.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
       co.num_threads = o_.num_threads;
       ceres::Covariance covariance(co);
       double* mb = P_->mounting();
