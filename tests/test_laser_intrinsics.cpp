@@ -276,9 +276,12 @@ TEST(LaserIntrinsics, ResultFileIntrinsicsAreReadByGroupAndChecked) {
 // trajectory errors in time over the mounting and the laser block together), no longer the
 // formal σ of independent distances (RMS of error/σ 1.0–2.2, worst 6–8σ, the boresight 3.3–3.5σ).
 // Every seed's boresight within 3σ; over the seeds' laser parameters the RMS of error/σ within
-// 0.6–1.4 (too large a σ is not honest either), at least 90 % within 2σ and 98 % within 3σ (the
-// tail is heavier than a Gaussian's 0.27 %: docs/real-data-gravity.md names the seeds). 300
-// samples per pair keep it to a few seconds per seed.
+// 0.6–1.4 (too large a σ is not honest either), at least 90 % within 2σ and 99.5 % within 3σ (a
+// Gaussian's 99.73 %), and the elevation offsets' own RMS within 0.7–1.2. 2026-12-05, B's plane
+// normal from 30 neighbours: VLP-16 99.9 % within 3σ (1 of 800; worst 4.0σ), HDL-32E 99.8 % (3 of
+// 1305; worst 3.3σ), elevation RMS 1.03 / 0.99 — before it 99.4–99.6 % and 1.25–1.29: the normal
+// of ten points on one or two rings, tilted by their noise and shared by the samples near them
+// (scripts/experiments/laser-sigma/README.md). 300 samples per pair keep it to a few seconds per seed.
 TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
   if (mountcal_tests::kSanitizerBuild)
     GTEST_SKIP() << "sanitizer build: the laser block's covariance with the trajectory errors in time runs under the sanitizers in "
@@ -315,7 +318,10 @@ TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
     EXPECT_GE(rms, 0.6) << model;
     EXPECT_LE(rms, 1.4) << model;
     EXPECT_GE(share2, 0.90) << model;
-    EXPECT_GE(share3, 0.98) << model;
+    EXPECT_GE(share3, 0.995) << model;
+    const double rms_elevation = std::sqrt(group_sum2[0] / group_n[0]);
+    EXPECT_GE(rms_elevation, 0.7) << model;
+    EXPECT_LE(rms_elevation, 1.2) << model;
   }
 }
 

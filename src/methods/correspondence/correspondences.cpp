@@ -49,6 +49,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!nonneg(sample_spacing_m) || sample_spacing_m > 10000) return fail("sample_spacing_m must be in [0, 10000]");
   if (min_neighbours < 3) return fail("min_neighbours must be at least 3");
   if (max_neighbours < min_neighbours || max_neighbours > 1000) return fail("max_neighbours must be in [min_neighbours, 1000]");
+  if (normal_neighbours < 0 || normal_neighbours > 1000) return fail("normal_neighbours must be in [0, 1000]");
   if (!(max_roughness_relative >= 1) || !std::isfinite(max_roughness_relative)) return fail("max_roughness_relative must be at least 1");
   if (!(max_roughness_m >= 0) || !std::isfinite(max_roughness_m)) return fail("max_roughness_m must be 0 (off) or a positive length");
   if (!(max_roughness_factor > 0) || !(max_distance_factor > 0) || !(mad_factor > 0))

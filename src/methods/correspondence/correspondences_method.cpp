@@ -40,6 +40,9 @@ const std::vector<OptionSpec>& correspondenceOptionSpecs() {
               "min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
           .integer(
               "max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
+          .integer(
+              "normal_neighbours", [](T& o) -> int& { return o.normal_neighbours; }, 0, 1000,
+              "dense fine stage: neighbours the plane's normal is fitted from (its centroid from max_neighbours); 0: max_neighbours")
           .number(
               "max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6,
               "plane sigma above this x r: rough")

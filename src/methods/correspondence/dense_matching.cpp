@@ -210,6 +210,19 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
     return true;
   };
   std::vector<DenseCandidate> cand;
+  // The fine stage's normal of B's plane from the normal_neighbours nearest (when more than k):
+  // the k nearest's normal kept when the wider neighbourhood is not a plane (rough, or B has fewer points).
+  const std::size_t k_normal = coarse ? 0 : static_cast<std::size_t>(std::max(0, o_.normal_neighbours));
+  std::vector<std::size_t> idx_normal(std::max<std::size_t>(k_normal, 1));
+  std::vector<float> dist_normal(idx_normal.size());
+  auto widerNormal = [&](std::size_t s, const Vec3& p, const Vec3& normal) {
+    const Eigen::Vector3f q = (p - origin_).cast<float>();
+    if (grid[s].nearest(q.data(), k_normal, std::numeric_limits<double>::infinity(), idx_normal.data(), dist_normal.data()) != k_normal)
+      return normal;
+    const PlaneFit fw = fitPlane(k_normal, [&](std::size_t j) { return x_[s][keep_[s][idx_normal[j]]]; });
+    if (!(fw.sigma_m <= max_sigma)) return normal;
+    return fw.normal.dot(normal) < 0 ? Vec3(-fw.normal) : fw.normal;
+  };
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = 0; b < n; ++b) {
       if (a == b) continue;
@@ -233,11 +246,12 @@ CorrespondenceSet DenseMatcher::match(bool coarse, double fine_gate_m) {
         }
         any = true;
         ++st.samples;
-        const PlaneFit fb = fitPlane(k, [&](std::size_t j) { return x_[b][idx[j]]; });
+        PlaneFit fb = fitPlane(k, [&](std::size_t j) { return x_[b][idx[j]]; });
         if (fb.sigma_m > max_sigma || fb.extent_m > R || fb.spread_ratio < o_.min_spread_ratio) {
           ++st.rejected_rough;
           continue;
         }
+        if (k_normal > k) fb.normal = widerNormal(b, p, fb.normal);
         const double d = fb.normal.dot(p - fb.centroid);
         if (std::abs(d) > gate) {
           ++st.rejected_far;

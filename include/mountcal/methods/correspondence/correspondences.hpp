@@ -76,6 +76,13 @@ struct CorrespondenceOptions {
   /// A-priori σ of a correspondence distance [m]; 0: from the neighbourhoods' plane fits.
   double sigma_m = 0.0;
   int max_neighbours = 16;  ///< neighbours used for B's plane [-]
+  /// Dense mode's fine stage: B's plane normal from this many of B's nearest points, its centroid
+  /// (where the distance is taken) from the `max_neighbours` nearest; 0 or fewer than
+  /// max_neighbours: both from max_neighbours. A normal from ten points on one or two of a
+  /// multi-beam scanner's rings tilts with their noise, and the distance of a sample between
+  /// the rings takes that tilt times its offset from the centroid — an error every sample there
+  /// shares, which the per-laser elevation offsets absorb (docs/model-and-methods.md) [-].
+  int normal_neighbours = 30;
   /// A neighbourhood whose points lie along a line (√(λ_mid/λ_max) below this: one scan line of
   /// a multi-beam scanner) has no plane: rejected as rough [-].
   double min_spread_ratio = 0.1;
