@@ -2,6 +2,7 @@
 numpy (scripts/pass_discrepancy.py: brute-force neighbours, no mountcal code computes it), on the
 files `mountcal apply` writes for Gravity Truck."""
 import json
+import os
 import subprocess
 import sys
 
@@ -13,6 +14,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import pass_discrepancy  # noqa: E402
 
 import mountcal  # noqa: E402
+import pytest  # noqa: E402
 
 
 def _job_with_paths(job, path_of, out):
@@ -29,6 +31,9 @@ def _passes(job_path):
 
 
 def test_evaluate_is_its_definition_written_again(cli, examples, tmp_path):
+    if os.environ.get("MOUNTCAL_SANITIZER_BUILD") == "1":
+        pytest.skip("sanitizer build: calibrate, apply and evaluate of Truck run under the sanitizers in Sets/GravityCalibration.* "
+                    "and PerPointPoses.*; the metric's numbers are checked in the Release suite")
     data_file("gravity/Truck.las")
     job = examples / "gravity" / "truck.json"
     result = tmp_path / "result.json"
