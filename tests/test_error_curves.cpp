@@ -109,3 +109,54 @@ TEST_F(Curves, CsvAndSvgAreWellFormed) {
   EXPECT_EQ(polylines, ranges.size());
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
 }
+
+// The report's curves at a survey's own beams (issue 28: a drone's VLP-16 is not drawn as a line
+// scanner's ±30°). A line scanner's beams, one per 1° bin at θ = k + 0.5°: the same errors as the
+// curves above, which go through GeoreferenceModel (an independent path), and the first order
+// within the same remainder.
+TEST_F(Curves, BeamCurvesOfALineScannersBeamsAreThePapersCurves) {
+  std::vector<Vec3> beams;
+  std::vector<double> at;
+  for (int k = -45; k < 45; ++k) {
+    const double theta = deg2rad(k + 0.5);
+    at.push_back(theta);
+    beams.push_back(Vec3(0, std::sin(theta), std::cos(theta)) * 700.0);
+  }
+  const auto own = beamErrorCurves(Mat3::Identity(), R_zyx(Vec3(kDelta, kDelta, kDelta)), beams, ranges, 1.0, 1);
+  const auto paper = boresightErrorCurves(Vec3(kDelta, kDelta, kDelta), at, ranges);
+  ASSERT_EQ(own.size(), paper.size());
+  for (std::size_t i = 0; i < own.size(); ++i) {
+    EXPECT_NEAR(own[i].scan_angle_rad, paper[i].scan_angle_rad, 1e-12);
+    EXPECT_EQ(own[i].range_m, paper[i].range_m);
+    EXPECT_LT((own[i].exact_b - paper[i].exact_b).norm(), 1e-9 * own[i].range_m) << i;
+    EXPECT_LT((own[i].first_order_b - own[i].exact_b).norm(), remainder(own[i].range_m)) << i;
+  }
+  EXPECT_TRUE(beamErrorCurves(Mat3::Identity(), Mat3::Identity(), {Vec3::Zero()}, ranges).empty());
+}
+
+// A multi-beam scanner on its side (spin axis along the body's forward axis, lasers at ±10°
+// elevation in pairs): drawn over the whole turn it scans, and each 2° bin's error is the line
+// scanner's at the bin's angle times cos 10° (the pair's mean direction; the bin's 2° mean
+// shortens it by sin 1°/1°, under 1e-4).
+TEST_F(Curves, BeamCurvesOfASpinningScannerOnItsSideCoverItsTurn) {
+  const Mat3 R_nom = R_zyx(Vec3(0, kPi / 2, 0));  // scanner z (spin axis) → body x
+  std::vector<Vec3> beams;
+  for (int a = 0; a < 1440; ++a) {
+    const double az = deg2rad(0.25 * a + 0.125);
+    for (double el : {deg2rad(10.0), deg2rad(-10.0)})
+      beams.push_back(30.0 * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)));
+  }
+  const Mat3 R_new = R_zyx(Vec3(kDelta, kDelta, kDelta)) * R_nom;
+  const std::vector<double> r{30.0};
+  const auto own = beamErrorCurves(R_nom, R_new, beams, r);
+  ASSERT_EQ(own.size(), 180u);
+  EXPECT_LT(own.front().scan_angle_rad, deg2rad(-178.0));
+  EXPECT_GT(own.back().scan_angle_rad, deg2rad(178.0));
+  std::vector<double> angles;
+  for (const auto& e : own) angles.push_back(e.scan_angle_rad);
+  const auto paper = boresightErrorCurves(Vec3(kDelta, kDelta, kDelta), angles, r);
+  for (std::size_t i = 0; i < own.size(); ++i) {
+    const Vec3 want = std::cos(deg2rad(10.0)) * paper[i].exact_b;
+    EXPECT_LT((own[i].exact_b - want).norm(), 1e-4 * paper[i].exact_b.norm() + 1e-12) << i;
+  }
+}

@@ -49,6 +49,41 @@ std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight, const 
   return out;
 }
 
+std::vector<ErrorCurveSample> beamErrorCurves(const Mat3& R_bs_used, const Mat3& R_bs_new, const std::vector<Vec3>& r_s,
+                                              const std::vector<double>& ranges_m, double bin_deg, int min_beams) {
+  const double bin = deg2rad(bin_deg > 0 ? bin_deg : 2.0);
+  struct Bin {
+    Vec3 sum = Vec3::Zero();
+    int n = 0;
+  };
+  std::map<long, Bin> bins;  // by floor(θ / bin): angles ascending
+  for (const Vec3& r : r_s) {
+    const double n = r.norm();
+    if (!(n > 0) || !std::isfinite(n)) continue;
+    const Vec3 u = R_bs_used * (r / n);
+    Bin& b = bins[static_cast<long>(std::floor(std::atan2(u.y(), u.z()) / bin))];
+    b.sum += u;
+    ++b.n;
+  }
+  const Mat3 dR = R_bs_new * R_bs_used.transpose();  // the change, in body axes
+  const Eigen::AngleAxisd aa(dR);
+  const Vec3 delta = aa.angle() * aa.axis();
+  std::vector<ErrorCurveSample> out;
+  for (double rho : ranges_m) {
+    for (const auto& [key, b] : bins) {
+      if (b.n < min_beams) continue;
+      const Vec3 u = b.sum / b.n;
+      ErrorCurveSample e;
+      e.scan_angle_rad = std::atan2(u.y(), u.z());
+      e.range_m = rho;
+      e.exact_b = rho * (dR - Mat3::Identity()) * u;
+      e.first_order_b = rho * delta.cross(u);
+      out.push_back(e);
+    }
+  }
+  return out;
+}
+
 std::string errorCurvesCsv(const std::vector<ErrorCurveSample>& samples) {
   std::ostringstream csv;
   csv << "range_m,scan_angle_deg,exact_x_m,exact_y_m,exact_z_m,first_x_m,first_y_m,first_z_m\n";

@@ -715,20 +715,38 @@ std::vector<double> curveRanges(const CalibrationData& data) {
   return out;
 }
 
-/// The error a line scanner's points would carry without the boresight change (Figs 1–3), at
-/// the data's ranges.
+/// The error the survey's own beams would carry without the boresight change (Figs 1–3, at the
+/// data's ranges): its beams binned by their angle about the body's forward axis
+/// (beamErrorCurves), so that a multi-beam scanner is drawn over the angles it scans, not a line
+/// scanner's ±30°; a line scanner's ±30° when the data hold no beams (given correspondence candidates).
 std::string errorCurvesSection(const CalibrationData& data, const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
-  std::vector<double> angles;
   const std::vector<double> ranges = curveRanges(data);
-  for (int a = -30; a <= 30; ++a) angles.push_back(deg2rad(a));
+  std::size_t total = 0;
+  for (const StripData& s : data.strips) total += s.r_s.size();
+  std::vector<Vec3> beams;
+  const std::size_t step = 1 + total / 50000;
+  std::size_t k = 0;
+  for (const StripData& s : data.strips)
+    for (const Vec3& r : s.r_s)
+      if (k++ % step == 0) beams.push_back(r);
   const Vec3 b = summary.mounting.boresight - data.mounting_used.boresight;
-  const auto curves = boresightErrorCurves(b, angles, ranges);
-  v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error a line scanner's "
-       "points would carry if the boresight change found here ("
-    << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, "
-    << detail::formatNumber(rad2deg(b.z()), "%+.4f") << "°) were ignored, against scan angle, at this survey's ranges (the 10th, "
-    << "50th and 90th percentiles of its ranges).</p><div>";
+  std::vector<ErrorCurveSample> curves = beamErrorCurves(data.mounting_used.R_bs(), summary.mounting.R_bs(), beams, ranges);
+  const bool own = !curves.empty();
+  if (!own) {
+    std::vector<double> angles;
+    for (int a = -30; a <= 30; ++a) angles.push_back(deg2rad(a));
+    curves = boresightErrorCurves(b, angles, ranges);
+  }
+  v << "<h2>Georeferencing error of the boresight correction (the first paper's Figs 1–3)</h2><p>The error "
+    << (own ? "this survey's own beams" : "a line scanner's points (±30°; the data hold no beams)")
+    << " would carry if the boresight change found here (" << detail::formatNumber(rad2deg(b.x()), "%+.4f") << "°, "
+    << detail::formatNumber(rad2deg(b.y()), "%+.4f") << "°, " << detail::formatNumber(rad2deg(b.z()), "%+.4f")
+    << "°) were ignored, against "
+    << (own ? "the beams' angle about the body's forward axis (a line scanner's scan angle; a multi-beam scanner's spin angle "
+              "when it is mounted on its side), in 2° bins of its beams"
+            : "scan angle")
+    << ", at this survey's ranges (the 10th, 50th and 90th percentiles of its ranges).</p><div>";
   const char* ax[3] = {"along track (x)", "across track (y)", "vertical (z)"};
   for (int a = 0; a < 3; ++a) v << errorCurveSvg(curves, a, std::string("error ") + ax[a]);
   v << "</div>";

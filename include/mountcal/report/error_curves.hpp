@@ -28,6 +28,18 @@ Vec3 boresightErrorFirstOrder(const Vec3& boresight, double scan_angle_rad, doub
 std::vector<ErrorCurveSample> boresightErrorCurves(const Vec3& boresight, const std::vector<double>& scan_angles_rad,
                                                    const std::vector<double>& ranges_m);
 
+/// The curves at a survey's own beams, for any scanner (the report's Figs 1–3; issue 28: a
+/// drone's VLP-16 is not a line scanner's ±30° scan). Each beam's direction in body axes at the
+/// mounting used, u_b = R_bs,used r̂_s, is binned by its angle about the body's forward axis,
+/// θ = atan2(u_y, u_z) — a line scanner's scan angle, a multi-beam scanner on its side its spin
+/// angle. Per bin and range: `exact_b` = ρ (R_bs,new R_bs,usedᵀ − I) ū_b of the bin's mean
+/// direction ū_b (the error of its points if the change were ignored), `first_order_b` = ρ δ × ū_b
+/// with δ the rotation vector of R_bs,new R_bs,usedᵀ (for a line scanner's beams SPEC §2's form),
+/// `scan_angle_rad` the angle of ū_b. Bins of fewer than `min_beams` beams are left out; ranges
+/// outer, angles ascending. Zero-length vectors are skipped.
+std::vector<ErrorCurveSample> beamErrorCurves(const Mat3& R_bs_used, const Mat3& R_bs_new, const std::vector<Vec3>& r_s,
+                                              const std::vector<double>& ranges_m, double bin_deg = 2.0, int min_beams = 5);
+
 /// CSV table: `range_m,scan_angle_deg,exact_x_m,exact_y_m,exact_z_m,first_x_m,first_y_m,first_z_m`.
 std::string errorCurvesCsv(const std::vector<ErrorCurveSample>& samples);
 
