@@ -691,18 +691,26 @@ std::string overlaySection(const CalibrationData& data, const MountingCalibrator
   return v.str();
 }
 
+/// Every strip's laser vectors r_s, evenly strided to about `count` (every one when fewer).
+std::vector<Vec3> sampledBeams(const CalibrationData& data, std::size_t count) {
+  std::size_t total = 0;
+  for (const StripData& s : data.strips) total += s.r_s.size();
+  const std::size_t step = 1 + total / count;
+  std::vector<Vec3> out;
+  std::size_t k = 0;
+  for (const StripData& s : data.strips)
+    for (const Vec3& v : s.r_s)
+      if (k++ % step == 0) out.push_back(v);
+  return out;
+}
+
 /// The ranges at which the error curves are drawn: the 10th, 50th and 90th percentiles of the
 /// data's ranges |r_s| (rounded to two significant digits, distinct), so that a UAV's 30 m passes
 /// are not shown at an aircraft's 500–2000 m; those four when the data have no ranges.
 std::vector<double> curveRanges(const CalibrationData& data) {
   std::vector<double> r;
-  std::size_t total = 0;
-  for (const StripData& s : data.strips) total += s.r_s.size();
-  const std::size_t step = 1 + total / 20000;
-  std::size_t k = 0;
-  for (const StripData& s : data.strips)
-    for (const Vec3& v : s.r_s)
-      if (k++ % step == 0 && std::isfinite(v.norm()) && v.norm() > 0) r.push_back(v.norm());
+  for (const Vec3& v : sampledBeams(data, 20000))
+    if (std::isfinite(v.norm()) && v.norm() > 0) r.push_back(v.norm());
   if (r.size() < 10) return {500, 1000, 1500, 2000};
   std::sort(r.begin(), r.end());
   std::vector<double> out;
@@ -722,16 +730,9 @@ std::vector<double> curveRanges(const CalibrationData& data) {
 std::string errorCurvesSection(const CalibrationData& data, const MountingCalibrator::Summary& summary) {
   std::ostringstream v;
   const std::vector<double> ranges = curveRanges(data);
-  std::size_t total = 0;
-  for (const StripData& s : data.strips) total += s.r_s.size();
-  std::vector<Vec3> beams;
-  const std::size_t step = 1 + total / 50000;
-  std::size_t k = 0;
-  for (const StripData& s : data.strips)
-    for (const Vec3& r : s.r_s)
-      if (k++ % step == 0) beams.push_back(r);
   const Vec3 b = summary.mounting.boresight - data.mounting_used.boresight;
-  std::vector<ErrorCurveSample> curves = beamErrorCurves(data.mounting_used.R_bs(), summary.mounting.R_bs(), beams, ranges);
+  std::vector<ErrorCurveSample> curves =
+      beamErrorCurves(data.mounting_used.R_bs(), summary.mounting.R_bs(), sampledBeams(data, 50000), ranges);
   const bool own = !curves.empty();
   if (!own) {
     std::vector<double> angles;
