@@ -80,13 +80,20 @@ def passes(job_path):
     return xs
 
 
+def compare(before_job, after_job):
+    """variants() of the two jobs' passes, the smaller pass querying, as mountcal evaluate does."""
+    b, a = passes(before_job), passes(after_job)
+    if [len(p) for p in b] != [len(p) for p in a]:
+        raise SystemExit(f"{before_job}, {after_job}: the passes differ in their points")
+    q = 0 if len(b[0]) <= len(b[1]) else 1
+    return variants([b[q], b[1 - q]], [a[q], a[1 - q]])
+
+
 def main(argv):
     if len(argv) != 3:
         print(__doc__, file=sys.stderr)
         return 2
-    b, a = passes(argv[1]), passes(argv[2])
-    q = 0 if len(b[0]) <= len(b[1]) else 1  # the smaller pass queries, as mountcal evaluate does
-    out = variants([b[q], b[1 - q]], [a[q], a[1 - q]])
+    out = compare(argv[1], argv[2])
     for name, (sb, sa) in out.items():
         print(f"{name:14s} points {sb['points']:6d} / {sa['points']:6d}  median {sb['median_m']:.4f} / {sa['median_m']:.4f} m"
               f"  P90 {sb['p90_m']:.4f} / {sa['p90_m']:.4f} m")
