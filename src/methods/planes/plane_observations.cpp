@@ -44,21 +44,32 @@ namespace {
 
 struct StripCloud {
   const StripData* strip = nullptr;
-  std::vector<Vec3> x0;
-  std::unique_ptr<detail::PlanGrid> grid;
+  std::vector<Vec3> x0;                    ///< at M_used [m]
+  std::vector<Vec3> x_at;                  ///< at the mounting the cloud was made for (empty: M_used) [m]
+  std::unique_ptr<detail::PlanGrid> grid;  ///< over at()
+  const std::vector<Vec3>& at() const { return x_at.empty() ? x0 : x_at; }
 };
 
-std::vector<StripCloud> makeClouds(const CalibrationData& data, double cell_m) {
+/// Every strip's points at M_used and, given `m` (MountingIndex order [m, rad]), at m — the plan
+/// grid over the latter.
+std::vector<StripCloud> makeClouds(const CalibrationData& data, double cell_m, const std::array<double, 6>* m = nullptr) {
   data.requirePoses();
   std::vector<StripCloud> clouds;
+  const MountingParameters& used = data.mounting_used;
   for (const StripData& s : data.strips) {
     if (s.r_s.size() != s.time_s.size() || (!s.x_m.empty() && s.x_m.size() != s.time_s.size())) {
       throw InvalidInput("strip '" + s.id + "': time, r_s and x_m must have the same length");
     }
     StripCloud c;
     c.strip = &s;
-    c.x0 = detail::referencePoints(data, s, data.mounting_used);
-    c.grid = std::make_unique<detail::PlanGrid>(c.x0, cell_m);
+    c.x0 = detail::referencePoints(data, s, used);
+    if (m && *m != used.toArray()) {
+      const detail::MountingMotion motion(used.R_nom, used.R_bs(), used.a_b, m->data());
+      c.x_at.resize(c.x0.size());
+      std::size_t cursor = 0;
+      for (std::size_t i = 0; i < c.x0.size(); ++i) c.x_at[i] = c.x0[i] + motion.displacement(data.pose(s, i, &cursor).R_mb, s.r_s[i]);
+    }
+    c.grid = std::make_unique<detail::PlanGrid>(c.at(), cell_m);
     clouds.push_back(std::move(c));
   }
   return clouds;
@@ -140,15 +151,21 @@ struct PlaneLaserPointResidual {
 
 }  // namespace
 
-std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& opts) {
-  std::string why;
-  if (!opts.IsValid(&why)) throw InvalidInput("plane options: " + why);
+namespace {
+
+/// The automatic patches' plan cell [m]: stated, or 5 × the point spacing, at least 1.5 m.
+double patchCell(const CalibrationData& data, const PlaneOptions& opts) {
+  if (opts.cell_size_m > 0) return opts.cell_size_m;
   std::vector<StripCloud> probe = makeClouds(data, 2.0);
   double spacing = 1e300;
   for (const auto& c : probe) spacing = std::min(spacing, detail::planSpacing(c.x0));
-  const double cell = opts.cell_size_m > 0 ? opts.cell_size_m : std::max(1.5, 5.0 * spacing);
-  std::vector<StripCloud> clouds = makeClouds(data, cell);
-  probe.clear();
+  return std::max(1.5, 5.0 * spacing);
+}
+
+/// findPlanarPatches with the strips' points at mounting m (null: at M_used), on a plan grid of
+/// `cell` (patchCell).
+std::vector<PlanarPatch> findPatchesAt(const CalibrationData& data, const PlaneOptions& opts, double cell, const std::array<double, 6>* m) {
+  std::vector<StripCloud> clouds = makeClouds(data, cell, m);
   // Per cell, the plane of every strip that sees it (planar ones only).
   struct CellPlane {
     int strip;
@@ -166,7 +183,7 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
     for (const auto& cell : clouds[s].grid->cells()) {
       const auto& idx = cell.second;  // a named reference: a lambda may not capture a structured binding before C++20
       if (static_cast<int>(idx.size()) < min_pts) continue;
-      const detail::PlaneFit f = detail::fitPlane(idx.size(), [&](std::size_t k) { return clouds[s].x0[idx[k]]; });
+      const detail::PlaneFit f = detail::fitPlane(idx.size(), [&](std::size_t k) { return clouds[s].at()[idx[k]]; });
       if (f.sigma_m > opts.max_roughness_m) continue;
       const Vec3& c = f.centroid;
       per_cell[{clouds[s].grid->cellIndex(c.x()), clouds[s].grid->cellIndex(c.y())}].push_back({s, f});
@@ -258,6 +275,14 @@ std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const Pl
   return out;
 }
 
+}  // namespace
+
+std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& opts) {
+  std::string why;
+  if (!opts.IsValid(&why)) throw InvalidInput("plane options: " + why);
+  return findPatchesAt(data, opts, patchCell(data, opts), nullptr);
+}
+
 PlaneObservations::~PlaneObservations() = default;
 
 PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOptions& options)
@@ -265,24 +290,42 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
   std::string why;
   if (!options_.IsValid(&why)) throw InvalidInput("plane options: " + why);
   section_.automatic = options_.automatic;
+  selected_at_ = found_at_ = used_.toArray();
   std::vector<PlaneRegion> regions = data.plane_regions;
   if (options_.automatic) {
+    data_ = &data;
+    cell_m_ = patchCell(data, options_);
     regions.clear();
-    for (const PlanarPatch& p : findPlanarPatches(data, options_)) regions.push_back(p.region);
+    for (const PlanarPatch& p : findPatchesAt(data, options_, cell_m_, nullptr)) regions.push_back(p.region);
+    // Probes of how far the strips move as the mounting changes: evenly over each strip.
+    for (const StripData& st : data.strips) {
+      const std::size_t n = st.r_s.size(), step = std::max<std::size_t>(1, n / 256);
+      std::size_t cursor = 0;
+      for (std::size_t i = 0; i < n; i += step) probes_.push_back({data.pose(st, i, &cursor).R_mb, st.r_s[i]});
+    }
   }
   if (options_.laser_elevation_sigma_deg > 0) {
     laser_ = std::make_unique<detail::LaserElevationBlock>();
     laser_->setUp(data, "planes");
   }
-  std::vector<StripCloud> clouds = makeClouds(data, 4.0);
-  // Candidates: every strip point within the region grown by the search margin (points move
-  // in and out of a region as the mounting changes; select() picks the inliers each round).
+  collectCandidates(data, regions, nullptr);
+  strip_order_.clear();
+  for (const StripData& s : data.strips) strip_order_.push_back(s.id);
+  select(selected_at_);
+}
+
+void PlaneObservations::collectCandidates(const CalibrationData& data, const std::vector<PlaneRegion>& regions,
+                                          const std::array<double, 6>* m) {
+  regions_.clear();
+  std::vector<StripCloud> clouds = makeClouds(data, 4.0, m);
+  // Candidates: every strip point within the region (at m) grown by the search margin (points
+  // move in and out of a region as the mounting changes; select() picks the inliers each round).
   const double g = options_.search_margin_m;
   for (const PlaneRegion& reg : regions) {
     Region region;
     region.box = reg;
     for (const StripCloud& c : clouds) {
-      for (std::uint32_t i : c.grid->box(c.x0, reg.xmin - g, reg.ymin - g, reg.xmax + g, reg.ymax + g)) {
+      for (std::uint32_t i : c.grid->box(c.at(), reg.xmin - g, reg.ymin - g, reg.xmax + g, reg.ymax + g)) {
         Candidate cand;
         cand.strip_id = c.strip->id;
         cand.x0 = c.x0[i];
@@ -295,10 +338,14 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
     }
     regions_.push_back(std::move(region));
   }
-  strip_order_.clear();
-  for (const StripData& s : data.strips) strip_order_.push_back(s.id);
-  selected_at_ = used_.toArray();
-  select(selected_at_);
+}
+
+double PlaneObservations::movedSinceFound(const std::array<double, 6>& m) const {
+  const detail::MountingMotion now(used_.R_nom, used_.R_bs(), used_.a_b, m.data());
+  const detail::MountingMotion then(used_.R_nom, used_.R_bs(), used_.a_b, found_at_.data());
+  double moved = 0.0;
+  for (const Probe& p : probes_) moved = std::max(moved, (now.displacement(p.R_mb, p.r_s) - then.displacement(p.R_mb, p.r_s)).norm());
+  return moved;
 }
 
 void PlaneObservations::select(const std::array<double, 6>& m) {
@@ -422,7 +469,25 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
 }
 
 void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {
-  if (mounting != selected_at_) select(mounting);
+  // Automatic patches are found again where the strips now lie once some point has moved beyond
+  // the search margin (the candidates' reach; at least half a plan cell) since the last search:
+  // from a mounting far from the truth the first search sees the strips apart and keeps level
+  // patches only (a sloped roof's faces do not meet), which see the horizontal lever arm, pitch
+  // and heading only through the aircraft's attitude changes (the crossing field flown with a
+  // boresight of 0.25°, −0.30°, 0.40°: 118 level patches, the lever arm 5 m off at 50σ).
+  refound_ = false;
+  if (data_ && section_.patch_searches < kMaxPatchSearches &&
+      movedSinceFound(mounting) > std::max(options_.search_margin_m, 0.5 * cell_m_)) {
+    std::vector<PlaneRegion> regions;
+    for (const PlanarPatch& p : findPatchesAt(*data_, options_, cell_m_, &mounting)) regions.push_back(p.region);
+    collectCandidates(*data_, regions, &mounting);
+    found_at_ = mounting;
+    refound_ = true;
+    ++section_.patch_searches;
+    select(mounting);
+  } else if (mounting != selected_at_) {
+    select(mounting);
+  }
   selected_at_ = mounting;
   const Mat3 R_bs_used = used_.R_bs();
   const double inv_sigma = 1.0 / section_.sigma_m;

@@ -117,6 +117,9 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
   r << detail::printfString("\nPlanes (%s): %d patches, %d points, sigma %.4f m; RMS before %.4f m, after %.4f m\n",
                             automatic ? "found automatically" : "given regions", patches_used, points_used, sigma_m, rms_before_m,
                             rms_after_m);
+  if (patch_searches > 1)
+    r << "  found again " << patch_searches - 1 << (patch_searches == 2 ? " time" : " times")
+      << " where the strips lay once the mounting had moved them beyond the search margin\n";
   r << "  patch                 strips points  tilt[deg] aspect[deg]  RMS before [m]  after [m]\n";
   for (const PatchResidual& p : patches) {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
@@ -154,6 +157,7 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
                  {"rms_after_m", rms_after_m},
                  {"patches", list},
                  {"rejected", rej}};
+  if (automatic) j["planes"]["patch_searches"] = patch_searches;
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
   if (!laser_elevations.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics(laser_elevations));
   return j.dump();

@@ -99,6 +99,9 @@ struct PlaneSection : MethodSection {
   int outliers() const override;
   std::vector<PlanMark> planMarks() const override;
   bool automatic = false;
+  /// Automatic patches: how often they were searched for (1: at the used mounting only; more:
+  /// found again where the strips lay once the mounting had moved them beyond the search margin).
+  int patch_searches = 1;
   int patches_used = 0;
   int points_used = 0;
   double sigma_m = 0.0;  ///< σ of a point-to-plane distance used [m]
@@ -132,8 +135,12 @@ class PlaneObservations final : public ObservationSource {
   ~PlaneObservations() override;
 
   std::string kind() const override { return "planes"; }
-  /// The points in each region are selected again at each new mounting.
+  /// The points in each region are selected again at each new mounting, and automatic patches
+  /// found again once some point has moved beyond the search margin (at least half a plan cell)
+  /// since they were found (at most kMaxPatchSearches searches).
   bool rematches() const override { return true; }
+  /// False in the round after the automatic patches were found again (a new set of patches).
+  bool settled() const override { return !refound_; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void solved(const AdjustmentProblem& problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
@@ -176,6 +183,17 @@ class PlaneObservations final : public ObservationSource {
   };
   /// Selects every region's points (RANSAC per strip) and builds the patches at mounting m.
   void select(const std::array<double, 6>& m);
+  /// regions_ from the boxes: each strip's points within a box (grown by the search margin) at
+  /// mounting m (null: at M_used).
+  void collectCandidates(const CalibrationData& data, const std::vector<PlaneRegion>& regions, const std::array<double, 6>* m);
+  /// The largest move of a probe point between the mounting the patches were found at and m [m].
+  double movedSinceFound(const std::array<double, 6>& m) const;
+  /// Searches for automatic patches at most (the first included).
+  static constexpr int kMaxPatchSearches = 6;
+  struct Probe {
+    Mat3 R_mb;
+    Vec3 r_s;
+  };
   /// Patch points per laser id (per-laser elevation offsets estimated).
   std::vector<int> laserPoints() const;
 
@@ -184,6 +202,13 @@ class PlaneObservations final : public ObservationSource {
   std::vector<Region> regions_;
   std::vector<std::string> strip_order_;
   std::array<double, 6> selected_at_{};
+  // Automatic patches: the data they are found in (the caller's, alive during the calibration),
+  // the mounting of the last search, its plan cell and the probes of movedSinceFound.
+  const CalibrationData* data_ = nullptr;
+  std::array<double, 6> found_at_{};
+  double cell_m_ = 0.0;
+  std::vector<Probe> probes_;
+  bool refound_ = false;
   std::vector<Patch> patches_;
   std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
   PlaneSection section_;
