@@ -290,7 +290,8 @@ TEST(CorrespondenceMethod, StripsMovingBeyondTheAprioriMisalignmentGrowItFromThe
 // which see the horizontal lever arm, pitch and heading only through the aircraft's attitude
 // changes. Before the boresight stage and the second search (2026-12-05), eight of eight seeds
 // ran to a self-consistent lever arm 4.4–5.3 m off at 49–99σ ("doubtful" only by the lever arm's
-// move); the cost there was 1.6× the truth's. Now the boresight settles with the lever arm held,
+// move); the cost there was 1.6× the truth's. Now a lever arm that moves more than 0.5 m sends
+// the estimation back to its start, where the boresight settles first with the lever arm held;
 // the patches are found again where the strips meet — sloped roofs among them — and the lever
 // arm joins: over twelve seeds every one "accept" (the RMS of error/σ over the seeds in
 // docs/model-and-methods.md).

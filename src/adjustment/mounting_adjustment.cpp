@@ -1054,28 +1054,43 @@ class Estimation {
   /// One estimation: build the problem at the current mounting, solve, and — for matching
   /// sources — re-match and solve again until the mounting stops changing. False when no
   /// source has an observation.
-  bool estimate(const std::array<bool, 6>& est, std::array<double, 6> m) {
+  bool estimate(const std::array<bool, 6>& est, const std::array<double, 6>& m) {
     S_.rematch_rounds = 0;
-    // A matching source matches at the mounting alone: from an a-priori mounting its first
-    // matches are biased, and per-strip corrections in time (many weakly determined directions)
-    // would follow them. They join once the matching has settled without them.
+    if (!stages(est, m, false)) return false;
+    // A matching source's first matches at a mounting far from the truth are biased, and a lever
+    // arm that the data see only weakly (level patches: through the aircraft's attitude changes)
+    // can take up what the boresight should and stay at a self-consistent matching far from the
+    // truth (planes "auto" from a boresight 0.4° off: 5 m, at 57σ). When the lever arm has moved
+    // further than a mounting is mis-measured (AnalysisOptions::lever_arm_change_warning_m), the
+    // estimation starts again with the boresight first: it settles with the lever arm held at its
+    // start, then the lever arm joins.
+    if (!any_rematch_ || !(est[kLeverX] || est[kLeverY] || est[kLeverZ]) ||
+        !(est[kBoresightRoll] || est[kBoresightPitch] || est[kBoresightHeading]))
+      return true;
+    const std::array<double, 6> first = P_->mountingValues();
+    double moved = 0.0;
+    for (int j : {kLeverX, kLeverY, kLeverZ})
+      if (est[j]) moved = std::max(moved, std::abs(first[j] - m[j]));
+    if (!(moved > o_.lever_arm_change_warning_m)) return true;
+    S_.rematch_rounds = 0;
+    return stages(est, m, true);
+  }
+
+  /// estimate()'s stages from m: with `boresight_first`, the boresight alone (the lever arm held
+  /// at m); then, with trajectory corrections or an estimated time offset, everything but them
+  /// (a matching source matches at the mounting alone: from an a-priori mounting its first
+  /// matches are biased, and per-strip corrections in time — many weakly determined directions —
+  /// would follow them); then everything.
+  bool stages(const std::array<bool, 6>& est, std::array<double, 6> m, bool boresight_first) {
     const bool staged = any_rematch_ && (o_.corrections.any() || o_.estimate_time_offset);
-    // Likewise the lever arm: from a mounting far from the truth the first matches are biased,
-    // and a lever arm that the data see only weakly (level patches: through the aircraft's
-    // attitude changes) takes up what the boresight should — then stays at a self-consistent
-    // matching far from the truth (planes "auto", boresight 0.4° off: 5 m, at 57σ). The
-    // boresight settles first with the lever arm at its start, then the lever arm joins.
-    const bool lever_staged = any_rematch_ && (est[kLeverX] || est[kLeverY] || est[kLeverZ]);
-    if (lever_staged) {
+    if (boresight_first) {
       std::array<bool, 6> boresight = est;
       boresight[kLeverX] = boresight[kLeverY] = boresight[kLeverZ] = false;
-      if (std::any_of(boresight.begin(), boresight.end(), [](bool b) { return b; })) {
-        without_corrections_ = staged;
-        const bool ok = rematchLoop(boresight, m);
-        without_corrections_ = false;
-        if (!ok) return false;
-        m = P_->mountingValues();
-      }
+      without_corrections_ = staged;
+      const bool ok = rematchLoop(boresight, m);
+      without_corrections_ = false;
+      if (!ok) return false;
+      m = P_->mountingValues();
     }
     if (staged) {
       without_corrections_ = true;
