@@ -451,3 +451,42 @@ TEST(Planner, CommandPrintsThePredictionWritesTheReportAndRefusesBadInput) {
   EXPECT_EQ(s2.str(), s3.str());
   fs::remove_all(dir);
 }
+
+// Issue 28 (open): the planner's prediction for a multi-beam UAV flight — a VLP-16 on its side
+// (spin axis forward), two opposite lines at 40 m and two at 60 m, a crossing line at 50 m, 5 m/s,
+// six 2 m targets on flat ground, two of them surveyed — against the scatter of simulated VTPM
+// calibrations of the same plan ("realistic" noise, as the airborne tests above). Measured
+// 2026-12-05: RMS error / predicted σ over 96 flights lever x 1.23, lever y 1.10, roll 1.50,
+// pitch 1.19, heading 1.06 (over 32: 1.02, 1.01, 1.41, 1.02, 0.87) — roll's σ (7.9e-5°) 1.5×
+// too small. Each noise source alone (the others at 0.1 mm / 0) leaves ratios of 1.1–5.4 on
+// errors of 1e-5° and 1 mm, a floor the plan does not state; with the realistic noise roll's
+// error is mostly the picks' (5 cm). Not yet explained, so disabled: run it with
+// --gtest_also_run_disabled_tests --gtest_filter=Planner.DISABLED_MultiBeamUavPredictionMatchesTheScatter
+TEST(Planner, DISABLED_MultiBeamUavPredictionMatchesTheScatter) {
+  json j;
+  j["name"] = "uav plan";
+  j["sensor"] = {{"type", "vlp16"}, {"nominal_rotation_deg", {0, 90, 0}}};
+  j["noise"] = "realistic";
+  j["mounting"] = {{"lever_arm_m", {0.05, -0.08, 0.12}}, {"boresight_deg", {0, 0, 0}}};
+  j["roi_radius_m"] = 4;
+  const std::vector<std::tuple<std::string, double, double, double, double, double>> lines = {{"1", -100, 0, 100, 0, 40},
+                                                                                              {"2", 100, 0, -100, 0, 40},
+                                                                                              {"3", -100, 0, 100, 0, 60},
+                                                                                              {"4", 100, 0, -100, 0, 60},
+                                                                                              {"5", 0, -100, 0, 100, 50}};
+  for (const auto& [id, x0, y0, x1, y1, h] : lines)
+    j["lines"].push_back({{"id", id}, {"start", {x0, y0}}, {"end", {x1, y1}}, {"height_m", h}, {"speed_mps", 5}});
+  j["ground"]["roofs"] = json::array();
+  j["ground"]["targets"] = json::array({
+      {{"id", "t1"}, {"centre", {-60, -25}}, {"size_m", 2}},
+      {{"id", "t2"}, {"centre", {0, 30}}, {"size_m", 2}},
+      {{"id", "t3"}, {"centre", {50, -10}}, {"size_m", 2}},
+      {{"id", "t4"}, {"centre", {20, 15}}, {"size_m", 2}},
+      {{"id", "t5"}, {"centre", {-30, 20}}, {"size_m", 2}},
+      {{"id", "t6"}, {"centre", {70, 25}}, {"size_m", 2}},
+  });
+  j["gcps"] = {"t1", "t3"};
+  j["method"] = "vtpm";
+  j["estimate"] = {{"lever_arm", {true, true, false}}, {"boresight", {true, true, true}}};
+  expectPredictionMatchesScatter(j, mountcal_tests::seedsFor(96, 2), [](simulation::NoiseModel*) {});
+}
