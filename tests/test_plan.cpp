@@ -452,23 +452,19 @@ TEST(Planner, CommandPrintsThePredictionWritesTheReportAndRefusesBadInput) {
   fs::remove_all(dir);
 }
 
-// Issue 28 (open): the planner's prediction for a multi-beam UAV flight — a VLP-16 on its side
-// (spin axis forward), two opposite lines at 40 m and two at 60 m, a crossing line at 50 m, 5 m/s,
-// six 2 m targets on flat ground, two of them surveyed — against the scatter of simulated VTPM
+// Issue 28: the planner's prediction for a multi-beam UAV flight — a VLP-16 on its side (spin axis
+// forward), two opposite lines at 40 m and two at 60 m, a crossing line at 50 m, 5 m/s, six 2 m
+// targets on flat ground, two of them surveyed — against the scatter of simulated VTPM
 // calibrations of the same plan ("realistic" noise, as the airborne tests above). Measured
-// 2026-12-05: RMS error / predicted σ over 96 flights lever x 1.23, lever y 1.10, roll 1.50,
-// pitch 1.19, heading 1.06 (over 32: 1.02, 1.01, 1.41, 1.02, 0.87) — roll's σ (0.0045°) 1.5×
-// too small; the calibrations' own σ are nearly as small (their RMS over the flights: roll 0.0052°,
-// lever x 0.041 m — the errors 1.31× and 1.22× that; σ₀² 1.20 on average). The picks drive it: with the pick σ at 1 / 5 / 15 cm (plan and
-// flights alike) the roll ratio is 1.23 / 1.51 / 3.38 and every ratio grows (lever x 0.86 / 1.22 / 3.30), while the prediction barely moves
-// (roll 0.0045° throughout). At 15 cm the calibrations' own σ are as optimistic (σ₀² 1.0–2.7; roll errors 0.003–0.066° against σ
-// 0.005–0.008°) and the ties' height residuals grow with the pick σ (RMS 0.010 m at 1 cm, 0.023 m at 15 cm) on flat ground: a pick error
-// reaches the heights, or the parameters the heights carry, in a way neither the plan nor the calibrator models. Not the multi-beam
-// sensor's: a line scanner (±40°) on the same flight gives lever y 1.47, roll 2.17 (96 flights) — the UAV scale is (the airborne tests
-// above, at 500–800 m with the same 5 cm picks, pass): a pick error of several point spacings lands on other triangles of the noisy
-// surface, whose slopes the prediction (a plane) does not have. Not yet explained, so disabled: run it with
-// --gtest_also_run_disabled_tests --gtest_filter=Planner.DISABLED_MultiBeamUavPredictionMatchesTheScatter
-TEST(Planner, DISABLED_MultiBeamUavPredictionMatchesTheScatter) {
+// 2026-12-05 over 96 flights: RMS error / predicted σ 0.94–1.06 (lever x 0.98, lever y 0.96,
+// roll 1.06, pitch 0.96, heading 0.94); with 15 cm picks 0.88–1.25, and a line scanner (±40°) on
+// the same flight 0.89–1.07. Before, the ties' pick cofactor took the VTP triangle's own tilt as
+// the surface's: on these dense points (a decimetre apart, 2 cm of range noise) a triangle is
+// tilted by degrees, which coupled the heights to the picks' plan errors — roll 1.50, lever x
+// 1.23 (1.23 / 1.51 / 3.38 for roll with 1 / 5 / 15 cm picks; the line scanner's roll 2.17), the
+// calibrations' own σ as small and their errors larger. The airborne flights above (points a
+// metre apart at 500–800 m) were not affected.
+TEST(Planner, MultiBeamUavPredictionMatchesTheScatter) {
   json j;
   j["name"] = "uav plan";
   j["sensor"] = {{"type", "vlp16"}, {"nominal_rotation_deg", {0, 90, 0}}};

@@ -103,6 +103,10 @@ Vec3 triangleNormal(const VirtualTiePoint& v) {
   return n.z() < 0 ? Vec3(-n) : n;
 }
 
+/// The normal of the surface a VTP's pick lies on: the local plane VtpStrip fitted, else its
+/// triangle's.
+Vec3 pickSurfaceNormal(const VirtualTiePoint& v) { return v.surfaceNormal().squaredNorm() > 0 ? v.surfaceNormal() : triangleNormal(v); }
+
 /// The steepest surface gradient a tie's covariance takes, tan 72°: a pick on a wall does not
 /// define a height [-].
 constexpr double kMaxTieGradient = 3.0;
@@ -126,9 +130,13 @@ Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const Vec3& n, const PulseNois
 
 /// The cofactor of a plan pick's error in 3-D: a pick δ = (δx, δy) off in plan lands on the strip's
 /// surface there, so the virtual tie point moves by J δ with J = [1 0; 0 1; g_x g_y] and g the
-/// surface's gradient (−n_x/n_z, −n_y/n_z) of the VTP's triangle: on a roof of slope θ the height
-/// follows the pick by tan θ along the fall line. Σ_pick = σ_xy² J Jᵀ (diag(σ², σ², 0) on level
-/// ground). `n`: the triangle's normal (triangleNormal).
+/// surface's gradient (−n_x/n_z, −n_y/n_z): on a roof of slope θ the height follows the pick by
+/// tan θ along the fall line. Σ_pick = σ_xy² J Jᵀ (diag(σ², σ², 0) on level ground). `n`: the
+/// surface's normal (pickSurfaceNormal), not the triangle's — a pick error of a few point spacings
+/// leaves the triangle, whose own tilt is its pulses' noise there: on a UAV flight (points 0.1 m
+/// apart, 2 cm range noise) that tilt coupled the heights to the picks' plan errors in the
+/// stochastic model, and the VTPM σ of roll came out 1.3× small and the errors larger
+/// (Planner.MultiBeamUavPredictionMatchesTheScatter, 2026-12-05).
 Mat3 pickCofactor(const Vec3& n) {
   Eigen::Vector2d g = -n.head<2>() / std::max(n.z(), 1e-9);
   if (g.norm() > kMaxTieGradient) g *= kMaxTieGradient / g.norm();
@@ -376,7 +384,7 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
       // seed eq. (10), whitened by the pick's σ along the surface (pickCofactor), the height's
       // σ from the triangle and, when the stochastic model has it, the pulse noise at this tie point.
       const Vec3 n = triangleNormal(v);
-      const Mat3 Q_pick = pickCofactor(n);
+      const Mat3 Q_pick = pickCofactor(pickSurfaceNormal(v));
       Mat3 Sigma = sigma_xy_m_ * sigma_xy_m_ * Q_pick;
       Sigma(2, 2) += sigma_z_m_ * sigma_z_m_;
       if (problem->pulseNoise().any()) Sigma += vtpPulseCovariance(v, n, problem->pulseNoise());

@@ -314,6 +314,7 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
     verts[k].pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
   }
   *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
+  vtp->setSurfaceNormal(n);  // the local plane's, for the pick's error along the surface (TieObservations)
   // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the
   // same nominal rotation, so P(reference) = P⁰ exactly.
   return true;

@@ -73,6 +73,12 @@ class VirtualTiePoint {
   Vec3 relativePosition(const double* mounting6) const;
   /// Centroid of the reference triangle [m].
   const Vec3& centroid() const { return centroid0_m_; }
+  /// Unit normal (upward) of the surface the pick lies on: the least-squares plane of the
+  /// coplanar points around it that VtpStrip::build fitted (the triangle's own normal carries its
+  /// three pulses' noise as well: on dense UAV points, decimetres apart, 2 cm of range noise tilts
+  /// a triangle by degrees). Zero when not set.
+  const Vec3& surfaceNormal() const { return surface_normal_; }
+  void setSurfaceNormal(const Vec3& n) { surface_normal_ = n; }
 
  private:
   std::string tie_id_, strip_id_;
@@ -84,6 +90,7 @@ class VirtualTiePoint {
   Mat3 R_nom_ = Mat3::Identity();
   Mat3 R_bs0_ = Mat3::Identity();  // reference R_bore·R_nom
   Vec3 a0_b_ = Vec3::Zero();       // reference lever arm
+  Vec3 surface_normal_ = Vec3::Zero();
 };
 
 /// seed eq. (5): height at (x, y) on the plane through three points.
