@@ -318,6 +318,11 @@ std::string MountingCalibrator::Summary::FullReport() const {
   std::snprintf(buf, sizeof buf, "Iterations %d, cost %.6g -> %.6g, %.3f s (construction %.3f, solve %.3f, analysis %.3f)\n", iterations,
                 initial_cost, final_cost, time_s, construction_time_s, solve_time_s, analysis_time_s);
   r << buf;
+  if (rematch_rounds > 1)
+    r << "Solves between matchings " << rematch_rounds
+      << (boresight_first_restart ? " (started again with the boresight first: the lever arm had moved beyond "
+                                    "analysis.lever_arm_change_warning_m)\n"
+                                  : "\n");
   for (const auto& k : kinds) r << "  " << k.kind << ": " << k.blocks << " residual blocks, " << k.residuals << " residuals\n";
   std::snprintf(buf, sizeof buf, "Degrees of freedom %d, variance factor %.4g\n\n", degrees_of_freedom, variance_factor);
   r << buf;

@@ -309,6 +309,8 @@ TEST(PlaneMethod, AutomaticPatchesFromAFarMountingAreFoundAgainWhereTheStripsMee
   const PlaneSection& ps = S.section<PlaneSection>();
   EXPECT_GE(ps.patch_searches, 2);
   EXPECT_NE(S.FullReport().find("found again"), std::string::npos);
+  EXPECT_TRUE(S.boresight_first_restart);  // the lever arm ran metres in the first loop
+  EXPECT_GT(S.rematch_rounds, 2);          // both runs' solves counted
   int sloped = 0;
   for (const PatchResidual& p : ps.patches) sloped += std::abs(p.normal.z()) < std::cos(10 * kDeg);
   EXPECT_GE(sloped, 4) << S.FullReport();

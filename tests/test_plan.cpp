@@ -463,7 +463,9 @@ TEST(Planner, CommandPrintsThePredictionWritesTheReportAndRefusesBadInput) {
 // tilted by degrees, which coupled the heights to the picks' plan errors — roll 1.50, lever x
 // 1.23 (1.23 / 1.51 / 3.38 for roll with 1 / 5 / 15 cm picks; the line scanner's roll 2.17), the
 // calibrations' own σ as small and their errors larger. The airborne flights above (points a
-// metre apart at 500–800 m) were not affected.
+// metre apart at 500–800 m) were not affected. Since the picks on strips with laser ids move with
+// their neighbourhood's mean displacement (VtpMotion, later on 2026-12-05): 0.87–1.08 (lever x 0.88,
+// lever y 0.94, roll 1.08, pitch 0.87, heading 0.92).
 TEST(Planner, MultiBeamUavPredictionMatchesTheScatter) {
   json j;
   j["name"] = "uav plan";

@@ -1056,6 +1056,7 @@ class Estimation {
   /// source has an observation.
   bool estimate(const std::array<bool, 6>& est, const std::array<double, 6>& m) {
     S_.rematch_rounds = 0;
+    S_.boresight_first_restart = false;
     if (!stages(est, m, false)) return false;
     // A matching source's first matches at a mounting far from the truth are biased, and a lever
     // arm that the data see only weakly (level patches: through the aircraft's attitude changes)
@@ -1072,7 +1073,7 @@ class Estimation {
     for (int j : {kLeverX, kLeverY, kLeverZ})
       if (est[j]) moved = std::max(moved, std::abs(first[j] - m[j]));
     if (!(moved > o_.lever_arm_change_warning_m)) return true;
-    S_.rematch_rounds = 0;
+    S_.boresight_first_restart = true;  // rematch_rounds counts on: the first run's solves were made
     return stages(est, m, true);
   }
 

@@ -185,6 +185,7 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
                  {"message", summary.message},
                  {"iterations", summary.iterations},
                  {"rematch_rounds", summary.rematch_rounds},
+                 {"boresight_first_restart", summary.boresight_first_restart},
                  {"initial_cost", summary.initial_cost},
                  {"final_cost", summary.final_cost},
                  {"time_s", summary.time_s},

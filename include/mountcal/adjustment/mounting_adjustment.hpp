@@ -541,7 +541,10 @@ struct AdjustmentSummary {
   TerminationType termination = TerminationType::kInvalidInput;
   std::string message;
   int iterations = 0;
-  int rematch_rounds = 0;     ///< solves of the last estimation (1 when nothing re-matches)
+  int rematch_rounds = 0;  ///< solves of the last estimation (1 when nothing re-matches), a restart's included
+  /// The last estimation started again with the boresight first: its lever arm had moved more
+  /// than AnalysisOptions::lever_arm_change_warning_m (re-matching sources only).
+  bool boresight_first_restart = false;
   double initial_cost = 0.0;  ///< ½ Σ r², r normalised by σ [-]
   double final_cost = 0.0;
   double time_s = 0.0;               ///< wall time of the whole calibration [s]

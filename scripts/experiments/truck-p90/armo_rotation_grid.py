@@ -17,18 +17,13 @@ import os
 import sys
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", ".."))
+sys.path.insert(0, os.path.dirname(__file__))
 import pass_discrepancy as pd  # noqa: E402
+import fast_nearest  # noqa: E402
 
-
-def nearest(query, reference, k=10, chunk=0):
-    dist, idx = cKDTree(reference).query(query, k=k)
-    return idx, dist
-
-
-pd.nearest = nearest
+fast_nearest.use(pd)
 
 
 def read(path):

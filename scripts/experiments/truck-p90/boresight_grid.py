@@ -38,14 +38,11 @@ def main(argv):
     tmp = tempfile.mkdtemp()
     if metric == "ungated":
         sys.path.insert(0, os.path.join(ROOT, "scripts"))
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import pass_discrepancy as pd
-        from scipy.spatial import cKDTree
+        import fast_nearest
 
-        def nearest(query, reference, k=10, chunk=0):  # the same neighbours as the brute force, faster
-            dist, idx = cKDTree(reference).query(query, k=k)
-            return idx, dist
-
-        pd.nearest = nearest
+        fast_nearest.use(pd)
         before = pd.passes(job)
         q = 0 if len(before[0]) <= len(before[1]) else 1
 

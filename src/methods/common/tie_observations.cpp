@@ -211,6 +211,7 @@ StripData nearPicks(const StripData& strip, const std::vector<TieObservation>& p
     sub.time_s.push_back(strip.time_s[i]);
     sub.r_s.push_back(strip.r_s[i]);
     if (!strip.poses.empty()) sub.poses.push_back(strip.poses[i]);
+    if (!strip.laser.empty()) sub.laser.push_back(strip.laser[i]);
   }
   return sub;
 }
@@ -320,7 +321,10 @@ void TieObservations::build(const MountingParameters& reference) {
     ties_.push_back(tie);
   }
   int n_obs = 0;
-  for (const Tie& t : ties_) n_obs += static_cast<int>(t.obs.size());
+  for (const Tie& t : ties_) {
+    n_obs += static_cast<int>(t.obs.size());
+    for (int k : t.obs) section_.neighbourhood_motion += !vtps_[static_cast<std::size_t>(k)].motionSupport().empty();
+  }
   section_.ties_used = static_cast<int>(ties_.size());
   section_.observations_used = n_obs;
 }

@@ -5,6 +5,7 @@
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 
 #include "mountcal/core/error.hpp"
@@ -57,11 +58,38 @@ VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, doubl
   P0_rel_m_ = P0_m_ - centroid0_m_;
 }
 
+void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights) {
+  if (points.empty()) throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': empty motion support");
+  if (weights.empty()) weights.assign(points.size(), 1.0);
+  double sum = 0;
+  for (double w : weights) {
+    if (!(w > 0) || !std::isfinite(w))
+      throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': a motion weight is not positive and finite");
+    sum += w;
+  }
+  if (weights.size() != points.size())
+    throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': motion weights and points differ in number");
+  for (double& w : weights) w /= sum;
+  support_ = std::move(points);
+  weights_ = std::move(weights);
+  Vec3 c = Vec3::Zero();
+  for (std::size_t i = 0; i < support_.size(); ++i) c += weights_[i] * support_[i].x0_m;
+  centroid0_m_ = c;
+  for (LaserFootprint& f : support_) f.x0_m -= centroid0_m_;
+  P0_rel_m_ = P0_m_ - centroid0_m_;
+}
+
 Vec3 VirtualTiePoint::relativePosition(const double* m) const {
   // Rule 2: georeference the vertices with M (seed eq. 1) — as displacements from their
   // reference positions — fit the rigid motion of the triangle (seed eq. 6), carry P⁰ along.
   const Mat3 dR_bs = R_zyx(Vec3(m[3], m[4], m[5])) * R_nom_ - R_bs0_;
   const Vec3 da_b = Vec3(m[0], m[1], m[2]) - a0_b_;
+  if (!support_.empty()) {
+    // VtpMotion::kNeighbourhood: P(M) − c = (P⁰ − c) + mean_i R_mb,i [(R_bs(M) − R_bs(M₀)) r_s,i + (a − a₀)].
+    Vec3 mean = Vec3::Zero();
+    for (std::size_t i = 0; i < support_.size(); ++i) mean += weights_[i] * (support_[i].pose.R_mb * (dR_bs * support_[i].r_s + da_b));
+    return P0_rel_m_ + mean;
+  }
   Vec3 q[3];
   for (int i = 0; i < 3; ++i) q[i] = d0_m_[i] + vertices_[i].pose.R_mb * (dR_bs * vertices_[i].r_s + da_b);
   Mat3 R;
@@ -111,6 +139,7 @@ VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory
     xy[2 * i + 1] = strip_.x_m[i].y();
   }
   index_->plan = detail::KdTree<double, 2>(std::move(xy));
+  multi_laser_ = std::any_of(strip_.laser.begin(), strip_.laser.end(), [&](std::uint16_t l) { return l != strip_.laser.front(); });
 }
 
 VtpStrip::~VtpStrip() = default;
@@ -314,6 +343,30 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
     verts[k].pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
   }
   *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
+  if (options.motion == VtpMotion::kNeighbourhood || (options.motion == VtpMotion::kAuto && multi_laser_)) {
+    // The coplanar points nearest the pick (inliers keep idx's order, by distance).
+    std::vector<LaserFootprint> support;
+    for (std::size_t k = 0; k < inliers.size() && k < static_cast<std::size_t>(kMaxMotionSupport); ++k) {
+      const std::size_t i = inliers[k];
+      LaserFootprint f;
+      f.index = i;
+      f.r_s = strip_.r_s[i];
+      f.x0_m = X[i];
+      f.pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
+      support.push_back(f);
+    }
+    // Each laser weighs the same (its points share it): a pick is the centre of the lasers' images
+    // of the target, and the displacements of lasers tilted ±e from the scan plane cancel to first
+    // order only in equal shares (over 6 noise-free uav-vlp16 surveys the heading's error fell
+    // from 0.011-0.025° to 0.005-0.020° with them).
+    std::vector<double> w;
+    if (!strip_.laser.empty()) {
+      std::map<int, int> count;
+      for (const LaserFootprint& f : support) ++count[strip_.laser[f.index]];
+      for (const LaserFootprint& f : support) w.push_back(1.0 / count[strip_.laser[f.index]]);
+    }
+    vtp->setMotionSupport(std::move(support), std::move(w));
+  }
   vtp->setSurfaceNormal(n);  // the local plane's, for the pick's error along the surface (TieObservations)
   // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the
   // same nominal rotation, so P(reference) = P⁰ exactly.

@@ -39,6 +39,7 @@ class VtpStrip {
   std::shared_ptr<const Trajectory> trajectory_;
   MountingParameters reference_;
   std::unique_ptr<Index> index_;
+  bool multi_laser_ = false;  // its points carry more than one laser id (VtpMotion::kAuto)
 };
 
 }  // namespace mountcal

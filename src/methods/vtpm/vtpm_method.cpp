@@ -78,6 +78,10 @@ std::string VtpmSection::brief() const {
 std::string VtpmSection::text(const AdjustmentSummary&) const {
   std::ostringstream r;
   r << detail::printfString("\nTies %d, observations %d, rejected %zu\n", ties_used, observations_used, rejected.size());
+  if (neighbourhood_motion > 0)
+    r << detail::printfString(
+        "Picks moved with their neighbourhood's mean displacement (multi-beam strips, each laser the same weight): %d of %d\n",
+        neighbourhood_motion, observations_used);
   r << detail::printfString("Ties: RMS before (%.4f, %.4f, %.4f) m, after (%.4f, %.4f, %.4f) m\n", rms_before_m.x(), rms_before_m.y(),
                             rms_before_m.z(), rms_after_m.x(), rms_after_m.y(), rms_after_m.z());
   r << detail::printfString("Tie sigma %s: horizontal %.4f m, vertical %.4f m\n",
@@ -94,6 +98,7 @@ std::string VtpmSection::resultJson(const AdjustmentSummary&) const {
   const json res = detail::tieResidualsJson(residuals, "tie_id");
   json j;
   j["ties"] = {{"used", ties_used}, {"observations", observations_used}, {"rejected", rej}};
+  j["pick_motion"] = {{"neighbourhood", neighbourhood_motion}, {"triangle", observations_used - neighbourhood_motion}};
   j["rms_before_m"] = detail::vec3Json(rms_before_m);
   j["rms_after_m"] = detail::vec3Json(rms_after_m);
   j["residuals"] = res;
@@ -107,6 +112,10 @@ std::string VtpmSection::html(const AdjustmentSummary&) const {
   h << "<h2>Tie residuals (seed Table 1)</h2><p>" << ties_used << " ties, " << observations_used << " observations, " << rejected.size()
     << " rejected; RMS before (" << cell(rms_before_m.x()) << ", " << cell(rms_before_m.y()) << ", " << cell(rms_before_m.z())
     << ") m, after (" << cell(rms_after_m.x()) << ", " << cell(rms_after_m.y()) << ", " << cell(rms_after_m.z()) << ") m</p>";
+  if (neighbourhood_motion > 0)
+    h << "<p>" << neighbourhood_motion << " of " << observations_used
+      << " picks move with their neighbourhood's mean displacement (multi-beam strips, each laser the same weight), the others with "
+         "their triangle (seed Rule 2).</p>";
   std::vector<double> idx, bh, ah, bv, av;
   for (std::size_t i = 0; i < residuals.size(); ++i) {
     const TieResidual& r = residuals[i];

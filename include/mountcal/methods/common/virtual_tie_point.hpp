@@ -11,6 +11,11 @@
 ///  3. Rule 2 (seed eq. 6): for any mounting M the three vertices are georeferenced again, the
 ///     rigid transform from the reference triangle to the new one is fitted (Kabsch), and
 ///     applied to P⁰ → P(M). A pure function of M.
+///
+/// On a multi-beam scanner's strip (VtpMotion) the pick moves instead with the mean displacement
+/// of all the coplanar points around it: its lasers see a picked target at different times and
+/// angles, and under a wrong mounting each places it elsewhere — the pick is the centre of that
+/// smear, not a place of the one laser whose three pulses enclose it.
 
 #include <array>
 #include <cstdint>
@@ -33,6 +38,33 @@ struct LaserFootprint {
   std::size_t index = 0;     ///< index in its strip
 };
 
+/// How a virtual tie point moves with the mounting (Rule 2).
+enum class VtpMotion {
+  /// kNeighbourhood on a strip whose points carry more than one laser id (a multi-beam scanner's,
+  /// job key `sensor.laser_field`), kTriangle otherwise.
+  kAuto,
+  /// The seed's Rule 2: the rigid motion of the enclosing triangle (seed eq. 6).
+  kTriangle,
+  /// The mean displacement of the coplanar points around the pick (the RANSAC plane's inliers
+  /// within the search radius, the nearest kMaxMotionSupport): P(M) = P⁰ + Σ_i w_i [x_i(M) − x_i(M₀)],
+  /// each laser weighing the same when the strip has laser ids (w_i = 1 / (lasers · its points)),
+  /// each point otherwise.
+  /// A multi-beam scanner's sixteen or thirty-two lasers each see a target at another time and
+  /// angle; under a wrong mounting each places it elsewhere (a heading error of 1.2° moves the
+  /// ground points of a laser 15° off the scan plane, 50 m below, by 0.28 m across the track
+  /// against the scan plane's own), and a pick is made on the centre of that smear. The enclosing
+  /// triangle's three pulses, of one laser or two, move as those lasers do: over 30 simulated
+  /// uav-vlp16 surveys (a-priori boresight error 0.5°, −0.8°, 1.2°) VTPM's heading came out with
+  /// RMS error/σ 2.5 (mean −1.5), and 1.1 (mean −0.5) with the mean displacement
+  /// (scripts/experiments/uav-vtpm, 2026-12-05). A translation, not a rigid motion: the Kabsch
+  /// rotation of a neighbourhood whose lasers move apart is their scatter, and a neighbourhood of
+  /// one scan row leaves it undetermined (pitch errors of 9σ and 235σ in the same experiment).
+  kNeighbourhood,
+};
+
+/// The most points a neighbourhood motion averages (the nearest to the pick) [-].
+inline constexpr int kMaxMotionSupport = 256;
+
 /// Settings of the VTPM construction.
 struct VtpOptions {
   double radius_m = 1.0;  ///< search radius around the pick [m] (seed: 1 m)
@@ -47,6 +79,7 @@ struct VtpOptions {
   double min_inlier_fraction = 0.5;
   double min_triangle_angle_deg = 5.0;  ///< a sliver triangle is degenerate [deg]
   double max_plane_tilt_deg = 75.0;     ///< a plane steeper than this cannot hold a plan pick [deg]
+  VtpMotion motion = VtpMotion::kAuto;  ///< how the tie point moves with the mounting (Rule 2)
 };
 
 /// One virtual tie point: a pick on one strip and its three laser footprints.
@@ -71,7 +104,7 @@ class VirtualTiePoint {
   /// moves by R_mb·[(R_bs(M) − R_bs(M₀))·r_s + (a − a₀)] from its reference position, so the
   /// central differences of the calibrator see no cancellation of ~1 km terms.
   Vec3 relativePosition(const double* mounting6) const;
-  /// Centroid of the reference triangle [m].
+  /// Centroid of the reference triangle (of the motion support, when set) [m].
   const Vec3& centroid() const { return centroid0_m_; }
   /// Unit normal (upward) of the surface the pick lies on: the least-squares plane of the
   /// coplanar points around it that VtpStrip::build fitted (the triangle's own normal carries its
@@ -79,6 +112,13 @@ class VirtualTiePoint {
   /// a triangle by degrees). Zero when not set.
   const Vec3& surfaceNormal() const { return surface_normal_; }
   void setSurfaceNormal(const Vec3& n) { surface_normal_ = n; }
+  /// Rule 2 as the weighted mean displacement of these points (VtpMotion::kNeighbourhood; their
+  /// x0_m at the reference mounting; `weights` normalised here, all equal when empty) instead of
+  /// the triangle's rigid motion. centroid() becomes their weighted mean. Throws InvalidInput when
+  /// empty or when the weights are not as many, positive and finite.
+  void setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights = {});
+  /// The points of a neighbourhood motion; empty for the triangle's.
+  const std::vector<LaserFootprint>& motionSupport() const { return support_; }
 
  private:
   std::string tie_id_, strip_id_;
@@ -91,6 +131,8 @@ class VirtualTiePoint {
   Mat3 R_bs0_ = Mat3::Identity();  // reference R_bore·R_nom
   Vec3 a0_b_ = Vec3::Zero();       // reference lever arm
   Vec3 surface_normal_ = Vec3::Zero();
+  std::vector<LaserFootprint> support_;  // VtpMotion::kNeighbourhood; x0_m relative to centroid0
+  std::vector<double> weights_;          // of support_, summing to 1
 };
 
 /// seed eq. (5): height at (x, y) on the plane through three points.
