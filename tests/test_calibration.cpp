@@ -103,11 +103,14 @@ TEST(VtpmCalibration, MultiBeamPicksMoveWithTheMeanOfTheirNeighbourhood) {
   // tilted ±15° along the track each put it elsewhere. Moved with its enclosing triangle (one
   // laser's pulses) the pick follows that laser; moved with the mean displacement of the points
   // around it, each laser weighing the same (VtpMotion::kNeighbourhood, the default on strips with
-  // laser ids), the lasers' displacements cancel to first order. Measured (2026-12-05), error
-  // neighbourhood / triangle: seed 1 heading −0.0092° / −0.054°, pitch −0.0001° / −0.026°;
-  // seed 5 heading −0.015° / −0.33°, pitch −0.015° / +0.13°. What is left is the pick's own model
-  // (the scan plane's ray) against a finite, unevenly covered neighbourhood: noise-free, not zero.
-  for (int seed : {1, 5}) {
+  // laser ids), the lasers' displacements cancel to first order. Measured (2026-12-05, seeds 1-8):
+  // heading error 0.002-0.053° (RMS 0.022°) against 0.024-0.080° (RMS 0.047°) with the triangle;
+  // pitch 0.000-0.055° (RMS 0.030°) against 0.002-0.046° (RMS 0.025°). Noise-free but not zero:
+  // the pick is the scan plane's ray, the neighbourhood finite and unevenly covered — within the
+  // noisy surveys' σ (heading 0.04°, pitch 0.05°, lever x 0.07 m).
+  const int seeds = mountcal_tests::seedsFor(8, 1);
+  double z2_nb = 0, z2_tri = 0;
+  for (int seed = 1; seed <= seeds; ++seed) {
     SurveyConfig c;
     Scene scene;
     makePreset("uav-vlp16", static_cast<std::uint64_t>(seed), &c, &scene);
@@ -116,7 +119,6 @@ TEST(VtpmCalibration, MultiBeamPicksMoveWithTheMeanOfTheirNeighbourhood) {
     const CalibrationData d = toCalibrationData(s);
     ASSERT_FALSE(d.strips[0].laser.empty());
     const auto t = c.true_mounting.toArray();
-    std::array<double, 6> err_nb{}, err_tri{};
     for (VtpMotion motion : {VtpMotion::kAuto, VtpMotion::kTriangle}) {
       MountingCalibrator::Options o;
       o.estimate = {true, true, false, true, true, true};
@@ -125,23 +127,25 @@ TEST(VtpmCalibration, MultiBeamPicksMoveWithTheMeanOfTheirNeighbourhood) {
       const auto S = calibrate(d, o);
       ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
       const auto e = S.mounting.toArray();
-      for (int j = 0; j < 6; ++j) (motion == VtpMotion::kAuto ? err_nb : err_tri)[j] = std::abs(e[j] - t[j]);
+      const double heading = std::abs(e[kBoresightHeading] - t[kBoresightHeading]);
+      (motion == VtpMotion::kAuto ? z2_nb : z2_tri) += heading * heading;
+      if (motion != VtpMotion::kAuto) continue;
+      EXPECT_EQ(S.section<VtpmSection>().neighbourhood_motion, S.section<VtpmSection>().observations_used);
+      for (int j : {kBoresightRoll, kBoresightPitch, kBoresightHeading}) EXPECT_LT(std::abs(e[j] - t[j]), 0.06 * kDeg) << seed << " " << j;
+      for (int j : {kLeverX, kLeverY}) EXPECT_LT(std::abs(e[j] - t[j]), 0.08) << seed << " " << j;  // lever x 0.065 m at worst (seed 5)
     }
-    std::printf("seed %d heading error neighbourhood %.4f°, triangle %.4f°; pitch %.4f°, %.4f°\n", seed, err_nb[kBoresightHeading] / kDeg,
-                err_tri[kBoresightHeading] / kDeg, err_nb[kBoresightPitch] / kDeg, err_tri[kBoresightPitch] / kDeg);
-    EXPECT_LT(err_nb[kBoresightHeading], 0.02 * kDeg) << seed;
-    EXPECT_LT(err_nb[kBoresightHeading], 0.35 * err_tri[kBoresightHeading]) << seed;
-    EXPECT_LT(err_nb[kBoresightPitch], 0.02 * kDeg) << seed;
-    EXPECT_LT(err_nb[kBoresightRoll], 0.02 * kDeg) << seed;
-    for (int j : {kLeverX, kLeverY}) EXPECT_LT(err_nb[j], 0.04) << seed << " " << j;
   }
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the RMS heading error over 8 noise-free surveys");
+  std::printf("RMS heading error: neighbourhood %.4f°, triangle %.4f°\n", std::sqrt(z2_nb / seeds) / kDeg,
+              std::sqrt(z2_tri / seeds) / kDeg);
+  EXPECT_LT(z2_nb, 0.36 * z2_tri);  // RMS below 0.6 of the triangle's
 }
 
 TEST(VtpmCalibration, MultiBeamSigmasAreHonestWithALargeAprioriBoresightError) {
   // The uav-vlp16 preset with its noise (picks 5 cm, the preset's navigation and range noise) and
-  // its job's settings, seeds 1-12: with the picks moved by their triangles the heading's RMS of
-  // error/σ was 3.4 over these seeds (10.6σ at worst, every error negative but one); with the
-  // neighbourhood's mean displacement every parameter's RMS is 0.70-1.19 (2026-12-05; over 30
+  // its job's settings, seeds 1-12: with the picks moved by their triangles (before upright
+  // triangles were refused) the heading's RMS of error/σ was 3.4 over these seeds (10.6σ at worst,
+  // every error negative but one); now every parameter's RMS is 0.71-0.86 (2026-12-05; over 30
   // seeds scripts/experiments/uav-vtpm). Bound: 1.5, about the 99 % point of √(χ²₁₂/12) (1.48) for an honest σ.
   const int seeds = mountcal_tests::seedsFor(12, 1);
   std::array<double, 6> z2{};

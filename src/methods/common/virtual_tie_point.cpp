@@ -334,6 +334,20 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
     *reason = "degenerate triangle: smallest angle " + std::to_string(rad2deg(min_angle)).substr(0, 4) + "°";
     return false;
   }
+  // Rule 1 interpolates the height in plan (seed eq. 5), but the triangle was found in the local
+  // plane's own coordinates: three noisy pulses on a sloped plane can stand nearly upright — a
+  // sliver in plan — and the height at the pick is then extrapolated from it (a uav-vlp16 survey,
+  // a roof at 48°: three pulses within 4 cm of one line in plan, the pick's height 24.5 m above
+  // the roof, read from the LAS file's millimetres; 0.4 m above from the simulator's doubles).
+  {
+    const Vec3 a = X[inliers[found[0]]], b = X[inliers[found[1]]], cc = X[inliers[found[2]]];
+    const Vec3 nt = (b - a).cross(cc - a).normalized();
+    if (!(std::abs(nt.z()) >= std::cos(deg2rad(options.max_plane_tilt_deg)))) {
+      *reason = "degenerate triangle: its plane is " + std::to_string(rad2deg(std::acos(std::min(1.0, std::abs(nt.z()))))).substr(0, 4) +
+                "° steep (a sliver in plan), the pick's height would be extrapolated";
+      return false;
+    }
+  }
   std::array<LaserFootprint, 3> verts;
   for (int k = 0; k < 3; ++k) {
     const std::size_t i = inliers[found[k]];

@@ -55,8 +55,8 @@ enum class VtpMotion {
   /// against the scan plane's own), and a pick is made on the centre of that smear. The enclosing
   /// triangle's three pulses, of one laser or two, move as those lasers do: over 30 simulated
   /// uav-vlp16 surveys (a-priori boresight error 0.5°, −0.8°, 1.2°) VTPM's heading came out with
-  /// RMS error/σ 2.5 (mean −1.5), and 1.1 (mean −0.5) with the mean displacement
-  /// (scripts/experiments/uav-vtpm, 2026-12-05). A translation, not a rigid motion: the Kabsch
+  /// RMS error/σ 1.13 (mean −0.89), and 0.75 (mean −0.22) with the mean displacement, upright
+  /// triangles refused in both (scripts/experiments/uav-vtpm, 2026-12-05). A translation, not a rigid motion: the Kabsch
   /// rotation of a neighbourhood whose lasers move apart is their scatter, and a neighbourhood of
   /// one scan row leaves it undetermined (pitch errors of 9σ and 235σ in the same experiment).
   kNeighbourhood,
