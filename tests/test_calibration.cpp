@@ -411,6 +411,19 @@ TEST(VirtualTiePoint, NeighbourhoodMotionIsTheWeightedMeanDisplacementOfItsPoint
   EXPECT_EQ(v.referencePosition(), P0);  // Rule 1 is unchanged
   w[4] = -1;
   EXPECT_THROW(v.setMotionSupport(pts, w), InvalidInput);
+  // A strip whose laser ids are not one per point is refused before any pick reads them.
+  StripData strip;
+  strip.id = "s";
+  for (const LaserFootprint& f : pts) {
+    strip.time_s.push_back(0.0);
+    strip.r_s.push_back(f.r_s);
+    strip.x_m.push_back(f.x0_m);
+    strip.poses.push_back(f.pose);
+    strip.laser.push_back(static_cast<std::uint16_t>(f.index % 4));
+  }
+  EXPECT_NO_THROW(VtpStrip(strip, nullptr, m0));
+  strip.laser.pop_back();
+  EXPECT_THROW(VtpStrip(strip, nullptr, m0), InvalidInput);
   EXPECT_THROW(v.setMotionSupport(pts, std::vector<double>(3, 1.0)), InvalidInput);
   EXPECT_THROW(v.setMotionSupport({}), InvalidInput);
 }

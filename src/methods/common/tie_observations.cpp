@@ -200,6 +200,8 @@ StripData nearPicks(const StripData& strip, const std::vector<TieObservation>& p
   std::set<std::pair<long, long>> cells;
   for (const TieObservation& t : picks) cells.insert({std::lround(std::floor(t.x_m / cell)), std::lround(std::floor(t.y_m / cell))});
   const std::vector<Vec3>& x = strip.x_m;
+  if (!strip.laser.empty() && strip.laser.size() != x.size())
+    throw InvalidInput("strip '" + strip.id + "': laser ids and points differ in number");
   StripData sub;
   sub.id = strip.id;
   for (std::size_t i = 0; i < x.size(); ++i) {

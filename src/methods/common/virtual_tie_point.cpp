@@ -120,6 +120,8 @@ VtpStrip::VtpStrip(StripData strip, std::shared_ptr<const Trajectory> trajectory
   if (!strip_.poses.empty() && strip_.poses.size() != n) {
     throw InvalidInput("strip '" + strip_.id + "': per-point poses and points differ in number");
   }
+  if (!strip_.laser.empty() && strip_.laser.size() != n)
+    throw InvalidInput("strip '" + strip_.id + "': laser ids and points differ in number");
   if (strip_.poses.empty() && !trajectory_) throw InvalidInput("strip '" + strip_.id + "': no per-point poses and no trajectory");
   if (strip_.x_m.empty() && !strip_.poses.empty()) {
     const Mat3 R_bs = reference_.R_bs();
