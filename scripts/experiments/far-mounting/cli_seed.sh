@@ -32,13 +32,12 @@ j["estimate"] = {"lever_arm": [True, True, True], "boresight": [True, True, True
 json.dump(j, open(d + "/sim/job_far.json", "w"), indent=1)
 P
 "$root/build/mountcal" calibrate "$d/sim/job_far.json" --result "$d/r.json" > "$d/cal.txt" 2>&1 || true
-/usr/bin/env python3 - "$d" "$s" <<'P'
-import json, sys
+/usr/bin/env python3 - "$d" "$s" "$root/scripts/experiments" <<'P'
+import sys
+sys.path.insert(0, sys.argv[3])
+import result_vs_truth
 d = sys.argv[1]
-r = json.load(open(d + "/r.json")); t = json.load(open(d + "/sim/truth.json"))["mounting"]
-truth = t["lever_arm_m"] + t["boresight_deg"]
-est = r["mounting"]["lever_arm_m"] + r["mounting"]["boresight_deg"]
-sig = r["sigma"]["lever_arm_m"] + r["sigma"]["boresight_deg"]
+est, truth, sig = result_vs_truth.read(d)
 v = [l for l in open(d + "/cal.txt").read().splitlines() if l.startswith("Verdict")]
 print(sys.argv[2], " ".join("%.3g(%.1fσ)" % (e - x, abs(e - x) / s) for e, x, s in zip(est, truth, sig)), "|", v[0][:70] if v else "no verdict")
 P

@@ -25,12 +25,11 @@ P
 esac
 "$root/build/mountcal" simulate "$d/scn.json" --seed "$s" --out "$d/sim" > /dev/null
 "$root/build/mountcal" calibrate "$d/sim/job.json" --result "$d/r.json" > "$d/cal.txt" 2>&1 || true
-/usr/bin/env python3 - "$d" "$s" <<'P'
-import json, sys
+/usr/bin/env python3 - "$d" "$s" "$root/scripts/experiments" <<'P'
+import sys
+sys.path.insert(0, sys.argv[3])
+import result_vs_truth
 d = sys.argv[1]
-r = json.load(open(d + "/r.json")); t = json.load(open(d + "/sim/truth.json"))["mounting"]
-truth = t["lever_arm_m"] + t["boresight_deg"]
-est = r["mounting"]["lever_arm_m"] + r["mounting"]["boresight_deg"]
-sig = r["sigma"]["lever_arm_m"] + r["sigma"]["boresight_deg"]
+est, truth, sig = result_vs_truth.read(d)
 print(sys.argv[2], " ".join("%.2f" % ((e - x) / s) if s else "nan" for e, x, s in zip(est, truth, sig)))
 P

@@ -350,27 +350,23 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
       return false;
     }
   }
+  // Point i of the strip with what Rule 2 needs to georeference it again.
+  auto footprint = [&](std::size_t i) {
+    LaserFootprint f;
+    f.index = i;
+    f.r_s = strip_.r_s[i];
+    f.x0_m = X[i];
+    f.pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
+    return f;
+  };
   std::array<LaserFootprint, 3> verts;
-  for (int k = 0; k < 3; ++k) {
-    const std::size_t i = inliers[found[k]];
-    verts[k].index = i;
-    verts[k].r_s = strip_.r_s[i];
-    verts[k].x0_m = X[i];
-    verts[k].pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
-  }
+  for (int k = 0; k < 3; ++k) verts[k] = footprint(inliers[found[k]]);
   *vtp = VirtualTiePoint(pick.tie_id, pick.strip_id, pick.x_m, pick.y_m, verts, reference_);
   if (options.motion == VtpMotion::kNeighbourhood || (options.motion == VtpMotion::kAuto && multi_laser_)) {
     // The coplanar points nearest the pick (inliers keep idx's order, by distance).
     std::vector<LaserFootprint> support;
-    for (std::size_t k = 0; k < inliers.size() && k < static_cast<std::size_t>(kMaxMotionSupport); ++k) {
-      const std::size_t i = inliers[k];
-      LaserFootprint f;
-      f.index = i;
-      f.r_s = strip_.r_s[i];
-      f.x0_m = X[i];
-      f.pose = strip_.poses.empty() ? trajectory_->pose(strip_.time_s[i]) : strip_.poses[i];
-      support.push_back(f);
-    }
+    for (std::size_t k = 0; k < inliers.size() && k < static_cast<std::size_t>(kMaxMotionSupport); ++k)
+      support.push_back(footprint(inliers[k]));
     // Each laser weighs the same (its points share it): a pick is the centre of the lasers' images
     // of the target, and the displacements of lasers tilted ±e from the scan plane cancel to first
     // order only in equal shares (over 6 noise-free uav-vlp16 surveys the heading's error fell
