@@ -428,6 +428,39 @@ TEST(VirtualTiePoint, NeighbourhoodMotionIsTheWeightedMeanDisplacementOfItsPoint
   EXPECT_THROW(v.setMotionSupport({}), InvalidInput);
 }
 
+TEST(VirtualTiePoint, ATriangleStandingUprightInPlanIsRefused) {
+  // A roof sloping 10° along x, scanned in rows 1 cm apart along the slope with pulses 10 cm apart
+  // across it; alternate rows lie 2 cm above and below the roof (within the RANSAC threshold of
+  // 5 cm). Every triangle of the TIN joins two rows: its plane holds the row's direction and a
+  // step of 1 cm along the roof and 4 cm across it, so it stands nearly upright (86°) — a sliver
+  // in plan from which Rule 1 would extrapolate the pick's height. Without the ±2 cm the same
+  // triangles lie in the roof (10°) and the pick is built, on the roof.
+  const double slope = 10 * kDeg;
+  const Vec3 along(std::cos(slope), 0, std::sin(slope)), up(-std::sin(slope), 0, std::cos(slope));
+  auto strip = [&](double offset_m) {
+    StripData d;
+    d.id = "s";
+    for (int row = 0; row < 60; ++row)
+      for (int k = 0; k < 13; ++k) {
+        d.x_m.push_back(Vec3(100, 200 + 0.1 * k, 30) + 0.01 * row * along + (row % 2 ? offset_m : -offset_m) * up);
+        d.time_s.push_back(0.0);
+        d.r_s.push_back(Vec3(0, 0, 30));
+        d.poses.push_back(Pose{});
+      }
+    return d;
+  };
+  const TieObservation pick{"t", "s", 100 + 0.30 * std::cos(slope) + 0.0013, 200.63, 0};
+  VirtualTiePoint vtp;
+  std::string reason;
+  const VtpStrip upright(strip(0.02), nullptr, MountingParameters{});
+  EXPECT_FALSE(upright.build(pick, VtpOptions{}, &vtp, &reason));
+  EXPECT_NE(reason.find("degenerate triangle: its plane is 8"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("steep (a sliver in plan)"), std::string::npos) << reason;
+  const VtpStrip flat(strip(0.0), nullptr, MountingParameters{});
+  ASSERT_TRUE(flat.build(pick, VtpOptions{}, &vtp, &reason)) << reason;
+  EXPECT_NEAR(vtp.referencePosition().z(), 30 + (pick.x_m - 100) * std::tan(slope), 1e-9);
+}
+
 // σ honesty over many seeds (issue 12). The survey's noise differs from what the calibrator is
 // told: the GNSS error drifts within a strip (Gauss–Markov, 20 s; the calibrator assumes one
 // offset per strip), the picks scatter 4 cm where 3 cm is stated (the calibrator estimates the

@@ -188,7 +188,8 @@ TEST(FeatureMethod, NoiseFreeClosedFormAndRigorousRecoverTheBoresight) {
 TEST(FeatureMethod, InPlaneSigmasAlongAndAcrossTheTrackFollowTheTrueCentreErrors) {
   double ss_true[2] = {0, 0}, ss_est[2] = {0, 0};
   int views = 0, solves = 0;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+  const std::uint64_t seeds = mountcal_tests::seedsFor(3, 1);
+  for (std::uint64_t seed = 1; seed <= seeds; ++seed) {
     const Uav& s = uav(seed, false);
     CalibrationData data = toCalibrationData(s.survey);
     data.mounting_used = s.config.true_mounting;       // the views' centroids at the truth: the points
@@ -214,6 +215,8 @@ TEST(FeatureMethod, InPlaneSigmasAlongAndAcrossTheTrackFollowTheTrueCentreErrors
     ss_est[1] += std::pow(F.sigma_across_track_m, 2);
     ++solves;
   }
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: one survey, for memory errors; the σ against the true errors over three in the Release suite";
   ASSERT_GT(views, 60);
   const double along = std::sqrt(ss_true[0] / views), across = std::sqrt(ss_true[1] / views);
   const double est_along = std::sqrt(ss_est[0] / solves), est_across = std::sqrt(ss_est[1] / solves);

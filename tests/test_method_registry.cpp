@@ -94,6 +94,10 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
       if (s.type == OptionSpec::Type::kBoolean) {
         v = v != 0 ? 0 : 1;
         j[m->name()][s.key] = v != 0;
+      } else if (s.type == OptionSpec::Type::kChoice) {  // the next name
+        ASSERT_EQ(s.max + 1, static_cast<double>(s.choices.size())) << s.key;
+        v = v < s.max ? v + 1 : 0;
+        j[m->name()][s.key] = s.choices[static_cast<std::size_t>(v)];
       } else {
         v = v < s.max ? std::min(s.max, std::floor(v) + 1) : s.min;                   // another value in range
         if (s.key == "min_points_per_strip" || s.key == "min_neighbours") v = s.min;  // keep min <= max
@@ -120,6 +124,24 @@ TEST(Registry, EveryDeclaredOptionIsReadFromAJobAndWrittenBack) {
   Job back = readJob(again);
   check(back, "written and read again");
   EXPECT_TRUE(back.planes_auto);
+  // A choice is one of its names: another string, a number or the enum's index is refused with
+  // the field and the names.
+  for (const json& bad : {json("rigid"), json(2), json("Neighbourhood")}) {
+    json k = minimalJob();
+    k["vtpm"] = {{"motion", bad}};
+    writeJson(path, k);
+    try {
+      readJob(path);
+      FAIL() << bad.dump();
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("vtpm.motion"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("expected one of \"auto\", \"triangle\", \"neighbourhood\""), std::string::npos) << e.what();
+    }
+  }
+  json k = minimalJob();
+  k["vtpm"] = {{"motion", "neighbourhood"}};
+  writeJson(path, k);
+  EXPECT_EQ(readJob(path).options.method<VtpmOptions>().vtp.motion, VtpMotion::kNeighbourhood);
 }
 
 // The matching defaults of a multi-beam job come from the sensor's range accuracy, which has one

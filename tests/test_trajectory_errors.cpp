@@ -956,7 +956,8 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
     o.estimate = {true, true, false, true, true, true};
     o.trajectory = TrajectoryAccuracy::none();
     o.time_offset_sigma_s = 0.02;
-    const auto considered = calibrate(d, o);
+    // The sanitizer build solves with δt estimated only (the considered solve is the same code).
+    const auto considered = mountcal_tests::kSanitizerBuild ? MountingCalibrator::Summary{} : calibrate(d, o);
     o.estimate_time_offset = true;
     const auto S = calibrate(d, o);
     ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
@@ -965,12 +966,16 @@ TEST(TimeOffset, EstimatedWithTheMountingFromTwoSpeedsOnTheCrossingField) {
     EXPECT_NEAR(S.time_offset_s, delta, 0.0002) << method;
     EXPECT_LT(S.time_offset_sigma_s, 0.002) << method;
     EXPECT_LT(worstZ(S, s.config.true_mounting), 1.0) << method << "\n" << S.FullReport();
+    EXPECT_NE(S.FullReport().find("Time offset (estimated with the mounting)"), std::string::npos);
+    if (mountcal_tests::kSanitizerBuild) continue;
     EXPECT_GT(std::abs(considered.mounting.a_b.x() - s.config.true_mounting.a_b.x()), 0.1) << method;
     std::printf("%-16s dt %.4f +- %.4f ms, worst |error|/sigma %.2f; considered only: lever x %.3f m off\n", method, 1e3 * S.time_offset_s,
                 1e3 * S.time_offset_sigma_s, worstZ(S, s.config.true_mounting),
                 std::abs(considered.mounting.a_b.x() - s.config.true_mounting.a_b.x()));
-    EXPECT_NE(S.FullReport().find("Time offset (estimated with the mounting)"), std::string::npos);
   }
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: the correspondences with δt estimated, for memory errors; the considered solve and the other methods "
+                    "in the Release suite";
 }
 
 TEST(TrajectoryErrors, PlaneSigmasAreHonestUnderNavigationDrift) {

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "mountcal/core/error.hpp"
 #include "mountcal/core/rotation.hpp"
@@ -75,6 +76,16 @@ class Fields {
       fail(k, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     }
     return static_cast<int>(v);
+  }
+  /// The index of the string value among `names` ("expected one of …" otherwise).
+  int choice(const std::string& k, int def, const std::vector<std::string>& names) const {
+    if (!has(k)) return def;
+    const std::string v = at(k).is_string() ? j_[k].get<std::string>() : std::string();
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (at(k).is_string() && v == names[i]) return static_cast<int>(i);
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "\"" : ", \"") + n + "\"";
+    fail(k, "expected one of " + list);
   }
   bool boolean(const std::string& k, bool def) const {
     if (!has(k)) return def;

@@ -123,6 +123,9 @@ void readMethodOptions(const Fields& f, const Method& m, std::any* options) {
       case OptionSpec::Type::kNumber:
         spec.set(*options, f.num(spec.key, 0.0, spec.min, spec.max));
         break;
+      case OptionSpec::Type::kChoice:
+        spec.set(*options, f.choice(spec.key, 0, spec.choices));
+        break;
     }
   }
 }
@@ -655,6 +658,8 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
         section[spec.key] = v != 0;
       else if (spec.type == OptionSpec::Type::kInteger)
         section[spec.key] = static_cast<int>(v);
+      else if (spec.type == OptionSpec::Type::kChoice)
+        section[spec.key] = spec.choices.at(static_cast<std::size_t>(v));
       else
         section[spec.key] = v;
     }

@@ -87,6 +87,10 @@ std::string describeMethods() {
       std::ostringstream def, range;
       if (s.type == OptionSpec::Type::kBoolean) {
         def << (s.get(defaults) != 0 ? "true" : "false");
+      } else if (s.type == OptionSpec::Type::kChoice) {
+        def << '"' << s.choices.at(static_cast<std::size_t>(s.get(defaults))) << '"';
+        for (const std::string& c : s.choices) range << (c == s.choices.front() ? " (" : ", ") << '"' << c << '"';
+        range << ")";
       } else {
         def << s.get(defaults);
         range << " [" << s.min << ", " << s.max << "]";

@@ -97,6 +97,10 @@ def test_calibrate_on_loaded_data_equals_the_job_call(examples):
     with pytest.raises(mountcal.InvalidInput, match="per-point poses"):
         mountcal.load_job_trajectory(mountcal.read_job(path))
     summary = mountcal.calibrate(data)  # the job's own settings
+    if os.environ.get("MOUNTCAL_SANITIZER_BUILD") == "1":
+        assert summary.usable and summary.sigma.shape == (6,) and summary.laser_elevation_offsets_deg.shape == (32,)
+        pytest.skip("sanitizer build: the loaded-data call alone (17 s a calibration there); calibrate_job runs in the LAZ job's test, "
+                    "the two compared digit for digit in the Release suite")
     result = mountcal.calibrate_job(path)
     assert summary.usable and summary.termination == "CONVERGENCE"
     assert list(summary.mounting.boresight_deg) == result["mounting"]["boresight_deg"]

@@ -22,6 +22,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
@@ -33,13 +34,14 @@ namespace mountcal {
 
 /// One option of a method, as the job file names it.
 struct OptionSpec {
-  enum class Type { kNumber, kInteger, kBoolean };
+  enum class Type { kNumber, kInteger, kBoolean, kChoice };
   std::string key;  ///< job key inside the method's object, e.g. "radius_m"
   Type type = Type::kNumber;
   std::string unit;                            ///< "m", "deg", "-" …
   double min = 0, max = 0;                     ///< accepted range, inclusive (numbers and integers)
   double default_value = 0;                    ///< of a default-constructed options object
   std::string doc;                             ///< one line
+  std::vector<std::string> choices;            ///< kChoice: the job's names of the values 0, 1, … (an enum's order)
   std::function<double(const std::any&)> get;  ///< value of this option in an options object
   std::function<void(std::any&, double)> set;  ///< sets it (booleans: 0 / 1)
 };
@@ -61,6 +63,30 @@ class OptionTable {
   template <class Access>
   OptionTable& boolean(std::string key, Access access, std::string doc) {
     return add<bool>(std::move(key), access, OptionSpec::Type::kBoolean, "-", 0, 1, std::move(doc));
+  }
+  /// An enum option named in the job by one of `names` (names[i] is the enum's value i).
+  template <class Access>
+  OptionTable& choice(std::string key, Access access, std::vector<std::string> names, std::string doc) {
+    OptionSpec s;
+    s.key = std::move(key);
+    s.type = OptionSpec::Type::kChoice;
+    s.unit = "-";
+    s.min = 0;
+    s.max = static_cast<double>(names.size()) - 1;
+    s.doc = std::move(doc);
+    s.choices = std::move(names);
+    s.get = [access](const std::any& a) {
+      T& o = const_cast<T&>(std::any_cast<const T&>(a));
+      return static_cast<double>(static_cast<int>(access(o)));
+    };
+    s.set = [access](std::any& a, double v) {
+      auto& field = access(std::any_cast<T&>(a));
+      field = static_cast<std::remove_reference_t<decltype(field)>>(static_cast<int>(v));
+    };
+    const T defaults{};
+    s.default_value = s.get(std::any(defaults));
+    specs_.push_back(std::move(s));
+    return *this;
   }
   const std::vector<OptionSpec>& specs() const { return specs_; }
 

@@ -23,6 +23,10 @@ OptionTable<T> tieOptionTable() {
   t.number(
       "max_radius_m", [](T& o) -> double& { return o.vtp.max_radius_m; }, "m", 0.01, 100.0,
       "the grown radius never exceeds this (nor shrinks below radius_m)");
+  t.choice(
+      "motion", [](T& o) -> VtpMotion& { return o.vtp.motion; }, {"auto", "triangle", "neighbourhood"},
+      "how a pick moves with the mounting (Rule 2): its triangle's three pulses, or the mean of its neighbourhood's points "
+      "(auto: the neighbourhood on a strip with laser ids)");
   t.number(
       "ransac_threshold_m", [](T& o) -> double& { return o.vtp.ransac_threshold_m; }, "m", 1e-4, 10.0,
       "largest point-to-plane distance of a RANSAC inlier");
