@@ -15,20 +15,20 @@ mountcal_ensure_deps chromium snakemake ccache munge slurm-wlm
 
 # MOUNTCAL_CCACHE=OFF (.ci/run sets it): a clean machine has an empty cache, and a miss costs
 # ccache's preprocessing pass on top of the compile (+12 % on a library source, 2026-11-26).
-# A unity build: the library's sources compiled in batches that share their Eigen and Ceres
-# instantiations — 396 against 544 CPU-seconds for the library, 227 against 284 s on two cores
-# (2026-12-05). The precompiled headers already hide a missing standard or Ceres include from one
-# source; a missing mountcal include is now hidden within a batch too, and still fails in the
-# fuzzers' build (scripts/fuzz.sh), which compiles fifteen library sources alone, without them.
-# -O2 instead of -O3 was tried: 16 % less CPU to build, but the heavy tests ran 12 % longer.
+# One object per library source (not a unity build, which built the library in 396 against 544
+# CPU-seconds, 2026-12-05): the fuzzers (scripts/fuzz.sh) link their instrumented readers and job
+# schema against this library, replacing those sources' objects — a batch object holding one of
+# them defines it twice. -O2 instead of -O3 was tried the same hour: 16 % less CPU to build, but
+# the heavy tests ran 12 % longer.
 build="$root/build"; kind=release
-args=(-DCMAKE_BUILD_TYPE=Release -DCMAKE_UNITY_BUILD=ON "-DMOUNTCAL_CCACHE=${MOUNTCAL_CCACHE:-ON}")
+args=(-DCMAKE_BUILD_TYPE=Release "-DMOUNTCAL_CCACHE=${MOUNTCAL_CCACHE:-ON}")
 if [ "${1:-}" = "--sanitize" ]; then
   # -O2 with line tables only (stack traces keep file:line). -O1 compiled in 9 % less CPU time
   # (770 against 843 CPU-seconds) but left Eigen's small products and Ceres' numeric differences
   # uninlined: the heavy tests ran 15-20 % longer (five of them, 155 against 129 s, 2026-11-29).
-  # A unity build, as the Release build: the instrumented instantiations of Eigen, Ceres and
-  # GoogleTest templates are compiled once per batch of sources, not once per source.
+  # A unity build: the instrumented instantiations of Eigen, Ceres and GoogleTest templates are
+  # compiled once per batch of sources, not once per source (the Release build stays one object
+  # per source, so that a source missing an include still fails somewhere).
   # Benchmarks and examples are not run here, so not built.
   # Compiled by clang (Debian's clang 14, which the fuzzers use too): it builds the instrumented
   # library and tests in 27 % less CPU time than GCC (695 against 950 CPU-seconds, 2026-11-27);
