@@ -2,6 +2,7 @@
 // Internal to the job module: strict access to the JSON objects of job and result files, with
 // the field path in every message (FileError names the file and the field).
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -80,9 +81,10 @@ class Fields {
   /// The index of the string value among `names` ("expected one of …" otherwise).
   int choice(const std::string& k, int def, const std::vector<std::string>& names) const {
     if (!has(k)) return def;
-    const std::string v = at(k).is_string() ? j_[k].get<std::string>() : std::string();
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (at(k).is_string() && v == names[i]) return static_cast<int>(i);
+    if (at(k).is_string()) {
+      const auto it = std::find(names.begin(), names.end(), j_[k].get<std::string>());
+      if (it != names.end()) return static_cast<int>(it - names.begin());
+    }
     std::string list;
     for (const std::string& n : names) list += (list.empty() ? "\"" : ", \"") + n + "\"";
     fail(k, "expected one of " + list);

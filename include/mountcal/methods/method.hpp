@@ -23,6 +23,7 @@
 #include <set>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
@@ -67,25 +68,9 @@ class OptionTable {
   /// An enum option named in the job by one of `names` (names[i] is the enum's value i).
   template <class Access>
   OptionTable& choice(std::string key, Access access, std::vector<std::string> names, std::string doc) {
-    OptionSpec s;
-    s.key = std::move(key);
-    s.type = OptionSpec::Type::kChoice;
-    s.unit = "-";
-    s.min = 0;
-    s.max = static_cast<double>(names.size()) - 1;
-    s.doc = std::move(doc);
-    s.choices = std::move(names);
-    s.get = [access](const std::any& a) {
-      T& o = const_cast<T&>(std::any_cast<const T&>(a));
-      return static_cast<double>(static_cast<int>(access(o)));
-    };
-    s.set = [access](std::any& a, double v) {
-      auto& field = access(std::any_cast<T&>(a));
-      field = static_cast<std::remove_reference_t<decltype(field)>>(static_cast<int>(v));
-    };
-    const T defaults{};
-    s.default_value = s.get(std::any(defaults));
-    specs_.push_back(std::move(s));
+    using E = std::remove_reference_t<decltype(access(std::declval<T&>()))>;
+    add<E>(std::move(key), access, OptionSpec::Type::kChoice, "-", 0, static_cast<double>(names.size()) - 1, std::move(doc));
+    specs_.back().choices = std::move(names);
     return *this;
   }
   const std::vector<OptionSpec>& specs() const { return specs_; }
@@ -102,11 +87,17 @@ class OptionTable {
     s.doc = std::move(doc);
     s.get = [access](const std::any& a) {
       T& o = const_cast<T&>(std::any_cast<const T&>(a));
-      return static_cast<double>(access(o));
+      if constexpr (std::is_enum_v<V>)
+        return static_cast<double>(static_cast<int>(access(o)));
+      else
+        return static_cast<double>(access(o));
     };
     s.set = [access](std::any& a, double v) {
       V& field = access(std::any_cast<T&>(a));
-      field = static_cast<V>(v);
+      if constexpr (std::is_enum_v<V>)
+        field = static_cast<V>(static_cast<int>(v));
+      else
+        field = static_cast<V>(v);
     };
     const T defaults{};
     s.default_value = s.get(std::any(defaults));
