@@ -89,11 +89,23 @@ Vec3 pickWeights(const VirtualTiePoint& v) {
   return w;
 }
 
+/// Calls fn(footprint, weight) for each pulse a virtual tie point is an affine combination of:
+/// its motion support's with their weights (VtpMotion::kNeighbourhood), else its triangle's with
+/// the pick's barycentric weights (Rule 1).
+template <class Fn>
+void forEachWeightedPulse(const VirtualTiePoint& v, Fn&& fn) {
+  if (!v.motionSupport().empty()) {
+    for (std::size_t i = 0; i < v.motionSupport().size(); ++i) fn(v.motionSupport()[i], v.motionWeights()[i]);
+    return;
+  }
+  const Vec3 w = pickWeights(v);
+  for (int i = 0; i < 3; ++i) fn(v.vertices()[static_cast<std::size_t>(i)], w[i]);
+}
+
 /// IMU → tie point vector u = x − p [m] (the beam differs from it by the lever arm only).
 Vec3 imuToPoint(const VirtualTiePoint& v) {
-  const Vec3 w = pickWeights(v);
   Vec3 p = Vec3::Zero();
-  for (int i = 0; i < 3; ++i) p += w[i] * v.vertices()[static_cast<std::size_t>(i)].pose.p_m;
+  forEachWeightedPulse(v, [&](const LaserFootprint& f, double w) { p += w * f.pose.p_m; });
   return v.referencePosition() - p;
 }
 
@@ -107,6 +119,10 @@ Vec3 triangleNormal(const VirtualTiePoint& v) {
 /// triangle's.
 Vec3 pickSurfaceNormal(const VirtualTiePoint& v) { return v.surfaceNormal().squaredNorm() > 0 ? v.surfaceNormal() : triangleNormal(v); }
 
+/// The normal of the plane a VTP's height comes from: its neighbourhood's (a motion support's
+/// affine combination lies in the local plane), else its triangle's (Rule 1).
+Vec3 heightNormal(const VirtualTiePoint& v) { return v.motionSupport().empty() ? triangleNormal(v) : pickSurfaceNormal(v); }
+
 /// The steepest surface gradient a tie's covariance takes, tan 72°: a pick on a wall does not
 /// define a height [-].
 constexpr double kMaxTieGradient = 3.0;
@@ -117,14 +133,17 @@ constexpr double kMaxTieGradient = 3.0;
 /// error. Range and pointing are independent per pulse: they do not move the pick, which stays at
 /// its plan position (Rule 1), only the triangle's height there — each pulse's error across the
 /// surface, n·δ_i, raises the plane at the pick by n·δ_i / n_z with the barycentric weight w_i, so
-/// their share is vertical, Σ w_i² nᵀ P_i n / n_z². `n`: the triangle's normal (triangleNormal).
+/// their share is vertical, Σ w_i² nᵀ P_i n / n_z² — on a multi-beam strip the neighbourhood's
+/// weights (forEachWeightedPulse), Σ w_i² about the inverse of its size. `n`: heightNormal().
 Mat3 vtpPulseCovariance(const VirtualTiePoint& v, const Vec3& n, const PulseNoise& noise) {
   const Vec3 u = imuToPoint(v);
   const Mat3 common = noise.pointCovariance(u, u, 0.0);
   const Mat3 independent = noise.pointCovariance(u, u, 1.0) - common;
   const double nz = std::max(n.z(), 1.0 / std::hypot(1.0, kMaxTieGradient));
   Mat3 S = common;
-  S(2, 2) += pickWeights(v).squaredNorm() * n.dot(independent * n) / (nz * nz);
+  double w2 = 0;
+  forEachWeightedPulse(v, [&](const LaserFootprint&, double w) { w2 += w * w; });
+  S(2, 2) += w2 * n.dot(independent * n) / (nz * nz);
   return S;
 }
 
@@ -145,13 +164,13 @@ Mat3 pickCofactor(const Vec3& n) {
   return J * J.transpose();
 }
 
-/// Emission time of a virtual tie point: its pulses' mean [s].
+/// Emission time of a virtual tie point: its pulses' weighted mean [s].
 double vtpTime(const VirtualTiePoint& v, const CalibrationData& data) {
   for (const StripData& s : data.strips) {
     if (s.id != v.stripId()) continue;
     double t = 0;
-    for (const LaserFootprint& f : v.vertices()) t += s.time_s.at(f.index);
-    return t / 3.0;
+    forEachWeightedPulse(v, [&](const LaserFootprint& f, double w) { t += w * s.time_s.at(f.index); });
+    return t;
   }
   return 0.0;
 }
@@ -298,7 +317,7 @@ void TieObservations::build(const MountingParameters& reference) {
       std::vector<int> near;
       for (int k : tie.obs) {
         const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-        const double d = std::abs(triangleNormal(v).dot(v.referencePosition() - x));
+        const double d = std::abs(heightNormal(v).dot(v.referencePosition() - x));
         if (d <= kControlGate_m) {
           near.push_back(k);
         } else {
@@ -361,7 +380,7 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
       for (int k : tie.obs) {
         const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-        const Vec3 n = triangleNormal(v);
+        const Vec3 n = heightNormal(v);
         // σ across the surface: the GCP's (its normal component) and the strip's (Rule 1).
         const double s_gcp2 = std::pow(tie.gcp->sigma_xy_m, 2) * n.head<2>().squaredNorm() + std::pow(tie.gcp->sigma_z_m * n.z(), 2);
         const double s_pulse2 = problem->pulseNoise().any() ? n.dot(vtpPulseCovariance(v, n, problem->pulseNoise()) * n) : 0.0;
@@ -389,7 +408,7 @@ void TieObservations::addBlocks(const std::array<double, 6>& mounting, Adjustmen
       const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
       // seed eq. (10), whitened by the pick's σ along the surface (pickCofactor), the height's
       // σ from the triangle and, when the stochastic model has it, the pulse noise at this tie point.
-      const Vec3 n = triangleNormal(v);
+      const Vec3 n = heightNormal(v);
       const Mat3 Q_pick = pickCofactor(pickSurfaceNormal(v));
       Mat3 Sigma = sigma_xy_m_ * sigma_xy_m_ * Q_pick;
       Sigma(2, 2) += sigma_z_m_ * sigma_z_m_;
@@ -465,12 +484,12 @@ void TieObservations::finish(const std::array<double, 6>& m0, const std::array<d
   Vec3 ss_before = Vec3::Zero(), ss_after = Vec3::Zero();
   std::vector<double> norms;
   if (kind_ == "control") {
-    // The distances across the surface, as vectors along the triangle's normal.
+    // The distances across the surface, as vectors along the normal of the VTP's height.
     for (const Tie& tie : ties_) {
       const Vec3 x(tie.gcp->x_m, tie.gcp->y_m, tie.gcp->z_m);
       for (int k : tie.obs) {
         const VirtualTiePoint& v = vtps_[static_cast<std::size_t>(k)];
-        const Vec3 n = triangleNormal(v);
+        const Vec3 n = heightNormal(v);
         TieResidual r;
         r.tie_id = tie.id;
         r.strip_id = v.stripId();

@@ -58,24 +58,58 @@ VirtualTiePoint::VirtualTiePoint(std::string tie_id, std::string strip_id, doubl
   P0_rel_m_ = P0_m_ - centroid0_m_;
 }
 
-void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights) {
-  if (points.empty()) throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': empty motion support");
+void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights, std::vector<int> groups) {
+  const std::string self = "virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': ";
+  if (points.empty()) throw InvalidInput(self + "empty motion support");
   if (weights.empty()) weights.assign(points.size(), 1.0);
+  if (weights.size() != points.size()) throw InvalidInput(self + "motion weights and points differ in number");
+  if (!groups.empty() && groups.size() != points.size()) throw InvalidInput(self + "motion groups and points differ in number");
   double sum = 0;
   for (double w : weights) {
-    if (!(w > 0) || !std::isfinite(w))
-      throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': a motion weight is not positive and finite");
+    if (!(w > 0) || !std::isfinite(w)) throw InvalidInput(self + "a motion weight is not positive and finite");
     sum += w;
   }
-  if (weights.size() != points.size())
-    throw InvalidInput("virtual tie point '" + tie_id_ + "' on strip '" + strip_id_ + "': motion weights and points differ in number");
   for (double& w : weights) w /= sum;
+  // The weights changed as little as they can, Σ (w_i − u_i)² / u_i, so that the points' weighted
+  // plan centroid is the pick and each group keeps its share: δ_i = u_i λᵀ(x_i − x̄_g(i)) with
+  // S λ = pick − Σ u_i x_i, S = Σ u_i (x_i − x̄_g)(x_i − x̄_g)ᵀ in plan (Lagrange; x̄_g each group's
+  // weighted centroid). A direction the groups do not spread along is left as it was.
+  const std::size_t n = points.size();
+  std::map<int, std::pair<double, Eigen::Vector2d>> group_mean;  // share, weighted plan centroid
+  auto groupOf = [&](std::size_t i) { return groups.empty() ? 0 : groups[i]; };
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    auto& g = group_mean[groupOf(i)];
+    if (g.first == 0) g.second.setZero();
+    g.first += weights[i];
+    g.second += weights[i] * points[i].x0_m.head<2>();
+    centroid += weights[i] * points[i].x0_m.head<2>();
+  }
+  for (auto& g : group_mean) g.second.second /= g.second.first;
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d d = points[i].x0_m.head<2>() - group_mean[groupOf(i)].second;
+    S += weights[i] * d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(S);
+  const Eigen::Vector2d r = P0_m_.head<2>() - centroid;
+  Eigen::Vector2d lambda = Eigen::Vector2d::Zero();
+  for (int k = 0; k < 2; ++k) {
+    const double e = eig.eigenvalues()[k];
+    if (e > 1e-6 * std::max(eig.eigenvalues()[1], 1e-300) && e > 1e-8)
+      lambda += eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(r) / e);
+  }
+  for (std::size_t i = 0; i < n; ++i) weights[i] += weights[i] * lambda.dot(points[i].x0_m.head<2>() - group_mean[groupOf(i)].second);
   support_ = std::move(points);
   weights_ = std::move(weights);
-  Vec3 c = Vec3::Zero();
-  for (std::size_t i = 0; i < support_.size(); ++i) c += weights_[i] * support_[i].x0_m;
-  centroid0_m_ = c;
+  // P⁰ = Σ w_i x_i(M₀): the pick with the neighbourhood's height there (Rule 1 on the points around
+  // it, not on one triangle); centroid() their plain weighted mean (Σ w_i = 1).
+  Vec3 c = Vec3::Zero(), P = Vec3::Zero();
+  for (std::size_t i = 0; i < n; ++i) P += weights_[i] * support_[i].x0_m;
+  for (const LaserFootprint& f : support_) c += f.x0_m;
+  centroid0_m_ = c / static_cast<double>(n);
   for (LaserFootprint& f : support_) f.x0_m -= centroid0_m_;
+  P0_m_ = P;
   P0_rel_m_ = P0_m_ - centroid0_m_;
 }
 
@@ -85,7 +119,7 @@ Vec3 VirtualTiePoint::relativePosition(const double* m) const {
   const Mat3 dR_bs = R_zyx(Vec3(m[3], m[4], m[5])) * R_nom_ - R_bs0_;
   const Vec3 da_b = Vec3(m[0], m[1], m[2]) - a0_b_;
   if (!support_.empty()) {
-    // VtpMotion::kNeighbourhood: P(M) − c = (P⁰ − c) + mean_i R_mb,i [(R_bs(M) − R_bs(M₀)) r_s,i + (a − a₀)].
+    // VtpMotion::kNeighbourhood: P(M) − c = Σ_i w_i (x_i(M) − c), x_i(M) − x_i(M₀) = R_mb,i [(R_bs(M) − R_bs(M₀)) r_s,i + (a − a₀)].
     Vec3 mean = Vec3::Zero();
     for (std::size_t i = 0; i < support_.size(); ++i) mean += weights_[i] * (support_[i].pose.R_mb * (dR_bs * support_[i].r_s + da_b));
     return P0_rel_m_ + mean;
@@ -372,12 +406,16 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
     // order only in equal shares (over 6 noise-free uav-vlp16 surveys the heading's error fell
     // from 0.011-0.025° to 0.005-0.020° with them).
     std::vector<double> w;
+    std::vector<int> lasers;
     if (!strip_.laser.empty()) {
       std::map<int, int> count;
       for (const LaserFootprint& f : support) ++count[strip_.laser[f.index]];
-      for (const LaserFootprint& f : support) w.push_back(1.0 / count[strip_.laser[f.index]]);
+      for (const LaserFootprint& f : support) {
+        w.push_back(1.0 / count[strip_.laser[f.index]]);
+        lasers.push_back(strip_.laser[f.index]);
+      }
     }
-    vtp->setMotionSupport(std::move(support), std::move(w));
+    vtp->setMotionSupport(std::move(support), std::move(w), std::move(lasers));
   }
   vtp->setSurfaceNormal(n);  // the local plane's, for the pick's error along the surface (TieObservations)
   // The reference vertices were georeferenced with the reference mounting; Rule 2 uses the

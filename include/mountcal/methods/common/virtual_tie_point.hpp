@@ -93,7 +93,8 @@ class VirtualTiePoint {
   const std::string& tieId() const { return tie_id_; }
   const std::string& stripId() const { return strip_id_; }
   const std::array<LaserFootprint, 3>& vertices() const { return vertices_; }
-  /// P⁰: the pick with its Rule 1 height, at the reference mounting [m].
+  /// P⁰: the pick with its Rule 1 height (with a motion support, the neighbourhood's), at the
+  /// reference mounting [m].
   const Vec3& referencePosition() const { return P0_m_; }
 
   /// Rule 2: the tie position at mounting (lever arm, boresight) given as the 6-vector
@@ -112,11 +113,20 @@ class VirtualTiePoint {
   /// a triangle by degrees). Zero when not set.
   const Vec3& surfaceNormal() const { return surface_normal_; }
   void setSurfaceNormal(const Vec3& n) { surface_normal_ = n; }
-  /// Rule 2 as the weighted mean displacement of these points (VtpMotion::kNeighbourhood; their
-  /// x0_m at the reference mounting; `weights` normalised here, all equal when empty) instead of
-  /// the triangle's rigid motion. centroid() becomes their weighted mean. Throws InvalidInput when
-  /// empty or when the weights are not as many, positive and finite.
-  void setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights = {});
+  /// Rule 2 as an affine combination of these points (VtpMotion::kNeighbourhood; their x0_m at
+  /// the reference mounting) instead of the triangle's rigid motion: P(M) = Σ_i w_i x_i(M), Σ w_i = 1.
+  /// `weights` (all equal when empty) are normalised and then changed as little as they can be
+  /// (Σ (w_i − u_i)² / u_i) so that the points' weighted plan centroid is the pick while each of
+  /// `groups` (a laser id per point; one group when empty) keeps its share. P⁰ becomes Σ w_i x_i(M₀):
+  /// the pick with the neighbourhood's height. On a plane surface the tie point then lies on it at
+  /// every mounting that puts the points on it — the true one, noise-free — and a displacement that
+  /// is affine in plan over the neighbourhood moves it as it moves the pick (the plain weighted mean
+  /// moved it as it moves the neighbourhood's centroid, up to a metre away at a target's corner).
+  /// centroid() becomes the points' mean. Throws InvalidInput when empty or when the weights or
+  /// groups are not as many, or a weight is not positive and finite.
+  void setMotionSupport(std::vector<LaserFootprint> points, std::vector<double> weights = {}, std::vector<int> groups = {});
+  /// The weights of motionSupport(), summing to 1 (some may be negative).
+  const std::vector<double>& motionWeights() const { return weights_; }
   /// The points of a neighbourhood motion; empty for the triangle's.
   const std::vector<LaserFootprint>& motionSupport() const { return support_; }
 
