@@ -67,7 +67,7 @@ struct TieSection {
   /// The σ used in the last solve: the stated ones, or those estimated (estimate_tie_sigma) [m].
   double sigma_xy_m = 0.0, sigma_z_m = 0.0;
   bool sigma_estimated = false;
-  /// Observations whose pick moves with the mean displacement of its neighbourhood
+  /// Observations whose pick moves with its neighbourhood, an affine combination of its points
   /// (VtpMotion::kNeighbourhood: a multi-beam strip's), the others with their triangle [-].
   int neighbourhood_motion = 0;
   /// Observations flagged as outliers [-].

@@ -12,8 +12,8 @@
 ///     rigid transform from the reference triangle to the new one is fitted (Kabsch), and
 ///     applied to P⁰ → P(M). A pure function of M.
 ///
-/// On a multi-beam scanner's strip (VtpMotion) the pick moves instead with the mean displacement
-/// of all the coplanar points around it: its lasers see a picked target at different times and
+/// On a multi-beam scanner's strip (VtpMotion) the pick moves instead with all the coplanar points
+/// around it, an affine combination of them that reproduces it in plan: its lasers see a picked target at different times and
 /// angles, and under a wrong mounting each places it elsewhere — the pick is the centre of that
 /// smear, not a place of the one laser whose three pulses enclose it.
 
@@ -45,10 +45,13 @@ enum class VtpMotion {
   kAuto,
   /// The seed's Rule 2: the rigid motion of the enclosing triangle (seed eq. 6).
   kTriangle,
-  /// The mean displacement of the coplanar points around the pick (the RANSAC plane's inliers
-  /// within the search radius, the nearest kMaxMotionSupport): P(M) = P⁰ + Σ_i w_i [x_i(M) − x_i(M₀)],
-  /// each laser weighing the same when the strip has laser ids (w_i = 1 / (lasers · its points)),
-  /// each point otherwise.
+  /// An affine combination of the coplanar points around the pick (the RANSAC plane's inliers
+  /// within the search radius, the nearest kMaxMotionSupport): P(M) = Σ_i w_i x_i(M), Σ w_i = 1,
+  /// each laser keeping the same share when the strip has laser ids (u_i = 1 / (lasers · its
+  /// points)), each point otherwise, the weights changed from u as little as they can be so that
+  /// P(M₀) is the pick in plan (setMotionSupport). On a plane surface the tie point lies on it
+  /// wherever the points do — at the true mounting, noise-free (uav-vlp16, 8 seeds: heading RMS
+  /// 0.0116°, against 0.022° with the plain mean displacement P⁰ + Σ u_i [x_i(M) − x_i(M₀)]).
   /// A multi-beam scanner's sixteen or thirty-two lasers each see a target at another time and
   /// angle; under a wrong mounting each places it elsewhere (a heading error of 1.2° moves the
   /// ground points of a laser 15° off the scan plane, 50 m below, by 0.28 m across the track
