@@ -73,7 +73,7 @@ void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::
   // The weights changed as little as they can, Σ (w_i − u_i)² / u_i, so that the points' weighted
   // plan centroid is the pick and each group keeps its share: δ_i = u_i λᵀ(x_i − x̄_g(i)) with
   // S λ = pick − Σ u_i x_i, S = Σ u_i (x_i − x̄_g)(x_i − x̄_g)ᵀ in plan (Lagrange; x̄_g each group's
-  // weighted centroid). A direction the groups do not spread along is left as it was.
+  // weighted centroid). A direction the groups do not spread along is left as it was
   const std::size_t n = points.size();
   std::map<int, std::pair<double, Eigen::Vector2d>> group_mean;  // share, weighted plan centroid
   auto groupOf = [&](std::size_t i) { return groups.empty() ? 0 : groups[i]; };
@@ -96,7 +96,9 @@ void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::
   Eigen::Vector2d lambda = Eigen::Vector2d::Zero();
   for (int k = 0; k < 2; ++k) {
     const double e = eig.eigenvalues()[k];
-    if (e > 1e-6 * std::max(eig.eigenvalues()[1], 1e-300) && e > 1e-8)
+    // (the groups spread by at least a centimetre along it: no weights of thousands from a
+    // neighbourhood of one scan row)
+    if (e > 1e-6 * std::max(eig.eigenvalues()[1], 1e-300) && e > 1e-4)
       lambda += eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(r) / e);
   }
   for (std::size_t i = 0; i < n; ++i) weights[i] += weights[i] * lambda.dot(points[i].x0_m.head<2>() - group_mean[groupOf(i)].second);
