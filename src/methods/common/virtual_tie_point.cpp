@@ -71,41 +71,40 @@ void VirtualTiePoint::setMotionSupport(std::vector<LaserFootprint> points, std::
   }
   for (double& w : weights) w /= sum;
   // The weights changed as little as they can, Σ (w_i − u_i)² / u_i, so that the points' weighted
-  // plan centroid is the pick and each group keeps its share: δ_i = u_i λᵀ(x_i − x̄_g(i)) with
-  // S λ = pick − Σ u_i x_i, S = Σ u_i (x_i − x̄_g)(x_i − x̄_g)ᵀ in plan (Lagrange; x̄_g each group's
-  // weighted centroid). A direction the groups do not spread along is left as it was
+  // plan centroid is the pick and each group keeps its share: δ_i = u_i λᵀ d_i, d_i = x_i − x̄_g(i),
+  // with S λ = pick − Σ u_i x_i, S = Σ u_i d_i d_iᵀ in plan (Lagrange; x̄_g each group's weighted
+  // centroid). A direction the groups spread along by less than a centimetre is left as it was:
+  // a neighbourhood of one scan row would give weights of thousands.
   const std::size_t n = points.size();
-  std::map<int, std::pair<double, Eigen::Vector2d>> group_mean;  // share, weighted plan centroid
   auto groupOf = [&](std::size_t i) { return groups.empty() ? 0 : groups[i]; };
+  std::map<int, std::pair<double, Eigen::Vector2d>> group_mean;  // share, weighted plan centroid
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
-    auto& g = group_mean[groupOf(i)];
-    if (g.first == 0) g.second.setZero();
+    auto& g = group_mean.try_emplace(groupOf(i), 0.0, Eigen::Vector2d::Zero()).first->second;
     g.first += weights[i];
     g.second += weights[i] * points[i].x0_m.head<2>();
     centroid += weights[i] * points[i].x0_m.head<2>();
   }
   for (auto& g : group_mean) g.second.second /= g.second.first;
+  std::vector<Eigen::Vector2d> d(n);
   Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector2d d = points[i].x0_m.head<2>() - group_mean[groupOf(i)].second;
-    S += weights[i] * d * d.transpose();
+    d[i] = points[i].x0_m.head<2>() - group_mean.at(groupOf(i)).second;
+    S += weights[i] * d[i] * d[i].transpose();
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(S);
   const Eigen::Vector2d r = P0_m_.head<2>() - centroid;
   Eigen::Vector2d lambda = Eigen::Vector2d::Zero();
   for (int k = 0; k < 2; ++k) {
     const double e = eig.eigenvalues()[k];
-    // (the groups spread by at least a centimetre along it: no weights of thousands from a
-    // neighbourhood of one scan row)
     if (e > 1e-6 * std::max(eig.eigenvalues()[1], 1e-300) && e > 1e-4)
       lambda += eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(r) / e);
   }
-  for (std::size_t i = 0; i < n; ++i) weights[i] += weights[i] * lambda.dot(points[i].x0_m.head<2>() - group_mean[groupOf(i)].second);
+  for (std::size_t i = 0; i < n; ++i) weights[i] += weights[i] * lambda.dot(d[i]);
   support_ = std::move(points);
   weights_ = std::move(weights);
   // P⁰ = Σ w_i x_i(M₀): the pick with the neighbourhood's height there (Rule 1 on the points around
-  // it, not on one triangle); centroid() their plain weighted mean (Σ w_i = 1).
+  // it, not on one triangle); centroid() the points' plain mean.
   Vec3 c = Vec3::Zero(), P = Vec3::Zero();
   for (std::size_t i = 0; i < n; ++i) P += weights_[i] * support_[i].x0_m;
   for (const LaserFootprint& f : support_) c += f.x0_m;
