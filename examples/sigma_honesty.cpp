@@ -62,7 +62,7 @@ void printSeed(int seed, const SimulatedSurvey& s, const MountingCalibrator::Sum
 int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift_gauss_markov";
   int seeds = 10, first_seed = 1;
-  bool model_drift = false, trajectory_none = false, per_seed = false, priors_from_accuracy = false;
+  bool model_drift = false, trajectory_none = false, per_seed = false, priors_from_accuracy = false, offsets_within_drift = false;
   double offset_sigma = 0.005;  // the simulated survey's strip-to-strip GNSS bias (gnss_sigma_m below)
   int corr_position = 0, corr_attitude = 0;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
@@ -90,13 +90,17 @@ int main(int argc, char** argv) {
       position_tau = std::atof(argv[++i]);
     else if (a == "--offset-sigma" && i + 1 < argc)
       offset_sigma = std::atof(argv[++i]);
+    else if (a == "--offsets-within-drift")  // the offsets' prior as the drift's constant part
+      offsets_within_drift = true;
     else if (a == "--corrections" && i + 1 < argc && std::sscanf(argv[i + 1], "%d,%d", &corr_position, &corr_attitude) == 2)
       ++i;
     else {
-      std::fprintf(stderr,
-                   "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift|navigation_drift_gauss_markov] "
-                   "[--model-attitude-drift]\n",
-                   argv[0]);
+      std::fprintf(
+          stderr,
+          "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift|navigation_drift_gauss_markov] "
+          "[--model-attitude-drift] [--trajectory-none] [--per-seed] [--priors-from-accuracy] [--attitude-tau S] [--position-tau S] "
+          "[--offset-sigma M] [--offsets-within-drift] [--corrections P,A]\n",
+          argv[0]);
       return 2;
     }
   }
@@ -144,6 +148,7 @@ int main(int argc, char** argv) {
     o.resolve_check = false;  // the estimate and its σ are what is measured here
     o.trajectory.attitude_correlation_s = attitude_tau;
     o.trajectory.position_correlation_s = position_tau;
+    o.trajectory.offsets_within_drift = offsets_within_drift;
     if (trajectory_none) o.trajectory = TrajectoryAccuracy::none();
     o.corrections.position_degree = corr_position;
     o.corrections.attitude_degree = corr_attitude;

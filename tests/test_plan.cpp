@@ -171,10 +171,13 @@ TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
   const Prediction corrected = predict(load(k));
   for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
     EXPECT_GE(corrected.sigma[p], 0.999 * plain.sigma[p]) << mountingParameterNames()[p];
-  // Priors from the plan's navigation accuracy: a plan without drift has none to derive them from.
+  // Priors from the plan's navigation accuracy: a plan without drift — not even the GNSS error's,
+  // which a plan's model takes as its drift in time — has none to derive them from.
   k["stochastic"]["corrections"]["priors_from_accuracy"] = true;
   try {
-    load(k);
+    json none = k;
+    none["noise"] = {{"gnss_sigma_m", 0}};
+    load(none);
     ADD_FAILURE() << "priors_from_accuracy accepted without a drift";
   } catch (const FileError& e) {
     EXPECT_NE(std::string(e.what()).find("priors_from_accuracy"), std::string::npos) << e.what();
@@ -470,11 +473,10 @@ TEST(Planner, MultiBeamUavPredictionMatchesTheScatter) {
   json j;
   j["name"] = "uav plan";
   j["sensor"] = {{"type", "vlp16"}, {"nominal_rotation_deg", {0, 90, 0}}};
-  // The realistic noise, with its GNSS error (1.5 cm, τ = 100 s) stated as the drift it is over a
-  // UAV's 40 s lines: each tie's height is its neighbourhood's (Σ w_i² ≈ 0.006 of a pulse's range
-  // noise), so the drift within a line, not the range noise, sets what is left after the strip
-  // offsets (without it the predicted roll σ was 1.75× small; airborne lines of 13 s, 0.8× large).
-  j["noise"] = {{"drift_position_sigma_m", 0.015}, {"drift_position_correlation_s", 100}};
+  // The realistic noise: its GNSS error (1.5 cm, τ = 100 s) wanders within a UAV's 40 s lines, and
+  // each tie's height is its neighbourhood's (Σ w_i² ≈ 0.006 of a pulse's range noise), so the drift
+  // within a line, not the range noise, sets what is left after the strip offsets (without that
+  // drift in the plan's model the predicted roll σ was 1.75× small).
   j["mounting"] = {{"lever_arm_m", {0.05, -0.08, 0.12}}, {"boresight_deg", {0, 0, 0}}};
   j["roi_radius_m"] = 4;
   const std::vector<std::tuple<std::string, double, double, double, double, double>> lines = {{"1", -100, 0, 100, 0, 40},

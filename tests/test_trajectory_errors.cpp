@@ -109,6 +109,48 @@ TEST(TrajectoryErrors, PositionDriftGivesTheVarianceOfAMeanOfCorrelatedSamples) 
   EXPECT_GT(S.sigma[0], 2.0 * S.formal_sigma[0]);  // the drift dominates here
 }
 
+// TrajectoryAccuracy::offsets_within_drift: the strip offsets estimated under a prior σ_o, the
+// drift the strips' whole position error (no bias beyond it). Hand derivation: eliminating each
+// offset, â is the random-effects mean of the strip means, â = Σ w_s ȳ_s / Σ w_s with
+// w_s = 1 / (σ²/n_s + σ_o²), whose formal variance 1/Σ w_s = Σ w_s² (σ²/n_s + σ_o²) / (Σ w_s)²
+// holds a random constant of σ_o per strip. The true error of ȳ_s is the white noise's mean and
+// the drift's, so Var(â) = Σ w_s² (σ²/n_s + σ_p² S_s / n_s²) / (Σ w_s)², S_s = Σ_ij exp(−|t_i − t_j|/τ):
+// the drift's constant counted once. Without the flag the prior's constant is counted beside the
+// drift (formal + drift term: larger).
+TEST(TrajectoryErrors, OffsetsWithinTheDriftCountItsConstantOnce) {
+  std::vector<Sample> s;
+  for (int k = 0; k < 40; ++k) s.push_back({"1", 100.0 + 5.0 * k, Vec3(0, 0, -60)});  // one epoch per bin of τ/20
+  for (int k = 0; k < 15; ++k) s.push_back({"2", 1000.0 + 10.0 * k, Vec3(0, 0, -60)});
+  const double sigma = 0.02, sigma_o = 0.015, sigma_p = 0.015, tau = 100.0;
+  TrajectoryAccuracy acc = TrajectoryAccuracy::none();
+  acc.position_sigma_m = sigma_p;
+  acc.position_correlation_s = tau;
+  auto solve = [&](bool within) {
+    acc.offsets_within_drift = within;
+    MountingAdjustment::Options o = meanOptions(acc);
+    o.strip_offset_sigma_m = sigma_o;
+    MeanSource source(s, sigma);
+    return MountingAdjustment(o).solve(MountingParameters{}, {&source});
+  };
+  const auto S = solve(true), D = solve(false);
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  ASSERT_TRUE(D.IsSolutionUsable()) << D.message;
+  double sum_w = 0, var = 0, drift_term = 0;
+  for (const auto& [strip, n] : {std::pair<std::string, double>{"1", 40.0}, {"2", 15.0}}) {
+    const double w = 1.0 / (sigma * sigma / n + sigma_o * sigma_o);
+    const double d = sigma_p * sigma_p * correlationSum(s, strip, tau) / (n * n);
+    sum_w += w;
+    var += w * w * (sigma * sigma / n + d);
+    drift_term += w * w * d;
+  }
+  var /= sum_w * sum_w;
+  drift_term /= sum_w * sum_w;
+  EXPECT_NEAR(S.formal_sigma[0], std::sqrt(1.0 / sum_w), 1e-9);
+  EXPECT_NEAR(S.sigma[0], std::sqrt(var), 1e-6 * std::sqrt(var));
+  EXPECT_NEAR(D.sigma[0], std::sqrt(1.0 / sum_w + drift_term), 1e-6 * std::sqrt(var));
+  EXPECT_GT(D.sigma[0], 1.2 * S.sigma[0]);  // the constant twice: what the planner's plans had
+}
+
 TEST(TrajectoryErrors, AttitudeDriftMovesAPointByTheRotationTimesItsArm) {
   // δx = δψ × u. With u = (0, 0, −H) only pitch moves x: δx = −H δψ_y (σ_t); with u = (0, L, 0)
   // only heading: δx = −L δψ_z (σ_κ). Var(â) = σ²/n + σ_t² H²/n² Σρ + σ_κ² L²/n² Σρ.
@@ -331,6 +373,15 @@ TEST(TrajectoryErrors, AJobTakesTheTrajectorysAccuracyFile) {
   EXPECT_EQ(back["stochastic"]["trajectory"]["smrmsg"], "acc.out");
   EXPECT_FALSE(back["stochastic"]["trajectory"].contains("position_sigma_m"));
   EXPECT_EQ(readJob(again).trajectory_accuracy_path, job.trajectory_accuracy_path);
+  // The strip offsets' prior as the drift's constant part (offsets_within_drift): read, written back.
+  json within = j;
+  within["stochastic"]["trajectory"] = {{"smrmsg", "acc.out"}, {"offsets_within_drift", true}};
+  std::ofstream(dir + "/within.json") << within.dump(2);
+  const Job within_job = readJob(dir + "/within.json");
+  EXPECT_TRUE(within_job.options.trajectory.offsets_within_drift);
+  EXPECT_FALSE(job.options.trajectory.offsets_within_drift);
+  std::ofstream(dir + "/within_again.json") << jobJson(within_job);
+  EXPECT_TRUE(readJob(dir + "/within_again.json").options.trajectory.offsets_within_drift);
   // Calibrated: the σ model says where its σ came from; three times the errors, larger σ, same mounting.
   const auto S1 = calibrateJob(job, with, false).summary;
   const Job job3 = readJob(withFile("job_acc3.json", "acc3.out"));

@@ -811,6 +811,11 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   const TrajectoryCorrections& corr = problem.corrections();
   for (int d = 0; d <= corr.position_degree; ++d) pos.absorbed.push_back(d);
   for (int d = 1; d <= corr.attitude_degree; ++d) att.absorbed.push_back(d);
+  // The offsets' random effect that the formal covariance already counts, per strip: H̄ = Σ H of
+  // its epochs (TrajectoryAccuracy::offsets_within_drift).
+  const double offset_prior_var = problem.stripOffsetSigma() * problem.stripOffsetSigma();
+  const bool within = acc.offsets_within_drift && use_pos && offset_prior_var > 0;
+  std::map<const double*, Mat63> hbar;
   const double* m = problem.mounting();
   for (const auto& rec : problem.records()) {
     if (rec.epochs.empty()) continue;
@@ -832,6 +837,7 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
     for (const auto& e : rec.epochs) {
       Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
       Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
+      if (within && cols.col.count(e.offset) > 0) hbar.try_emplace(e.offset, zero3).first->second += hp;
       if (series) {
         Vec3 s_p, s_a;
         series->at(e.time_s, &s_p, &s_a);
@@ -891,6 +897,12 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
         previous_bin = bin;
       }
     }
+  }
+  // Σ_strips H̄ σ_o² H̄ᵀ = Xᵀ P X: the strip-constant error the formal covariance holds as the
+  // offsets' random effect, which the drift above holds too.
+  for (const auto& [strip, h] : hbar) {
+    (void)strip;
+    out.M -= offset_prior_var * h * h.transpose();
   }
   out.M = 0.5 * (out.M + out.M.transpose());
   out.self = 0.5 * (out.self + out.self.transpose());

@@ -204,7 +204,7 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
       // Trajectory errors in time: the GNSS/INS solution's accuracy (σ, or along time its SBET's
       // smrmsg file), τ its periods.
       const Fields t = st.sub("trajectory", {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
-                                             "attitude_correlation_s", "smrmsg"});
+                                             "attitude_correlation_s", "smrmsg", "offsets_within_drift"});
       if (t.has("smrmsg")) {
         for (const char* k : {"position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"})
           if (t.has(k)) t.fail(k, "the σ are given twice: \"smrmsg\" states them along time (keep the correlation times only)");
@@ -218,6 +218,8 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
       a.roll_pitch_sigma_deg = t.num("roll_pitch_sigma_deg", a.roll_pitch_sigma_deg, 0.0, 10.0);
       a.heading_sigma_deg = t.num("heading_sigma_deg", a.heading_sigma_deg, 0.0, 10.0);
       a.attitude_correlation_s = t.num("attitude_correlation_s", a.attitude_correlation_s, 0.01, 86400.0);
+      // The position drift is the strips' whole slow error, the offsets' prior its constant part.
+      a.offsets_within_drift = t.boolean("offsets_within_drift", a.offsets_within_drift);
     }
   }
   if (top.has("vtpm") && j.at("vtpm").is_object() && j.at("vtpm").contains("strip_offset_sigma_m")) {
@@ -695,13 +697,14 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
                                      {"attitude_correlation_s", ta.attitude_correlation_s}};
   } else if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||
              ta.roll_pitch_sigma_deg != td.roll_pitch_sigma_deg || ta.heading_sigma_deg != td.heading_sigma_deg ||
-             ta.attitude_correlation_s != td.attitude_correlation_s) {
+             ta.attitude_correlation_s != td.attitude_correlation_s || ta.offsets_within_drift != td.offsets_within_drift) {
     j["stochastic"]["trajectory"] = {{"position_sigma_m", ta.position_sigma_m},
                                      {"position_correlation_s", ta.position_correlation_s},
                                      {"roll_pitch_sigma_deg", ta.roll_pitch_sigma_deg},
                                      {"heading_sigma_deg", ta.heading_sigma_deg},
                                      {"attitude_correlation_s", ta.attitude_correlation_s}};
   }
+  if (ta.offsets_within_drift) j["stochastic"]["trajectory"]["offsets_within_drift"] = true;
   if (opts.pulse_noise.any() || opts.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = opts.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},

@@ -161,6 +161,8 @@ void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
   NoiseModel& n = c.noise;
   n = NoiseModel::realistic();
   n.attitude_correlation_s = 0.005;  // white at the trajectory rate unless stated
+  // Trajectory errors in time (the calibrator's TrajectoryAccuracy): none unless stated.
+  TrajectoryAccuracy t = TrajectoryAccuracy::none();
   if (top.has("noise")) {
     if (top.at("noise").is_string()) {
       const std::string name = top.str("noise");
@@ -176,17 +178,24 @@ void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
       n.attitude_sigma_rad = deg2rad(nf.num("attitude_sigma_deg", rad2deg(n.attitude_sigma_rad), 0.0, 1.0));
       n.attitude_correlation_s = nf.num("attitude_correlation_s", n.attitude_correlation_s, 1e-3, 1e4);
       n.pick_sigma_m = nf.num("pick_sigma_m", n.pick_sigma_m, 1e-3, 10.0);
-      // Trajectory errors in time (the calibrator's TrajectoryAccuracy): none unless stated.
-      TrajectoryAccuracy& t = p.options.trajectory;
       t.position_sigma_m = nf.num("drift_position_sigma_m", 0.0, 0.0, 10.0);
       t.position_correlation_s = nf.num("drift_position_correlation_s", t.position_correlation_s, 0.1, 1e5);
       t.roll_pitch_sigma_deg = nf.num("drift_attitude_sigma_deg", 0.0, 0.0, 1.0);
       t.heading_sigma_deg = 2.0 * t.roll_pitch_sigma_deg;
       t.attitude_correlation_s = nf.num("drift_attitude_correlation_s", t.attitude_correlation_s, 0.1, 1e5);
-      return;
     }
   }
-  p.options.trajectory = TrajectoryAccuracy::none();  // "realistic": no drift
+  // Without a stated position drift, the GNSS error itself (the Gauss–Markov process of
+  // gnss_sigma_m and gnss_correlation_s the simulator draws) is the drift in time: nearly constant
+  // over an airborne line of 15 s, it wanders within a UAV's line of 40 s. The strip offsets'
+  // prior is its constant part, counted once (TrajectoryAccuracy::offsets_within_drift). A stated
+  // drift is beyond the GNSS error, whose strips' constants the offsets carry.
+  if (t.position_sigma_m == 0 && n.gnss_sigma_m > 0) {
+    t.position_sigma_m = n.gnss_sigma_m;
+    t.position_correlation_s = n.gnss_correlation_s;
+    t.offsets_within_drift = true;
+  }
+  p.options.trajectory = t;
 }
 
 /// Mounting: nominal = truth.

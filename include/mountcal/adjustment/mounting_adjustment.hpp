@@ -147,6 +147,16 @@ struct TrajectoryAccuracy {
   /// cov(e(t), e(t')) = σ(t) σ(t') exp(−|t − t'|/τ)). MountingCalibrator sets it from
   /// CalibrationData::trajectory_accuracy unless the σ are switched off.
   std::shared_ptr<const TrajectoryAccuracySeries> series;
+  /// Whether the position drift above is the strip's whole slow position error, its
+  /// strip-constant part included (the GNSS solution's own error process, as the planner's
+  /// "realistic" noise states it). The strip offsets' prior (StochasticOptions::
+  /// strip_offset_sigma_m) then only regularises their estimate: the formal covariance counts it
+  /// as a random constant error of that σ (N⁻¹ = N⁻¹ (Ĵᵀ W Ĵ + Xᵀ P X) N⁻¹, X the offsets'
+  /// response to the mounting, P their prior's weight), and the same constant is in this drift —
+  /// so that share, Σ_strips H̄ σ_o² H̄ᵀ with H̄ the sum of the strip's epochs' H, is taken off the
+  /// consider term and the constant part is counted once. false (the default): the offsets'
+  /// prior states a bias beyond the drift, independent of it.
+  bool offsets_within_drift = false;
   bool any() const { return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0 || (series && !series->empty()); }
   /// No trajectory errors in time (a simulated survey without them; the formal σ alone).
   static TrajectoryAccuracy none() { return {0.0, 30.0, 0.0, 0.0, 5.0, nullptr}; }
