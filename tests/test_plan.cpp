@@ -171,8 +171,8 @@ TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
   const Prediction corrected = predict(load(k));
   for (int p : {kLeverX, kLeverY, kBoresightRoll, kBoresightPitch, kBoresightHeading})
     EXPECT_GE(corrected.sigma[p], 0.999 * plain.sigma[p]) << mountingParameterNames()[p];
-  // Priors from the plan's navigation accuracy: a plan without drift — not even the GNSS error's,
-  // which a plan's model takes as its drift in time — has none to derive them from.
+  // Priors from the plan's navigation accuracy: a plan without drift — not even a GNSS error, which
+  // a plan's model carries as a position error in time — has none to derive them from.
   k["stochastic"]["corrections"]["priors_from_accuracy"] = true;
   try {
     json none = k;

@@ -109,6 +109,39 @@ TEST(TrajectoryErrors, PositionDriftGivesTheVarianceOfAMeanOfCorrelatedSamples) 
   EXPECT_GT(S.sigma[0], 2.0 * S.formal_sigma[0]);  // the drift dominates here
 }
 
+// TrajectoryAccuracy::gnss_sigma_m: the GNSS solution's slow error beside the INS drift, an
+// independent Gauss–Markov process, so its correlation sum adds (hand derivation as above):
+// Var(â) = σ²/n + 1/n² Σ_strips [σ_p² Σ_ij exp(−|t_i − t_j|/τ_p) + σ_g² Σ_ij exp(−|t_i − t_j|/τ_g)].
+// The samples lie 5 s apart, one per bin of either process (τ/20: 0.5 s and 5 s), so it is exact.
+TEST(TrajectoryErrors, AGnssErrorBesideTheDriftAddsItsOwnCorrelationSum) {
+  std::vector<Sample> s;
+  for (int k = 0; k < 30; ++k) s.push_back({"1", 100.0 + 5.0 * k, Vec3(0, 0, -60)});
+  for (int k = 0; k < 12; ++k) s.push_back({"2", 1000.0 + 5.0 * k, Vec3(0, 0, -60)});
+  const double sigma = 0.01, sigma_p = 0.02, tau_p = 10.0, sigma_g = 0.015, tau_g = 100.0;
+  TrajectoryAccuracy acc = TrajectoryAccuracy::none();
+  acc.position_sigma_m = sigma_p;
+  acc.position_correlation_s = tau_p;
+  acc.gnss_sigma_m = sigma_g;
+  acc.gnss_correlation_s = tau_g;
+  MeanSource source(s, sigma);
+  const auto S = MountingAdjustment(meanOptions(acc)).solve(MountingParameters{}, {&source});
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+  const double n = static_cast<double>(s.size());
+  double sum = 0;
+  for (const char* strip : {"1", "2"})
+    sum += sigma_p * sigma_p * correlationSum(s, strip, tau_p) + sigma_g * sigma_g * correlationSum(s, strip, tau_g);
+  const double var = sigma * sigma / n + sum / (n * n);
+  EXPECT_NEAR(S.sigma[0], std::sqrt(var), 1e-6 * std::sqrt(var));
+  // The GNSS process alone is the position drift of its σ and τ.
+  TrajectoryAccuracy g = TrajectoryAccuracy::none(), p = TrajectoryAccuracy::none();
+  g.gnss_sigma_m = p.position_sigma_m = sigma_g;
+  g.gnss_correlation_s = p.position_correlation_s = tau_g;
+  MeanSource a(s, sigma), b(s, sigma);
+  const auto G = MountingAdjustment(meanOptions(g)).solve(MountingParameters{}, {&a});
+  const auto P = MountingAdjustment(meanOptions(p)).solve(MountingParameters{}, {&b});
+  EXPECT_NEAR(G.sigma[0], P.sigma[0], 1e-12);
+}
+
 // TrajectoryAccuracy::offsets_within_drift: the strip offsets estimated under a prior σ_o, the
 // drift the strips' whole position error (no bias beyond it). Hand derivation: eliminating each
 // offset, â is the random-effects mean of the strip means, â = Σ w_s ȳ_s / Σ w_s with
@@ -382,6 +415,25 @@ TEST(TrajectoryErrors, AJobTakesTheTrajectorysAccuracyFile) {
   EXPECT_FALSE(job.options.trajectory.offsets_within_drift);
   std::ofstream(dir + "/within_again.json") << jobJson(within_job);
   EXPECT_TRUE(readJob(dir + "/within_again.json").options.trajectory.offsets_within_drift);
+  // The GNSS solution's error beside the drift: read and written back; beside an smrmsg refused.
+  json gnss = j;
+  gnss["stochastic"]["trajectory"] = {{"gnss_sigma_m", 0.015}, {"gnss_correlation_s", 80}};
+  std::ofstream(dir + "/gnss.json") << gnss.dump(2);
+  const Job gnss_job = readJob(dir + "/gnss.json");
+  EXPECT_EQ(gnss_job.options.trajectory.gnss_sigma_m, 0.015);
+  std::ofstream(dir + "/gnss_again.json") << jobJson(gnss_job);
+  const Job gnss_again = readJob(dir + "/gnss_again.json");
+  EXPECT_EQ(gnss_again.options.trajectory.gnss_sigma_m, 0.015);
+  EXPECT_EQ(gnss_again.options.trajectory.gnss_correlation_s, 80.0);
+  EXPECT_EQ(gnss_again.options.trajectory.position_sigma_m, gnss_job.options.trajectory.position_sigma_m);
+  gnss["stochastic"]["trajectory"]["smrmsg"] = "acc.out";
+  std::ofstream(dir + "/gnss_twice.json") << gnss.dump(2);
+  try {
+    readJob(dir + "/gnss_twice.json");
+    ADD_FAILURE() << "gnss_sigma_m accepted beside an smrmsg";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("gnss_sigma_m"), std::string::npos) << e.what();
+  }
   // Calibrated: the σ model says where its σ came from; three times the errors, larger σ, same mounting.
   const auto S1 = calibrateJob(job, with, false).summary;
   const Job job3 = readJob(withFile("job_acc3.json", "acc3.out"));
@@ -512,6 +564,11 @@ TEST(TrajectoryErrors, InvalidAccuracyIsRefusedWithTheField) {
   acc.heading_sigma_deg = -1.0;
   EXPECT_FALSE(acc.IsValid(&why));
   EXPECT_NE(why.find("heading_sigma_deg"), std::string::npos) << why;
+  acc = TrajectoryAccuracy();
+  acc.gnss_sigma_m = 0.015;
+  acc.gnss_correlation_s = 0.0;
+  EXPECT_FALSE(acc.IsValid(&why));
+  EXPECT_NE(why.find("gnss_correlation_s"), std::string::npos) << why;
 }
 
 // ---- trajectory corrections and the time offset estimated in the solve ---------------------------

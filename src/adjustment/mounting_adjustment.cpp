@@ -97,6 +97,9 @@ bool TrajectoryAccuracy::IsValid(std::string* error) const {
     return failWith(error, "trajectory.position_correlation_s must be positive when position_sigma_m is");
   if ((roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0) && !(attitude_correlation_s > 0))
     return failWith(error, "trajectory.attitude_correlation_s must be positive when an attitude sigma is");
+  if (!(gnss_sigma_m >= 0 && gnss_sigma_m <= 100.0)) return failWith(error, "trajectory.gnss_sigma_m must be in [0, 100]");
+  if (gnss_sigma_m > 0 && !(gnss_correlation_s > 0 && gnss_correlation_s <= 86400.0))
+    return failWith(error, "trajectory.gnss_correlation_s must be in (0, 86400] when gnss_sigma_m is positive");
   if (series && !series->empty()) {
     if (!(position_correlation_s > 0 && attitude_correlation_s > 0))
       return failWith(error, "trajectory: the correlation times must be positive with an accuracy series");
@@ -505,7 +508,9 @@ Eigen::MatrixXd AdjustmentProblem::correctionPrior(double t0_s, double t1_s) con
         series->at(t, &p, &q);
         return group == 0 ? p[a] : q[a];
       };
-      const Eigen::MatrixXd C = detail::legendreCoefficientCovariance(degree, t0_s, t1_s, tau, sigma);
+      Eigen::MatrixXd C = detail::legendreCoefficientCovariance(degree, t0_s, t1_s, tau, sigma);
+      if (group == 0 && acc.gnss_sigma_m > 0)  // the GNSS process beside the drift: independent, the covariances add
+        C += detail::legendreCoefficientCovariance(degree, t0_s, t1_s, acc.gnss_correlation_s, [&](double) { return acc.gnss_sigma_m; });
       for (int k = 0; k < degree; ++k)
         for (int l = 0; l < degree; ++l) cov(first + 3 * k + a, first + 3 * l + a) = C(k, l);
     }
@@ -805,16 +810,21 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       acc.position_correlation_s, acc.position_correlation_s / 20.0, series ? Vec3(Vec3::Ones()) : Vec3(Vec3::Constant(p * p)), {}, {}, {}};
   Group att{
       acc.attitude_correlation_s, acc.attitude_correlation_s / 20.0, series ? Vec3(Vec3::Ones()) : Vec3(t * t, t * t, k * k), {}, {}, {}};
-  const bool use_pos = series || p > 0, use_att = attitude && (series || t > 0 || k > 0);
+  // The GNSS solution's own slow error beside the drift: a position process of its own σ and τ
+  // (never scaled by a series).
+  const double g2 = acc.gnss_sigma_m * acc.gnss_sigma_m;
+  Group gnss{acc.gnss_correlation_s, acc.gnss_correlation_s / 20.0, Vec3::Constant(g2), {}, {}, {}};
+  const bool use_pos = series || p > 0, use_att = attitude && (series || t > 0 || k > 0), use_gnss = g2 > 0;
   TrajectoryTerm<Rows> out{zero, zero};
-  if (!use_pos && !use_att) return out;
+  if (!use_pos && !use_att && !use_gnss) return out;
   const TrajectoryCorrections& corr = problem.corrections();
   for (int d = 0; d <= corr.position_degree; ++d) pos.absorbed.push_back(d);
   for (int d = 1; d <= corr.attitude_degree; ++d) att.absorbed.push_back(d);
+  gnss.absorbed = pos.absorbed;
   // The offsets' random effect that the formal covariance already counts, per strip: H̄ = Σ H of
   // its epochs (TrajectoryAccuracy::offsets_within_drift).
   const double offset_prior_var = problem.stripOffsetSigma() * problem.stripOffsetSigma();
-  const bool within = acc.offsets_within_drift && use_pos && offset_prior_var > 0;
+  const bool within = acc.offsets_within_drift && (use_pos || use_gnss) && offset_prior_var > 0;
   std::map<const double*, Mat63> hbar;
   const double* m = problem.mounting();
   for (const auto& rec : problem.records()) {
@@ -838,13 +848,16 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
       Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
       if (within && cols.col.count(e.offset) > 0) hbar.try_emplace(e.offset, zero3).first->second += hp;
+      Mat63 hg;  // the GNSS process's, unscaled: a copy only where a series scales hp
+      if (use_gnss && series) hg = hp;
+      const Mat63* hgp = series ? &hg : &hp;
       if (series) {
         Vec3 s_p, s_a;
         series->at(e.time_s, &s_p, &s_a);
         hp = hp * s_p.asDiagonal();
         ha = ha * s_a.asDiagonal();
       }
-      for (auto [g, h, on] : {std::tuple<Group*, const Mat63*, bool>{&pos, &hp, use_pos}, {&att, &ha, use_att}}) {
+      for (auto [g, h, on] : {std::tuple<Group*, const Mat63*, bool>{&pos, &hp, use_pos}, {&att, &ha, use_att}, {&gnss, hgp, use_gnss}}) {
         if (!on) continue;
         const long long bin = std::llround(e.time_s / g->bin);
         g->H[e.offset].try_emplace(bin, zero3).first->second += *h;
@@ -855,7 +868,7 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       }
     }
   }
-  for (Group* g : {&pos, &att}) {
+  for (Group* g : {&pos, &att, &gnss}) {
     const Eigen::DiagonalMatrix<double, 3> C(g->var);
     for (const auto& [strip, bins] : g->own) {
       // A strip offset held constant absorbs nothing (nor do corrections without it).
@@ -873,7 +886,7 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       Eigen::VectorXd share;
       double share_kappa = std::nan("");  // axes of one κ (every attitude axis: 1) share one computation
       for (int a = 0; a < 3; ++a) {
-        const double kappa = g == &pos && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
+        const double kappa = g != &att && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
         if (!(kappa == share_kappa)) {
           share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{}, kappa);
           share_kappa = kappa;

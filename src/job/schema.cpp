@@ -203,10 +203,11 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
     } else if (st.has("trajectory")) {
       // Trajectory errors in time: the GNSS/INS solution's accuracy (σ, or along time its SBET's
       // smrmsg file), τ its periods.
-      const Fields t = st.sub("trajectory", {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
-                                             "attitude_correlation_s", "smrmsg", "offsets_within_drift"});
+      const Fields t =
+          st.sub("trajectory", {"position_sigma_m", "position_correlation_s", "roll_pitch_sigma_deg", "heading_sigma_deg",
+                                "attitude_correlation_s", "smrmsg", "offsets_within_drift", "gnss_sigma_m", "gnss_correlation_s"});
       if (t.has("smrmsg")) {
-        for (const char* k : {"position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg"})
+        for (const char* k : {"position_sigma_m", "roll_pitch_sigma_deg", "heading_sigma_deg", "gnss_sigma_m"})
           if (t.has(k)) t.fail(k, "the σ are given twice: \"smrmsg\" states them along time (keep the correlation times only)");
         const std::string file = t.str("smrmsg");
         if (file.empty()) t.fail("smrmsg", "expected the path of an SBET accuracy (smrmsg) file");
@@ -220,6 +221,9 @@ void readStochastic(const Fields& top, const json& j, Job* job) {
       a.attitude_correlation_s = t.num("attitude_correlation_s", a.attitude_correlation_s, 0.01, 86400.0);
       // The position drift is the strips' whole slow error, the offsets' prior its constant part.
       a.offsets_within_drift = t.boolean("offsets_within_drift", a.offsets_within_drift);
+      // The GNSS solution's own slow error beside the drift (its σ per axis and τ).
+      a.gnss_sigma_m = t.num("gnss_sigma_m", a.gnss_sigma_m, 0.0, 100.0);
+      a.gnss_correlation_s = t.num("gnss_correlation_s", a.gnss_correlation_s, 0.01, 86400.0);
     }
   }
   if (top.has("vtpm") && j.at("vtpm").is_object() && j.at("vtpm").contains("strip_offset_sigma_m")) {
@@ -705,6 +709,10 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
                                      {"attitude_correlation_s", ta.attitude_correlation_s}};
   }
   if (ta.offsets_within_drift) j["stochastic"]["trajectory"]["offsets_within_drift"] = true;
+  if (ta.gnss_sigma_m > 0) {
+    j["stochastic"]["trajectory"]["gnss_sigma_m"] = ta.gnss_sigma_m;
+    j["stochastic"]["trajectory"]["gnss_correlation_s"] = ta.gnss_correlation_s;
+  }
   if (opts.pulse_noise.any() || opts.pulse_noise.attitude_correlation_s > 0) {
     const PulseNoise& pn = opts.pulse_noise;
     j["pulse_noise"] = {{"position_m", pn.position_m},   {"roll_pitch_deg", pn.roll_pitch_deg},

@@ -185,16 +185,13 @@ void readPlanNoise(const std::string& /*path*/, const Fields& top, Plan& p) {
       t.attitude_correlation_s = nf.num("drift_attitude_correlation_s", t.attitude_correlation_s, 0.1, 1e5);
     }
   }
-  // Without a stated position drift, the GNSS error itself (the Gauss–Markov process of
-  // gnss_sigma_m and gnss_correlation_s the simulator draws) is the drift in time: nearly constant
-  // over an airborne line of 15 s, it wanders within a UAV's line of 40 s. The strip offsets'
-  // prior is its constant part, counted once (TrajectoryAccuracy::offsets_within_drift). A stated
-  // drift is beyond the GNSS error, whose strips' constants the offsets carry.
-  if (t.position_sigma_m == 0 && n.gnss_sigma_m > 0) {
-    t.position_sigma_m = n.gnss_sigma_m;
-    t.position_correlation_s = n.gnss_correlation_s;
-    t.offsets_within_drift = true;
-  }
+  // The GNSS error (the Gauss–Markov process of gnss_sigma_m and gnss_correlation_s the simulator
+  // draws) is a position error in time of its own beside any stated drift: nearly constant over an
+  // airborne line of 15 s, it wanders within a UAV's line of 40 s. The strip offsets' prior is its
+  // constant part, counted once (TrajectoryAccuracy::offsets_within_drift).
+  t.gnss_sigma_m = n.gnss_sigma_m;
+  t.gnss_correlation_s = n.gnss_correlation_s;
+  t.offsets_within_drift = n.gnss_sigma_m > 0;
   p.options.trajectory = t;
 }
 

@@ -147,9 +147,8 @@ struct TrajectoryAccuracy {
   /// cov(e(t), e(t')) = σ(t) σ(t') exp(−|t − t'|/τ)). MountingCalibrator sets it from
   /// CalibrationData::trajectory_accuracy unless the σ are switched off.
   std::shared_ptr<const TrajectoryAccuracySeries> series;
-  /// Whether the position drift above is the strip's whole slow position error, its
-  /// strip-constant part included (the GNSS solution's own error process, as the planner's
-  /// "realistic" noise states it). The strip offsets' prior (StochasticOptions::
+  /// Whether the position drift above (with the GNSS error below) is the strip's whole slow
+  /// position error, its strip-constant part included (as the planner's noise states it). The strip offsets' prior (StochasticOptions::
   /// strip_offset_sigma_m) then only regularises their estimate: the formal covariance counts it
   /// as a random constant error of that σ (N⁻¹ = N⁻¹ (Ĵᵀ W Ĵ + Xᵀ P X) N⁻¹, X the offsets'
   /// response to the mounting, P their prior's weight), and the same constant is in this drift —
@@ -157,7 +156,15 @@ struct TrajectoryAccuracy {
   /// consider term and the constant part is counted once. false (the default): the offsets'
   /// prior states a bias beyond the drift, independent of it.
   bool offsets_within_drift = false;
-  bool any() const { return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0 || (series && !series->empty()); }
+  /// A second position error beside the drift above, independent of it: the GNSS solution's own
+  /// slow error (per axis [m], its τ [s]) where the drift above is the INS's shorter one — a
+  /// plan's GNSS error (`gnss_sigma_m`, `gnss_correlation_s`). Nearly constant over an airborne
+  /// line of 15 s at τ = 100 s, it wanders within a UAV's line of 40 s. 0: none.
+  double gnss_sigma_m = 0.0;
+  double gnss_correlation_s = 100.0;
+  bool any() const {
+    return position_sigma_m > 0 || roll_pitch_sigma_deg > 0 || heading_sigma_deg > 0 || gnss_sigma_m > 0 || (series && !series->empty());
+  }
   /// No trajectory errors in time (a simulated survey without them; the formal σ alone).
   static TrajectoryAccuracy none() { return {0.0, 30.0, 0.0, 0.0, 5.0, nullptr}; }
   bool IsValid(std::string* error) const;
