@@ -152,6 +152,53 @@ TEST(Planner, HeadingNeedsLaterallyOffsetOrCrossingLines) {
   std::printf("%s", a.text().c_str());
 }
 
+// Issue 26: the plan states a monopitch roof and the line scanner's mirror pattern. The roof's
+// face by hand: a house of side s whose low eave is at e above the ground faces its aspect, so
+// at the centre the roof stands at e + (s/2) tan(slope), and d metres towards the aspect it is
+// d tan(slope) lower (an east-facing roof of 20°: z(x) = z_c − (x − x_c) tan 20°).
+TEST(Planner, AMonopitchRoofAndTheScanPatternAreStatedInThePlan) {
+  json j = village(kTwoHeights, false);
+  j["sensor"]["pattern"] = "triangle";
+  j["ground"]["roofs"].push_back({{"id", "shed"},
+                                  {"centre", {0, 60}},
+                                  {"slope_deg", 20},
+                                  {"aspect_deg", 90},
+                                  {"size_m", 10},
+                                  {"eave_height_m", 4},
+                                  {"form", "monopitch"}});
+  const Plan plan = load(j);
+  EXPECT_EQ(plan.survey.line.pattern, simulation::MirrorPattern::kTriangle);
+  ASSERT_EQ(plan.roofs.size(), 5u);
+  EXPECT_TRUE(plan.roofs.back().monopitch);
+  EXPECT_FALSE(plan.roofs.front().monopitch);
+  const simulation::Scene scene = plan.buildScene();
+  const double t = std::tan(20.0 * kPi / 180.0), zc = 4.0 + 5.0 * t;
+  for (double dx : {-3.0, 0.0, 3.0}) {
+    simulation::Hit hit;
+    ASSERT_TRUE(scene.cast(Vec3(dx, 60.5, 100.0), Vec3(0, 0, -1), 1, &hit, 500.0)) << dx;
+    EXPECT_NEAR(hit.point_m.z(), zc - dx * t, 1e-9) << dx;
+    EXPECT_EQ(hit.kind, simulation::SurfaceKind::kRoof) << dx;
+  }
+  bool feature = false;
+  for (const auto& f : scene.features()) feature = feature || f.id == "shed_s0";
+  EXPECT_TRUE(feature);
+  EXPECT_TRUE(predict(plan).determined[kBoresightRoll]);
+  // Unknown forms and patterns are refused with the field.
+  for (const auto& [key, bad] : {std::pair<std::string, std::string>{"form", "mansard"}, {"pattern", "spiral"}}) {
+    json k = j;
+    if (key == "form")
+      k["ground"]["roofs"].back()["form"] = bad;
+    else
+      k["sensor"]["pattern"] = bad;
+    try {
+      load(k);
+      ADD_FAILURE() << key << " " << bad << " accepted";
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Planner, ATimeOffsetEstimatedNeedsTwoSpeedsAndCorrectionsWidenTheSigma) {
   // The plan's "stochastic" object is the job's: with the time offset estimated, lines all at
   // one speed leave it an along-track lever arm (the prediction says "two speeds"); two speeds

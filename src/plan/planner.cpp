@@ -21,6 +21,7 @@ namespace {
 using detail::Fields;
 using detail::json;
 using simulation::FlightLine;
+using simulation::MirrorPattern;
 using simulation::NoiseModel;
 using simulation::Scene;
 
@@ -80,6 +81,12 @@ Scene Plan::buildScene() const {
   Scene s;
   s.setGround(ground_z_m, ground_gx, ground_gy);
   for (const Roof& r : roofs) {
+    if (r.monopitch) {
+      // One face looking towards aspect (downslope there), rising size · tan(slope) across the house.
+      const double high = r.eave_height_m + r.size_m * std::tan(deg2rad(r.slope_deg));
+      s.addMonopitchHouse(r.id, r.x_m, r.y_m, r.size_m, r.size_m, r.eave_height_m, high, deg2rad(r.aspect_deg + 90.0));
+      continue;
+    }
     // A gable house whose faces look towards aspect and aspect + 180°: the ridge runs across
     // the aspect; the faces rise size/2 · tan(slope) from the eaves to the ridge.
     const double ridge = r.eave_height_m + 0.5 * r.size_m * std::tan(deg2rad(r.slope_deg));
@@ -130,8 +137,8 @@ void requireBeamsReachTheGround(const Fields& top, const Plan& p) {
 /// The sensor of the plan.
 void readPlanSensor(const std::string& /*path*/, const Fields& top, Plan& p) {
   SurveyConfig& c = p.survey;
-  const Fields sensor =
-      top.sub("sensor", {"type", "prf_hz", "scan_rate_hz", "half_fov_deg", "rotation_hz", "max_range_m", "nominal_rotation_deg"});
+  const Fields sensor = top.sub(
+      "sensor", {"type", "prf_hz", "scan_rate_hz", "half_fov_deg", "pattern", "rotation_hz", "max_range_m", "nominal_rotation_deg"});
   const std::string type = sensor.str("type");
   // How the scanner is installed (as a job's sensor.nominal_rotation_deg): a multi-beam scanner
   // on its side sweeps the ground below; upright, its fan of ±15° looks at the horizon.
@@ -145,6 +152,17 @@ void readPlanSensor(const std::string& /*path*/, const Fields& top, Plan& p) {
     c.line.prf_hz = sensor.num("prf_hz", 150e3, 1e3, 5e6);
     c.line.scan_rate_hz = sensor.num("scan_rate_hz", 50.0, 1.0, 1000.0);
     c.line.half_fov_rad = deg2rad(sensor.num("half_fov_deg", 20.0, 1.0, 75.0));
+    // The mirror's motion: oscillating (sinusoidal), constant speed back and forth (triangle), or
+    // a rotating polygon's one way (sawtooth).
+    const std::string pattern = sensor.str("pattern", "sinusoidal");
+    if (pattern == "sinusoidal")
+      c.line.pattern = MirrorPattern::kSinusoidal;
+    else if (pattern == "triangle")
+      c.line.pattern = MirrorPattern::kTriangle;
+    else if (pattern == "sawtooth")
+      c.line.pattern = MirrorPattern::kSawtooth;
+    else
+      sensor.fail("pattern", "unknown scan pattern '" + pattern + "' (patterns: sinusoidal, triangle, sawtooth)");
   } else if (type == "vlp16" || type == "hdl32e") {
     c.sensor = SensorType::kMultiBeam;
     c.multibeam.model = type == "vlp16" ? MultiBeamModel::VLP16() : MultiBeamModel::HDL32E();
@@ -251,7 +269,7 @@ void readPlanGround(const std::string& path, const Fields& top, Plan& p) {
       const json& a = list("roofs");
       for (std::size_t i = 0; i < a.size(); ++i) {
         const Fields r(path, a[i], "ground.roofs[" + std::to_string(i) + "]",
-                       {"id", "centre", "slope_deg", "aspect_deg", "size_m", "eave_height_m"});
+                       {"id", "centre", "slope_deg", "aspect_deg", "size_m", "eave_height_m", "form"});
         Plan::Roof roof;
         roof.id = r.str("id", "roof_" + std::to_string(i + 1));
         const auto c2 = xy(r, "centre");
@@ -260,6 +278,9 @@ void readPlanGround(const std::string& path, const Fields& top, Plan& p) {
         roof.aspect_deg = r.num("aspect_deg", 0.0, -360.0, 360.0);
         roof.size_m = r.num("size_m", 12.0, 4.0, 100.0);
         roof.eave_height_m = r.num("eave_height_m", 6.0, 2.0, 100.0);
+        const std::string form = r.str("form", "gable");
+        if (form != "gable" && form != "monopitch") r.fail("form", "unknown roof form '" + form + "' (forms: gable, monopitch)");
+        roof.monopitch = form == "monopitch";
         p.roofs.push_back(roof);
       }
     }

@@ -415,6 +415,29 @@ void Scene::addGableHouse(const std::string& id, double cx, double cy, double le
   plane_regions_.push_back(insetBox(id + "_face1", m1, un, 0.5 * length_m, vn, 0.25 * width_m, 0.3));
 }
 
+void Scene::addMonopitchHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double low_eave_height_m,
+                              double high_eave_height_m, double heading_rad) {
+  const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
+  const Vec3 c(cx, cy, 0);
+  const double g = groundHeight(cx, cy);
+  const double zb = g - 1.0, zl = g + low_eave_height_m, zh = g + high_eave_height_m;
+  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  const Vec3 a = c - u - v, b = c + u - v, cc = c + u + v, d = c - u + v;
+  // The roof plane, low along a–b, high along cc–d.
+  impl_->addQuad(at(a, zl), at(b, zl), at(cc, zh), at(d, zh), 80.0f, SurfaceKind::kRoof);
+  // The low and high long walls, and the two ends (a rectangle to the low eave, a triangle above).
+  impl_->addQuad(at(a, zb), at(b, zb), at(b, zl), at(a, zl), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(cc, zb), at(d, zb), at(d, zh), at(cc, zh), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(b, zb), at(cc, zb), at(cc, zl), at(b, zl), 50.0f, SurfaceKind::kWall);
+  impl_->addTriangle(at(b, zl), at(cc, zl), at(cc, zh), 50.0f, SurfaceKind::kWall);
+  impl_->addQuad(at(d, zb), at(a, zb), at(a, zl), at(d, zl), 50.0f, SurfaceKind::kWall);
+  impl_->addTriangle(at(d, zl), at(a, zl), at(d, zh), 50.0f, SurfaceKind::kWall);
+  const double zm = 0.5 * (zl + zh);
+  const double clearance = std::min(0.25 * length_m, 0.25 * std::hypot(width_m, zh - zl));
+  addFeature({id + "_s0", at(c, zm), SurfaceKind::kRoof, clearance});
+  plane_regions_.push_back(insetBox(id + "_face0", c, u.normalized(), 0.5 * length_m, v.normalized(), 0.5 * width_m, 0.3));
+}
+
 void Scene::addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad, double tilt_rad, float intensity) {
   const Vec3 u = along(heading_rad), v0 = across(heading_rad);
   const Vec3 v = std::cos(tilt_rad) * v0 + std::sin(tilt_rad) * Vec3::UnitZ();

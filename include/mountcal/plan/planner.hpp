@@ -44,11 +44,14 @@ struct Plan {
   /// Sensor, noise, mounting (nominal = truth), ROI and attitude dynamics; `lines` is filled
   /// from `Plan::lines` by surveyConfig().
   simulation::SurveyConfig survey;
-  /// What the ground offers: flat or sloped ground, gable roofs of given slope and aspect,
+  /// What the ground offers: flat or sloped ground, gable or monopitch roofs of given slope and aspect,
   /// square ground targets (buildScene() makes the scene to simulate).
   struct Roof {
     std::string id;
     double x_m = 0, y_m = 0, slope_deg = 30, aspect_deg = 0, size_m = 12, eave_height_m = 6;
+    /// Gable (faces towards aspect and aspect + 180°) or monopitch (one face towards aspect, its
+    /// low eave at eave_height_m).
+    bool monopitch = false;
   };
   struct Target {
     std::string id;

@@ -65,6 +65,11 @@ class Scene {
   /// becomes a feature point.
   void addGableHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double eave_height_m,
                      double ridge_height_m, double heading_rad);
+  /// A monopitch (lean-to) house: one roof plane from its low eave along the −across(heading)
+  /// side up to its high eave along the +across side (it faces −across(heading), downslope);
+  /// the middle of the roof plane becomes a feature point.
+  void addMonopitchHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double low_eave_height_m,
+                         double high_eave_height_m, double heading_rad);
   /// A raised (and possibly tilted) square target board of side `size_m` whose centre is a
   /// feature point; `tilt_rad` rotates it about its own x axis.
   void addBoard(const std::string& id, const Vec3& centre_m, double size_m, double heading_rad, double tilt_rad, float intensity = 230.0f);
