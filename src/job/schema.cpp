@@ -701,7 +701,7 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
                                      {"attitude_correlation_s", ta.attitude_correlation_s}};
   } else if (ta.position_sigma_m != td.position_sigma_m || ta.position_correlation_s != td.position_correlation_s ||
              ta.roll_pitch_sigma_deg != td.roll_pitch_sigma_deg || ta.heading_sigma_deg != td.heading_sigma_deg ||
-             ta.attitude_correlation_s != td.attitude_correlation_s || ta.offsets_within_drift != td.offsets_within_drift) {
+             ta.attitude_correlation_s != td.attitude_correlation_s) {
     j["stochastic"]["trajectory"] = {{"position_sigma_m", ta.position_sigma_m},
                                      {"position_correlation_s", ta.position_correlation_s},
                                      {"roll_pitch_sigma_deg", ta.roll_pitch_sigma_deg},

@@ -361,14 +361,53 @@ void Scene::addZebraCrossing(const std::string& id, double cx, double cy, double
   }
 }
 
+namespace {
+
+/// The plan point p at height z.
+Vec3 atHeight(const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); }
+
+/// A building's plan: its centre, half axes (u along the heading, v across), its corners a = c − u − v,
+/// b = c + u − v, cc = c + u + v, d = c − u + v, and its walls' foot a metre below the ground.
+struct HouseCorners {
+  Vec3 c, u, v, a, b, cc, d;
+  double zb = 0;  ///< [m]
+};
+
+HouseCorners houseCorners(double cx, double cy, double length_m, double width_m, double heading_rad, double ground_z_m) {
+  HouseCorners h;
+  h.zb = ground_z_m - 1.0;
+  h.c = Vec3(cx, cy, 0);
+  h.u = along(heading_rad) * (0.5 * length_m);
+  h.v = across(heading_rad) * (0.5 * width_m);
+  h.a = h.c - h.u - h.v, h.b = h.c + h.u - h.v, h.cc = h.c + h.u + h.v, h.d = h.c - h.u + h.v;
+  return h;
+}
+
+/// The walls of a pitched house from its foot: the long side a–b up to z_ab, the long side cc–d up
+/// to z_cd, and each end (b–cc, d–a) a rectangle up to the lower of the two with a triangle above
+/// it to the roof's end point there (`apex_bc`, `apex_da`: a gable's ridge end, a monopitch's high
+/// eave corner).
+template <typename Impl>
+void addHouseWalls(Impl& impl, const HouseCorners& h, double z_ab, double z_cd, const Vec3& apex_bc, const Vec3& apex_da) {
+  const double zl = std::min(z_ab, z_cd);
+  impl.addQuad(atHeight(h.a, h.zb), atHeight(h.b, h.zb), atHeight(h.b, z_ab), atHeight(h.a, z_ab), 50.0f, SurfaceKind::kWall);
+  impl.addQuad(atHeight(h.cc, h.zb), atHeight(h.d, h.zb), atHeight(h.d, z_cd), atHeight(h.cc, z_cd), 50.0f, SurfaceKind::kWall);
+  impl.addQuad(atHeight(h.b, h.zb), atHeight(h.cc, h.zb), atHeight(h.cc, zl), atHeight(h.b, zl), 50.0f, SurfaceKind::kWall);
+  impl.addTriangle(atHeight(h.b, zl), atHeight(h.cc, zl), apex_bc, 50.0f, SurfaceKind::kWall);
+  impl.addQuad(atHeight(h.d, h.zb), atHeight(h.a, h.zb), atHeight(h.a, zl), atHeight(h.d, zl), 50.0f, SurfaceKind::kWall);
+  impl.addTriangle(atHeight(h.d, zl), atHeight(h.a, zl), apex_da, 50.0f, SurfaceKind::kWall);
+}
+
+}  // namespace
+
 void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, double length_m, double width_m, double height_m,
                                 double heading_rad) {
-  const Vec3 u = along(heading_rad) * (0.5 * length_m), v = across(heading_rad) * (0.5 * width_m);
-  const Vec3 c(cx, cy, 0);
-  const Vec3 corners[4] = {c - u - v, c + u - v, c + u + v, c - u + v};
-  const double zb = groundHeight(cx, cy) - 1.0;  // walls start below the (sloped) ground
-  const double zr = groundHeight(cx, cy) + height_m;
-  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  const double g = groundHeight(cx, cy), zr = g + height_m;
+  const HouseCorners h = houseCorners(cx, cy, length_m, width_m, heading_rad, g);
+  const Vec3 &u = h.u, &v = h.v, &c = h.c;
+  const Vec3 corners[4] = {h.a, h.b, h.cc, h.d};
+  const double zb = h.zb;  // walls start below the (sloped) ground
+  const auto at = atHeight;
   impl_->addQuad(at(corners[0], zr), at(corners[1], zr), at(corners[2], zr), at(corners[3], zr), 70.0f, SurfaceKind::kRoof);
   for (int k = 0; k < 4; ++k) {
     const Vec3& a = corners[k];
@@ -385,55 +424,18 @@ void Scene::addFlatRoofBuilding(const std::string& id, double cx, double cy, dou
   plane_regions_.push_back(insetBox(id + "_roof", c, ui, 0.5 * length_m, vi, 0.5 * width_m, 1.0));
 }
 
-namespace {
-
-/// A house's plan: its centre, half axes (u along the heading, v across) and corners a = c − u − v,
-/// b = c + u − v, cc = c + u + v, d = c − u + v.
-struct HouseCorners {
-  Vec3 c, u, v, a, b, cc, d;
-  double zb = 0;  ///< the walls' foot, a metre below the ground at the centre [m]
-};
-
-HouseCorners houseCorners(double cx, double cy, double length_m, double width_m, double heading_rad, double ground_z_m) {
-  HouseCorners h;
-  h.zb = ground_z_m - 1.0;
-  h.c = Vec3(cx, cy, 0);
-  h.u = along(heading_rad) * (0.5 * length_m);
-  h.v = across(heading_rad) * (0.5 * width_m);
-  h.a = h.c - h.u - h.v, h.b = h.c + h.u - h.v, h.cc = h.c + h.u + h.v, h.d = h.c - h.u + h.v;
-  return h;
-}
-
-/// The walls of a house on the footprint a, b, cc, d (plan corners; z ignored) from zb below the
-/// ground: the long side a–b up to z_ab, the long side cc–d up to z_cd, and each end (b–cc, d–a)
-/// a rectangle up to the lower of the two with a triangle above it to the roof's end point there
-/// (`apex_bc`, `apex_da`: a gable's ridge end, a monopitch's high eave corner).
-template <typename Impl>
-void addHouseWalls(Impl& impl, const Vec3& a, const Vec3& b, const Vec3& cc, const Vec3& d, double zb, double z_ab, double z_cd,
-                   const Vec3& apex_bc, const Vec3& apex_da) {
-  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
-  const double zl = std::min(z_ab, z_cd);
-  impl.addQuad(at(a, zb), at(b, zb), at(b, z_ab), at(a, z_ab), 50.0f, SurfaceKind::kWall);
-  impl.addQuad(at(cc, zb), at(d, zb), at(d, z_cd), at(cc, z_cd), 50.0f, SurfaceKind::kWall);
-  impl.addQuad(at(b, zb), at(cc, zb), at(cc, zl), at(b, zl), 50.0f, SurfaceKind::kWall);
-  impl.addTriangle(at(b, zl), at(cc, zl), apex_bc, 50.0f, SurfaceKind::kWall);
-  impl.addQuad(at(d, zb), at(a, zb), at(a, zl), at(d, zl), 50.0f, SurfaceKind::kWall);
-  impl.addTriangle(at(d, zl), at(a, zl), apex_da, 50.0f, SurfaceKind::kWall);
-}
-
-}  // namespace
-
 void Scene::addGableHouse(const std::string& id, double cx, double cy, double length_m, double width_m, double eave_height_m,
                           double ridge_height_m, double heading_rad) {
   const double g = groundHeight(cx, cy), ze = g + eave_height_m, zr = g + ridge_height_m;
   const HouseCorners h = houseCorners(cx, cy, length_m, width_m, heading_rad, g);
-  const Vec3 &u = h.u, &v = h.v, &c = h.c, &a = h.a, &b = h.b, &cc = h.cc, &d = h.d, r0 = c - u, r1 = c + u;
-  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  const Vec3 &u = h.u, &v = h.v, &c = h.c, &a = h.a, &b = h.b, &cc = h.cc, &d = h.d;
+  const Vec3 r0 = c - u, r1 = c + u;  // the ridge's ends
+  const auto at = atHeight;
   // Two roof planes.
   impl_->addQuad(at(a, ze), at(b, ze), at(r1, zr), at(r0, zr), 80.0f, SurfaceKind::kRoof);
   impl_->addQuad(at(cc, ze), at(d, ze), at(r0, zr), at(r1, zr), 80.0f, SurfaceKind::kRoof);
   // Long walls and gable ends.
-  addHouseWalls(*impl_, a, b, cc, d, h.zb, ze, ze, at(r1, zr), at(r0, zr));
+  addHouseWalls(*impl_, h, ze, ze, at(r1, zr), at(r0, zr));
   // Mid-points of the two roof planes.
   const double zm = 0.5 * (ze + zr);
   const Vec3 m0 = c - 0.5 * v, m1 = c + 0.5 * v;
@@ -449,11 +451,11 @@ void Scene::addMonopitchHouse(const std::string& id, double cx, double cy, doubl
                               double high_eave_height_m, double heading_rad) {
   const double g = groundHeight(cx, cy), zl = g + low_eave_height_m, zh = g + high_eave_height_m;
   const HouseCorners h = houseCorners(cx, cy, length_m, width_m, heading_rad, g);
-  auto at = [](const Vec3& p, double z) { return Vec3(p.x(), p.y(), z); };
+  const auto at = atHeight;
   // The roof plane, low along a–b, high along cc–d.
   impl_->addQuad(at(h.a, zl), at(h.b, zl), at(h.cc, zh), at(h.d, zh), 80.0f, SurfaceKind::kRoof);
   // The low and high long walls, and the two ends (a rectangle to the low eave, a triangle above).
-  addHouseWalls(*impl_, h.a, h.b, h.cc, h.d, h.zb, zl, zh, at(h.cc, zh), at(h.d, zh));
+  addHouseWalls(*impl_, h, zl, zh, at(h.cc, zh), at(h.d, zh));
   const double zm = 0.5 * (zl + zh);
   const double clearance = std::min(0.25 * length_m, 0.25 * std::hypot(width_m, zh - zl));
   addFeature({id + "_s0", at(h.c, zm), SurfaceKind::kRoof, clearance});

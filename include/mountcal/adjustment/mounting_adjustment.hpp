@@ -148,13 +148,14 @@ struct TrajectoryAccuracy {
   /// CalibrationData::trajectory_accuracy unless the σ are switched off.
   std::shared_ptr<const TrajectoryAccuracySeries> series;
   /// Whether the position drift above (with the GNSS error below) is the strip's whole slow
-  /// position error, its strip-constant part included (as the planner's noise states it). The strip offsets' prior (StochasticOptions::
-  /// strip_offset_sigma_m) then only regularises their estimate: the formal covariance counts it
-  /// as a random constant error of that σ (N⁻¹ = N⁻¹ (Ĵᵀ W Ĵ + Xᵀ P X) N⁻¹, X the offsets'
-  /// response to the mounting, P their prior's weight), and the same constant is in this drift —
-  /// so that share, Σ_strips H̄ σ_o² H̄ᵀ with H̄ the sum of the strip's epochs' H, is taken off the
-  /// consider term and the constant part is counted once. false (the default): the offsets'
-  /// prior states a bias beyond the drift, independent of it.
+  /// position error, its strip-constant part included (as the planner's noise states it). The
+  /// strip offsets' prior (StochasticOptions::strip_offset_sigma_m) then only regularises their
+  /// estimate: the formal covariance counts it as a random constant error of that σ
+  /// (N⁻¹ = N⁻¹ (Ĵᵀ W Ĵ + Xᵀ P X) N⁻¹, X the offsets' response to the mounting, P their prior's
+  /// weight), and the same constant is in this drift — so that share, Σ_strips H̄ σ_o² H̄ᵀ with H̄
+  /// the sum of the strip's epochs' H, is taken off the consider term and the constant part is
+  /// counted once. false (the default): the offsets' prior states a bias beyond the drift,
+  /// independent of it.
   bool offsets_within_drift = false;
   /// A second position error beside the drift above, independent of it: the GNSS solution's own
   /// slow error (per axis [m], its τ [s]) where the drift above is the INS's shorter one — a
