@@ -465,22 +465,22 @@ TEST(FeatureMethod, PerLaserElevationOffsetsAreEstimatedWithTheBoresight) {
   const auto with = calibrate(data, o);
   ASSERT_TRUE(with.IsSolutionUsable()) << with.FullReport();
   const FeatureSection& F = with.section<FeatureSection>();
-  ASSERT_EQ(F.laser_elevations.lasers.size(), 16u);
+  ASSERT_EQ(F.laser_intrinsics.lasers.size(), 16u);
   ASSERT_EQ(with.laserCorrections().size(), 16u);  // what apply and evaluate take
   // The offsets are estimated about their mean over the lasers the views hold: the truth likewise.
   int seen = 0;
   double mean = 0, worst_ratio = 0, sum_ratio2 = 0;
   for (std::size_t i = 0; i < 16; ++i)
-    if (F.laser_elevations.points[i] > 0) mean += s->config.multibeam.laser_errors[i].elevation_rad / kDeg, ++seen;
+    if (F.laser_intrinsics.points[i] > 0) mean += s->config.multibeam.laser_errors[i].elevation_rad / kDeg, ++seen;
   mean /= std::max(seen, 1);
   for (std::size_t i = 0; i < 16; ++i) {
-    const double t = s->config.multibeam.laser_errors[i].elevation_rad / kDeg - mean, e = F.laser_elevations.lasers[i].elevation_rad / kDeg;
-    if (F.laser_elevations.points[i] == 0) {
-      EXPECT_TRUE(std::isnan(F.laser_elevations.sigma_deg[i])) << "laser " << i;
+    const double t = s->config.multibeam.laser_errors[i].elevation_rad / kDeg - mean, e = F.laser_intrinsics.lasers[i].elevation_rad / kDeg;
+    if (F.laser_intrinsics.points[i] == 0) {
+      EXPECT_TRUE(std::isnan((F.laser_intrinsics.sigma[i].elevation_rad / kDeg))) << "laser " << i;
       continue;
     }
-    EXPECT_GT(F.laser_elevations.sigma_deg[i], 0.005) << "laser " << i;
-    const double ratio = std::abs(e - t) / F.laser_elevations.sigma_deg[i];
+    EXPECT_GT((F.laser_intrinsics.sigma[i].elevation_rad / kDeg), 0.005) << "laser " << i;
+    const double ratio = std::abs(e - t) / (F.laser_intrinsics.sigma[i].elevation_rad / kDeg);
     worst_ratio = std::max(worst_ratio, ratio);
     sum_ratio2 += ratio * ratio;
     EXPECT_LT(std::abs(e - t), 0.15) << "laser " << i;  // within the truth's own spread (0.1° σ, 0.16° the largest)

@@ -350,7 +350,7 @@ TEST_P(GravityCalibration, BelowArmoWithPhysicalParameters) {
     if (elevation_deg >= 0.6) {
       EXPECT_NE(reasons.find("laser " + std::to_string(i) + " elevation"), std::string::npos) << "laser " << i << "\n" << reasons;
     }
-    EXPECT_GT(S.section<CorrespondenceSection>().laser_sigma[i].elevation_rad, 0.0) << "laser " << i;
+    EXPECT_GT(S.section<CorrespondenceSection>().laser_intrinsics.sigma[i].elevation_rad, 0.0) << "laser " << i;
   }
   EXPECT_TRUE(S.estimated[3] && S.estimated[4] && S.estimated[5]);
   // Issue 26: a re-solve started from the result stays within 2σ of it — and where it does not

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -113,6 +115,45 @@ std::unique_ptr<IntrinsicsSurvey> intrinsicsSurvey(const std::string& model, std
   return p;
 }
 
+/// The survey's navigation noise stated to the calibration as flown: strip offsets of the GNSS's
+/// σ; TrajectoryAccuracy of its Gauss–Markov position and attitude errors (the simulator's heading
+/// twice roll/pitch).
+void statedAsFlown(const NoiseModel& n, MountingCalibrator::Options* o) {
+  o->strip_offset_sigma_m = n.gnss_sigma_m;
+  o->trajectory.position_sigma_m = n.gnss_sigma_m;
+  o->trajectory.position_correlation_s = n.gnss_correlation_s;
+  o->trajectory.roll_pitch_sigma_deg = rad2deg(n.attitude_sigma_rad);
+  o->trajectory.heading_sigma_deg = 2 * rad2deg(n.attitude_sigma_rad);
+  o->trajectory.attitude_correlation_s = n.attitude_correlation_s;
+}
+
+/// A method's per-laser priors (LaserIntrinsicsPriors) of the five σ in `prior`.
+void setLaserPriors(const LaserErrorSigmas& prior, LaserIntrinsicsPriors* p) {
+  p->laser_elevation_sigma_deg = rad2deg(prior.elevation_rad);
+  p->laser_azimuth_sigma_deg = rad2deg(prior.azimuth_rad);
+  p->laser_range_sigma_m = prior.range_m;
+  p->laser_vertical_sigma_m = prior.vertical_m;
+  p->laser_horizontal_sigma_m = prior.horizontal_m;
+}
+
+/// The planes with patches found automatically, estimating the boresight (the lever arm held),
+/// the estimate and its σ only (no re-solve check): with `noise` stated as flown, or noise-free
+/// (null: no strip offsets, no trajectory errors).
+MountingCalibrator::Options planesBoresightOptions(const NoiseModel* noise) {
+  MountingCalibrator::Options o;
+  o.methods = {"planes"};
+  o.estimate = {false, false, false, true, true, true};
+  o.resolve_check = false;
+  if (noise) {
+    statedAsFlown(*noise, &o);
+  } else {
+    o.strip_offset_sigma_m = 0;
+    o.trajectory = TrajectoryAccuracy::none();
+  }
+  o.method<PlaneOptions>().automatic = true;
+  return o;
+}
+
 /// `as_flown`: the survey's navigation noise stated to the calibration (strip offsets of the
 /// GNSS's 2 cm; TrajectoryAccuracy of its Gauss–Markov position and attitude errors), `budget`
 /// samples per pair (0: uavDenseOptions').
@@ -122,21 +163,9 @@ MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const
                                                 int budget = 0, bool checks = true) {
   MountingCalibrator::Options o = mountcal_tests::uavDenseOptions();
   o.resolve_check = checks;
-  if (as_flown) {
-    const NoiseModel& n = s.config.noise;
-    o.strip_offset_sigma_m = n.gnss_sigma_m;
-    o.trajectory.position_sigma_m = n.gnss_sigma_m;
-    o.trajectory.position_correlation_s = n.gnss_correlation_s;
-    o.trajectory.roll_pitch_sigma_deg = rad2deg(n.attitude_sigma_rad);
-    o.trajectory.heading_sigma_deg = 2 * rad2deg(n.attitude_sigma_rad);  // the simulator's heading: twice roll/pitch
-    o.trajectory.attitude_correlation_s = n.attitude_correlation_s;
-  }
+  if (as_flown) statedAsFlown(s.config.noise, &o);
   CorrespondenceOptions& c = o.method<CorrespondenceOptions>();
-  c.laser_elevation_sigma_deg = rad2deg(prior.elevation_rad);
-  c.laser_azimuth_sigma_deg = rad2deg(prior.azimuth_rad);
-  c.laser_range_sigma_m = prior.range_m;
-  c.laser_vertical_sigma_m = prior.vertical_m;
-  c.laser_horizontal_sigma_m = prior.horizontal_m;
+  setLaserPriors(prior, &c);
   if (budget > 0) c.budget = budget;
   if (mountcal_tests::kSanitizerBuild) c.budget = 300;  // the code under the sanitizers, on fewer samples
   return calibrate(toCalibrationData(s.survey), o);
@@ -160,8 +189,8 @@ struct Recovery {
   std::array<int, 5> group_parameters{};
 };
 
-Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& S) {
-  const CorrespondenceSection& c = S.section<CorrespondenceSection>();
+Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& S, const LaserIntrinsicEstimates& c,
+                  int determining_points = kDeterminingPoints) {
   const std::vector<LaserSpec>& truth = s.config.multibeam.laser_errors;
   double LaserCorrection::*const est[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
                                            &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
@@ -170,9 +199,10 @@ Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& 
   const char* const keys[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
   Recovery r;
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    if (c.laser_points[i] == 0) continue;
+    if (c.points[i] == 0) continue;
     for (std::size_t g = 0; g < 5; ++g) {
-      const double err = std::abs(c.lasers[i].*est[g] - truth[i].*tru[g]), sigma = c.laser_sigma[i].*est[g];
+      if (!(c.prior_sigma.*est[g] > 0)) continue;  // not estimated
+      const double err = std::abs(c.lasers[i].*est[g] - truth[i].*tru[g]), sigma = c.sigma[i].*est[g];
       EXPECT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i << " " << keys[g];
       const double ratio = err / sigma;
       r.worst_ratio = std::max(r.worst_ratio, ratio);
@@ -182,11 +212,10 @@ Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& 
       ++r.group_parameters[g];
       const std::string tag = "laser " + std::to_string(i) + " " + keys[g];
       bool separated = true;
-      for (const std::string& u : c.laser_unseparated)
+      for (const std::string& u : c.unseparated)
         if (u.compare(0, tag.size(), tag) == 0 || u.find("~ " + tag + " ") != std::string::npos) separated = false;
       // Determined: separated, and seen by enough correspondences that the data, not the prior, decide.
-      if (separated && c.laser_points[i] >= kDeterminingPoints)
-        r.worst_separated[g] = std::max(r.worst_separated[g], g < 2 ? err / kDeg : err);
+      if (separated && c.points[i] >= determining_points) r.worst_separated[g] = std::max(r.worst_separated[g], g < 2 ? err / kDeg : err);
     }
   }
   const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
@@ -222,13 +251,13 @@ TEST(LaserIntrinsics, DenseCorrespondencesRecoverEveryGroupNoiseFree) {
     const auto s = intrinsicsSurvey(model, 1, false);
     const auto S = calibrateIntrinsics(*s, priorsFor(model), false, 0, false);
     ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
-    const Recovery r = recovery(*s, S);
+    const Recovery r = recovery(*s, S, S.section<CorrespondenceSection>().laser_intrinsics);
     const CorrespondenceSection& c = S.section<CorrespondenceSection>();
     std::printf(
         "%s noise-free: separated worst elevation %.2e deg, azimuth %.2e deg, range %.2e m, vertical %.2e m, horizontal %.2e m; "
         "worst |error|/sigma %.2f; boresight %.2e deg; %zu pairs not separated; median after %.2e m\n",
         model, r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4], r.worst_ratio,
-        r.worst_boresight_deg, c.laser_unseparated.size(), c.median_after_m);
+        r.worst_boresight_deg, c.laser_intrinsics.unseparated.size(), c.median_after_m);
     if (mountcal_tests::kSanitizerBuild) continue;
     EXPECT_LE(r.worst_separated[0], 0.005) << model;
     EXPECT_LE(r.worst_separated[1], 0.005) << model;
@@ -297,7 +326,7 @@ TEST(LaserIntrinsics, SigmasAreHonestUnderSurveyNoiseOverTenSeeds) {
       const auto S = calibrateIntrinsics(*s, priorsFor(model), true, 300, false);
       ASSERT_TRUE(S.IsSolutionUsable()) << model << " seed " << seed << "\n" << S.FullReport();
       EXPECT_EQ(S.sigma_model, "formal + trajectory errors in time");
-      const Recovery r = recovery(*s, S);
+      const Recovery r = recovery(*s, S, S.section<CorrespondenceSection>().laser_intrinsics);
       EXPECT_LE(r.worst_boresight_ratio, 3.0) << model << " seed " << seed;
       within2 += r.within_2sigma, within3 += r.within_3sigma;
       for (std::size_t g = 0; g < 5; ++g) {
@@ -413,7 +442,7 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
   const PlaneSection& ps = S.section<PlaneSection>();
   const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
-  ASSERT_EQ(ps.laser_elevations.lasers.size(), truth.size());
+  ASSERT_EQ(ps.laser_intrinsics.lasers.size(), truth.size());
   ASSERT_EQ(S.laserCorrections().size(), truth.size());  // what apply and evaluate are given
   {                                                      // and what the result file carries to them
     const std::string path = ::testing::TempDir() + "planes_lasers_result.json";
@@ -421,18 +450,18 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
     const LaserCorrections read = readResultLaserCorrections(path);
     ASSERT_EQ(read.size(), truth.size());
     for (std::size_t i = 0; i < read.size(); ++i)
-      EXPECT_NEAR(read[i].elevation_rad, ps.laser_elevations.lasers[i].elevation_rad, 1e-12) << i;
+      EXPECT_NEAR(read[i].elevation_rad, ps.laser_intrinsics.lasers[i].elevation_rad, 1e-12) << i;
   }
   double worst_ratio = 0, worst_determined = 0;
   int seen = 0, determined = 0;
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    if (ps.laser_elevations.points[i] == 0) continue;
+    if (ps.laser_intrinsics.points[i] == 0) continue;
     ++seen;
-    const double err = std::abs(ps.laser_elevations.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg,
-                 sigma = ps.laser_elevations.sigma_deg[i];
+    const double err = std::abs(ps.laser_intrinsics.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg,
+                 sigma = (ps.laser_intrinsics.sigma[i].elevation_rad / kDeg);
     ASSERT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i;
     worst_ratio = std::max(worst_ratio, err / sigma);
-    if (ps.laser_elevations.points[i] >= kPlanePoints) ++determined, worst_determined = std::max(worst_determined, err);
+    if (ps.laser_intrinsics.points[i] >= kPlanePoints) ++determined, worst_determined = std::max(worst_determined, err);
   }
   double boresight = 0;
   const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
@@ -453,6 +482,53 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
   EXPECT_GT(boresight_held, 2 * boresight);
 }
 
+// Issue 28 item 2, the planes with every group: the VLP-16 survey of the UAV field, noise-free,
+// flown with the preset's errors in all five groups, patches found automatically; the planes
+// estimate the five groups (the preset's σ doubled as priors) and the boresight. Every estimated
+// laser parameter within 3σ; those the patches determine (separated by the screening, on a laser
+// with kPlanePoints patch points or more) elevation and azimuth within 0.005°, range within 2 mm;
+// the boresight within 0.002°. Measured (2026-12-06): see the printed line.
+TEST(LaserIntrinsics, PlanesRecoverEveryGroupNoiseFree) {
+  constexpr int kPlanePoints = 100;
+  const auto s = intrinsicsSurvey("VLP-16", 1, false);
+  MountingCalibrator::Options o = planesBoresightOptions(nullptr);
+  PlaneOptions& p = o.method<PlaneOptions>();
+  setLaserPriors(priorsFor("VLP-16"), &p);
+  p.sigma_m = 0.003;  // noise-free: pooled from the plane fits at the mounting used it would be the misalignment's
+  // The a-priori boresight is 1.5° off: at it a spinning sensor's looks at one cell of one strip
+  // disagree by centimetres, and with the azimuth offsets the cells are rougher than the default
+  // 5 cm allows (one patch was found; 4 with the elevation errors alone) — planar enough at 10 cm.
+  p.max_roughness_m = 0.1;
+  p.max_patches = mountcal_tests::kSanitizerBuild ? 8 : 30;  // the sanitizer build runs the five groups' residual on fewer
+  const auto S = calibrate(toCalibrationData(s->survey), o);
+  ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
+  const PlaneSection& ps = S.section<PlaneSection>();
+  const LaserIntrinsicEstimates& e = ps.laser_intrinsics;
+  ASSERT_EQ(e.lasers.size(), s->config.multibeam.laser_errors.size());
+  const Recovery r = recovery(*s, S, e, kPlanePoints);
+  int seen = 0;
+  for (int n : e.points) seen += n > 0;
+  std::printf(
+      "planes, every laser group, noise-free VLP-16: %d patches, %d lasers seen; separated worst elevation %.2e deg, azimuth %.2e deg, "
+      "range %.2e m, vertical %.2e m, horizontal %.2e m; worst |error|/sigma %.2f; boresight %.2e deg; %zu pairs not separated\n",
+      ps.patches_used, seen, r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4],
+      r.worst_ratio, r.worst_boresight_deg, e.unseparated.size());
+  // The section says what it estimated: the five groups in its text and the result file.
+  const std::string text = S.FullReport();
+  EXPECT_NE(text.find("horizontal [m]"), std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(resultJson(S, nullptr));
+  for (const char* key : {"laser_elevation_offset_deg", "laser_azimuth_offset_deg", "laser_range_offset_m", "laser_vertical_offset_m",
+                          "laser_horizontal_offset_m", "laser_unseparated"})
+    EXPECT_TRUE(j["intrinsics"].contains(key)) << key;
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the recovery's tolerances");
+  EXPECT_GE(seen, 8);
+  EXPECT_LE(r.worst_separated[0], 0.005);
+  EXPECT_LE(r.worst_separated[1], 0.005);
+  EXPECT_LE(r.worst_separated[2], 0.002);
+  EXPECT_LE(r.worst_ratio, 3.0);
+  EXPECT_LE(r.worst_boresight_deg, 0.002);
+}
+
 // The planes' laser σ under survey noise (the preset's, stated as flown): ten seeds of the VLP-16
 // survey with the preset's elevation errors, planes found automatically; every seen laser's
 // elevation offset and the boresight against their σ. Measured (2026-11-28): see the printed line.
@@ -464,28 +540,17 @@ TEST(LaserIntrinsics, PlanesElevationSigmasAreHonestUnderSurveyNoise) {
   double ss = 0, worst = 0, ssb = 0, worstb = 0;
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     const auto s = intrinsicsSurvey("VLP-16", seed, true, true);
-    MountingCalibrator::Options o;
-    o.methods = {"planes"};
-    o.estimate = {false, false, false, true, true, true};
-    o.resolve_check = false;  // the estimate and its σ only
-    const NoiseModel& nm = s->config.noise;
-    o.strip_offset_sigma_m = nm.gnss_sigma_m;
-    o.trajectory.position_sigma_m = nm.gnss_sigma_m;
-    o.trajectory.position_correlation_s = nm.gnss_correlation_s;
-    o.trajectory.roll_pitch_sigma_deg = rad2deg(nm.attitude_sigma_rad);
-    o.trajectory.heading_sigma_deg = 2 * rad2deg(nm.attitude_sigma_rad);
-    o.trajectory.attitude_correlation_s = nm.attitude_correlation_s;
+    MountingCalibrator::Options o = planesBoresightOptions(&s->config.noise);
     PlaneOptions& p = o.method<PlaneOptions>();
-    p.automatic = true;
     p.laser_elevation_sigma_deg = 2 * rad2deg(laserErrorPreset("VLP-16").elevation_rad);
     const auto S = calibrate(toCalibrationData(s->survey), o);
     ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << "\n" << S.FullReport();
     const PlaneSection& ps = S.section<PlaneSection>();
     const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
     for (std::size_t i = 0; i < truth.size(); ++i) {
-      if (ps.laser_elevations.points[i] == 0) continue;
-      const double r =
-          std::abs(ps.laser_elevations.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg / ps.laser_elevations.sigma_deg[i];
+      if (ps.laser_intrinsics.points[i] == 0) continue;
+      const double r = std::abs(ps.laser_intrinsics.lasers[i].elevation_rad - truth[i].elevation_rad) / kDeg /
+                       (ps.laser_intrinsics.sigma[i].elevation_rad / kDeg);
       ++n, within2 += r <= 2, within3 += r <= 3, ss += r * r, worst = std::max(worst, r);
     }
     const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
@@ -533,14 +598,14 @@ TEST(LaserIntrinsics, NoLaserSettlesOnAWrongOffsetInTheFirstMatchings) {
   const auto s = intrinsicsSurvey("HDL-32E", 10, true);
   const auto S = calibrateIntrinsics(*s, priorsFor("HDL-32E"), true, 1000, false);
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
-  const Recovery r = recovery(*s, S);
+  const Recovery r = recovery(*s, S, S.section<CorrespondenceSection>().laser_intrinsics);
   const CorrespondenceSection& c = S.section<CorrespondenceSection>();
-  const double elevation15 = c.lasers[15].elevation_rad, truth15 = s->config.multibeam.laser_errors[15].elevation_rad;
+  const double elevation15 = c.laser_intrinsics.lasers[15].elevation_rad, truth15 = s->config.multibeam.laser_errors[15].elevation_rad;
   std::printf(
       "HDL-32E seed 10, 1000 samples: laser 15 elevation %+.4f deg (true %+.4f, sigma %.4f); worst laser %.2f sigma, boresight %.2f "
       "sigma\n",
-      elevation15 / kDeg, truth15 / kDeg, c.laser_sigma[15].elevation_rad / kDeg, r.worst_ratio, r.worst_boresight_ratio);
-  EXPECT_LE(std::abs(elevation15 - truth15), 3 * c.laser_sigma[15].elevation_rad);
+      elevation15 / kDeg, truth15 / kDeg, c.laser_intrinsics.sigma[15].elevation_rad / kDeg, r.worst_ratio, r.worst_boresight_ratio);
+  EXPECT_LE(std::abs(elevation15 - truth15), 3 * c.laser_intrinsics.sigma[15].elevation_rad);
   EXPECT_LE(r.worst_ratio, 4.0);
   EXPECT_LE(r.worst_boresight_ratio, 3.0);
   EXPECT_TRUE(c.doubts().empty()) << c.doubts().front();
@@ -551,15 +616,15 @@ TEST(LaserIntrinsics, NoLaserSettlesOnAWrongOffsetInTheFirstMatchings) {
 // correspondence saw are not judged.
 TEST(LaserIntrinsics, OffsetsBeyondFourPriorSigmaAreDoubted) {
   CorrespondenceSection c;
-  c.laser_prior_sigma = LaserCorrection{deg2rad(0.15), 0, 0.03, 0, 0};
-  c.lasers.assign(4, LaserCorrection{});
-  c.laser_points = {100, 100, 0, 100};
-  c.lasers[0].elevation_rad = deg2rad(0.6);
-  c.lasers[1].azimuth_rad = deg2rad(5.0);    // azimuth not estimated
-  c.lasers[2].elevation_rad = deg2rad(2.0);  // not seen
+  c.laser_intrinsics.prior_sigma = LaserCorrection{deg2rad(0.15), 0, 0.03, 0, 0};
+  c.laser_intrinsics.lasers.assign(4, LaserCorrection{});
+  c.laser_intrinsics.points = {100, 100, 0, 100};
+  c.laser_intrinsics.lasers[0].elevation_rad = deg2rad(0.6);
+  c.laser_intrinsics.lasers[1].azimuth_rad = deg2rad(5.0);    // azimuth not estimated
+  c.laser_intrinsics.lasers[2].elevation_rad = deg2rad(2.0);  // not seen
   EXPECT_TRUE(c.doubts().empty()) << c.doubts().front();
-  c.lasers[0].elevation_rad = deg2rad(-0.61);
-  c.lasers[3].range_m = 0.15;
+  c.laser_intrinsics.lasers[0].elevation_rad = deg2rad(-0.61);
+  c.laser_intrinsics.lasers[3].range_m = 0.15;
   const std::vector<std::string> d = c.doubts();
   ASSERT_EQ(d.size(), 1u);
   EXPECT_NE(d[0].find("2 per-laser offsets beyond 4 times their prior σ"), std::string::npos) << d[0];
@@ -571,26 +636,80 @@ TEST(LaserIntrinsics, OffsetsBeyondFourPriorSigmaAreDoubted) {
   EXPECT_EQ(c.warnings().front(), d[0]);
 }
 
-// The planes' and features' shared elevation block (src/methods/common/laser_elevations.*): the
+// The planes' and features' shared laser block (src/methods/common/laser_intrinsics.*): the
 // same rule on the elevation offsets, against the option's prior σ; the verdict reads it.
 TEST(LaserIntrinsics, PlanesAndFeaturesDoubtElevationOffsetsBeyondFourPriorSigma) {
   auto check = [](auto section) {
-    section.laser_elevations.prior_deg = 0.15;
-    section.laser_elevations.lasers.assign(3, LaserCorrection{});
-    section.laser_elevations.points = {50, 0, 50};
-    section.laser_elevations.sigma_deg = {0.01, std::nan(""), 0.01};
-    section.laser_elevations.lasers[0].elevation_rad = deg2rad(0.59);
-    section.laser_elevations.lasers[1].elevation_rad = deg2rad(3.0);  // no points: not judged
+    section.laser_intrinsics.prior_sigma.elevation_rad = deg2rad(0.15);
+    section.laser_intrinsics.lasers.assign(3, LaserCorrection{});
+    section.laser_intrinsics.points = {50, 0, 50};
+    section.laser_intrinsics.sigma.assign(3, LaserCorrection{deg2rad(0.01), 0, 0, 0, 0});
+    section.laser_intrinsics.lasers[0].elevation_rad = deg2rad(0.59);
+    section.laser_intrinsics.lasers[1].elevation_rad = deg2rad(3.0);  // no points: not judged
     EXPECT_TRUE(section.doubts().empty()) << section.doubts().front();
-    section.laser_elevations.lasers[2].elevation_rad = deg2rad(0.75);
+    section.laser_intrinsics.lasers[2].elevation_rad = deg2rad(0.75);
     const std::vector<std::string> d = section.doubts();
     ASSERT_EQ(d.size(), 1u) << section.method();
     EXPECT_NE(d[0].find("1 per-laser offset beyond 4 times its prior σ (laser 2 elevation +0.75 deg (5.0 prior σ))"), std::string::npos)
         << d[0];
     EXPECT_EQ(section.warnings().front(), d[0]);
-    section.laser_elevations.prior_deg = 0.0;  // not estimated
+    section.laser_intrinsics.prior_sigma.elevation_rad = 0.0;  // not estimated
     EXPECT_TRUE(section.doubts().empty()) << section.method();
   };
   check(PlaneSection{});
   check(FeatureSection{});
+}
+
+// The planes' σ of every laser group under survey noise: the VLP-16 survey of the UAV field with
+// the preset's errors in all five groups and its navigation noise stated as flown, patches found
+// automatically (as PlanesRecoverEveryGroupNoiseFree: 10 cm roughness, 30 patches). Every
+// estimated laser parameter and the boresight against their σ. Three seeds here (14 s each);
+// MOUNTCAL_SEEDS=10 runs the ten of the issue. Measured (2026-12-06), ten seeds: 780 parameters,
+// 99.0 % within 2σ, 99.9 % within 3σ (one at 3.2σ); RMS of error/σ per group 0.71 (elevation),
+// 0.77 (azimuth), 0.51 (range), 0.51 (vertical), 0.63 (horizontal) — the priors, twice the
+// preset's σ, decide much of range and vertical, and a parameter its prior decides has an RMS
+// near 0.5; the boresight RMS 0.71, 29 of 30 within 2σ (worst 2.2σ).
+TEST(LaserIntrinsics, PlanesEveryGroupSigmasAreHonestUnderSurveyNoise) {
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the planes' five groups over seeds");
+  int n = 0, within2 = 0, within3 = 0, nb = 0, nb2 = 0;
+  double worst = 0, ssb = 0;
+  std::array<double, 5> group_ss{};
+  std::array<int, 5> group_n{};
+  const char* env = std::getenv("MOUNTCAL_SEEDS");
+  const int seeds = env ? std::max(1, std::atoi(env)) : 3;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const auto s = intrinsicsSurvey("VLP-16", static_cast<std::uint64_t>(seed), true);
+    MountingCalibrator::Options o = planesBoresightOptions(&s->config.noise);
+    PlaneOptions& p = o.method<PlaneOptions>();
+    setLaserPriors(priorsFor("VLP-16"), &p);
+    p.max_roughness_m = 0.1;
+    p.max_patches = 30;
+    const auto S = calibrate(toCalibrationData(s->survey), o);
+    ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << "\n" << S.FullReport();
+    const Recovery r = recovery(*s, S, S.section<PlaneSection>().laser_intrinsics, 100);
+    for (std::size_t g = 0; g < 5; ++g) {
+      group_ss[g] += r.group_sum_ratio2[g], group_n[g] += r.group_parameters[g];
+      n += r.group_parameters[g];
+    }
+    within2 += r.within_2sigma, within3 += r.within_3sigma, worst = std::max(worst, r.worst_ratio);
+    const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
+    for (int j = 3; j < 6; ++j) {
+      const double q = std::abs(e[j] - t[j]) / S.sigma[j];
+      ++nb, nb2 += q <= 2, ssb += q * q;
+    }
+  }
+  std::array<double, 5> rms{};
+  for (std::size_t g = 0; g < 5; ++g) rms[g] = std::sqrt(group_ss[g] / std::max(group_n[g], 1));
+  std::printf(
+      "planes, every laser group, VLP-16, %d seeds with the preset's noise: %d parameters, %.1f %% within 2 sigma, %.1f %% within 3 "
+      "sigma, worst %.2f; RMS of |error|/sigma elevation %.2f, azimuth %.2f, range %.2f, vertical %.2f, horizontal %.2f; boresight RMS "
+      "%.2f, %d of %d within 2 sigma\n",
+      seeds, n, 100.0 * within2 / n, 100.0 * within3 / n, worst, rms[0], rms[1], rms[2], rms[3], rms[4], std::sqrt(ssb / nb), nb2, nb);
+  EXPECT_GE(static_cast<double>(within2) / n, 0.88);
+  EXPECT_GE(static_cast<double>(within3) / n, 0.99);
+  for (std::size_t g = 0; g < 5; ++g) {
+    EXPECT_GE(rms[g], 0.35) << kLaserGroups[g].name;  // not far larger than the errors
+    EXPECT_LE(rms[g], 1.4) << kLaserGroups[g].name;
+  }
+  EXPECT_LE(std::sqrt(ssb / nb), 1.4);
 }

@@ -796,18 +796,19 @@ TEST(CorrespondenceMethod, DenseMatchingRecoversEachLasersElevationErrorOnSimula
   const auto with = denseCalibration(s, 0.5);
   ASSERT_TRUE(with.IsSolutionUsable()) << with.FullReport();
   const CorrespondenceSection& c = with.section<CorrespondenceSection>();
-  ASSERT_EQ(c.lasers.size(), truth.size());
+  ASSERT_EQ(c.laser_intrinsics.lasers.size(), truth.size());
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    EXPECT_NEAR(rad2deg(c.lasers[i].elevation_rad), rad2deg(truth[i].elevation_rad), 5e-4) << "laser " << i;  // measured ≤ 1.4e-4°
-    EXPECT_TRUE(std::isfinite(c.laser_sigma[i].elevation_rad)) << "laser " << i;
-    EXPECT_GT(c.laser_points[i], 100) << "laser " << i;
+    EXPECT_NEAR(rad2deg(c.laser_intrinsics.lasers[i].elevation_rad), rad2deg(truth[i].elevation_rad), 5e-4)
+        << "laser " << i;  // measured ≤ 1.4e-4°
+    EXPECT_TRUE(std::isfinite(c.laser_intrinsics.sigma[i].elevation_rad)) << "laser " << i;
+    EXPECT_GT(c.laser_intrinsics.points[i], 100) << "laser " << i;
   }
   const auto e = with.mounting.toArray();
   for (int j = 3; j < 6; ++j) EXPECT_NEAR(e[j], t[j], 1e-4 * kDeg) << mountingParameterNames()[j];
   EXPECT_LT(c.median_after_m, 2e-4);
   double worst_laser = 0, worst_angle = 0;
   for (std::size_t i = 0; i < truth.size(); ++i)
-    worst_laser = std::max(worst_laser, std::abs(rad2deg(c.lasers[i].elevation_rad - truth[i].elevation_rad)));
+    worst_laser = std::max(worst_laser, std::abs(rad2deg(c.laser_intrinsics.lasers[i].elevation_rad - truth[i].elevation_rad)));
   for (int j = 3; j < 6; ++j) worst_angle = std::max(worst_angle, std::abs(e[j] - t[j]) / kDeg);
   std::printf("per-laser offsets: worst laser %.2e deg, worst boresight angle %.2e deg, median after %.2e m\n", worst_laser, worst_angle,
               c.median_after_m);

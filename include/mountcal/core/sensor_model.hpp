@@ -69,14 +69,20 @@ struct LaserCorrection {
 /// One correction per laser id; empty: none.
 using LaserCorrections = std::vector<LaserCorrection>;
 
-/// Per-laser elevation offsets that a method estimated from observations of its own kind (the
-/// planes' and the features' `laser_elevation_sigma_deg`), by laser id: their section's table,
-/// result-file entry and doubts come from it.
-struct LaserElevationOffsets {
-  LaserCorrections lasers;        ///< elevation_rad set, the other groups 0; empty when not estimated
-  std::vector<double> sigma_deg;  ///< σ in the mounting's stochastic model; NaN for a laser without points [deg]
-  std::vector<int> points;        ///< each laser's observations in the adjustment
-  double prior_deg = 0.0;         ///< the offsets' prior σ (the option's) [deg]
+/// Per-laser intrinsics that a method estimated (the dense correspondences', the planes' and the
+/// features' `laser_*_sigma` options), by laser id: their section's table, result-file entry,
+/// doubts and warnings come from it.
+struct LaserIntrinsicEstimates {
+  LaserCorrections lasers;      ///< the estimated groups set, the others 0; empty when not estimated
+  LaserCorrections sigma;       ///< σ in the mounting's stochastic model; NaN for a group not estimated or a laser without points
+  LaserCorrection prior_sigma;  ///< each group's prior σ; 0: not estimated [rad, m]
+  std::vector<int> points;      ///< each laser's points in the adjustment's observations
+  /// Each laser's largest |correlation| of one of its parameters with a boresight angle (NaN: not seen).
+  std::vector<double> boresight_correlation;
+  /// Correlation screening (Glennie: laser parameters are highly correlated): each pair of one
+  /// laser's parameters, or of a laser parameter and a mounting parameter, that the data do not
+  /// separate (|correlation| ≥ 0.95), as "laser 3 range ~ laser 3 vertical (+0.97)".
+  std::vector<std::string> unseparated;
   bool empty() const { return lasers.empty(); }
 };
 

@@ -15,7 +15,6 @@
 #include "methods/common/strip_geometry.hpp"
 #include "dense_matching.hpp"
 #include "core/parallel.hpp"
-#include "methods/common/laser_prior.hpp"
 #include "methods/common/section_format.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -25,17 +24,6 @@ namespace {
 /// The a-priori misalignment's own bound (CorrespondenceOptions::IsValid) [m].
 constexpr double kMaxMisalignmentM = 1000.0;
 }  // namespace
-
-std::array<double, 5> CorrespondenceOptions::laserPriorSigmas() const {
-  return {deg2rad(laser_elevation_sigma_deg), deg2rad(laser_azimuth_sigma_deg), laser_range_sigma_m, laser_vertical_sigma_m,
-          laser_horizontal_sigma_m};
-}
-
-bool CorrespondenceOptions::estimatesLaserIntrinsics() const {
-  for (double s : laserPriorSigmas())
-    if (s > 0) return true;
-  return false;
-}
 
 bool CorrespondenceOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& m) {
@@ -58,11 +46,7 @@ bool CorrespondenceOptions::IsValid(std::string* error) const {
   if (!(min_spread_ratio >= 0 && min_spread_ratio < 1)) return fail("min_spread_ratio must be in [0, 1)");
   if (!(coarse_radius_m > 0 && coarse_radius_m <= 100)) return fail("coarse_radius_m must be in (0, 100]");
   if (!(thin_cell_m >= 0 && thin_cell_m <= 10)) return fail("thin_cell_m must be in [0, 10]");
-  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
-  if (!(laser_azimuth_sigma_deg >= 0 && laser_azimuth_sigma_deg <= 10)) return fail("laser_azimuth_sigma_deg must be in [0, 10]");
-  if (!(laser_range_sigma_m >= 0 && laser_range_sigma_m <= 1)) return fail("laser_range_sigma_m must be in [0, 1]");
-  if (!(laser_vertical_sigma_m >= 0 && laser_vertical_sigma_m <= 1)) return fail("laser_vertical_sigma_m must be in [0, 1]");
-  if (!(laser_horizontal_sigma_m >= 0 && laser_horizontal_sigma_m <= 1)) return fail("laser_horizontal_sigma_m must be in [0, 1]");
+  if (!laserPriorsValid(error)) return false;
   if (budget < 1 || budget > 10000000) return fail("budget must be in [1, 10000000]");
   if (max_misalignment_growths < 0 || max_misalignment_growths > 20) return fail("max_misalignment_growths must be in [0, 20]");
   if (!nonneg(voxel_size_m) || voxel_size_m > 10000) return fail("voxel_size_m must be in [0, 10000]");
@@ -810,25 +794,12 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   if (!layout.empty()) {
     laser_block_ = problem->addNuisanceBlock(layout.size, laser_dl_.data(), nullptr, false);
     problem->reportCovariance(laser_block_, "the per-laser offsets");  // σ with the trajectory errors in time, as the mounting's
-    // Priors: each value N(0, σ_prior of its group); the means of elevation (the boresight
-    // pitch's direction, by convention), azimuth (a boresight rotation about the spin axis) and
-    // vertical offsets (the lever arm along it) over the lasers this matching sees held at 0 (a
-    // laser no correspondence sees keeps its prior alone, and does not carry the others' mean).
-    const std::array<double, 5> sigma = options_.laserPriorSigmas();
-    auto prior = [&](std::vector<int> indices, double s) {
-      detail::addLaserPrior(problem, laser_block_, layout.size, std::move(indices), s);
-    };
-    const std::vector<int> seen = laserPoints(set_, *dense_, L);
-    for (std::size_t g = 0; g < 5; ++g) {
-      const int o = layout.offset[g];
-      if (o < 0) continue;
-      std::vector<int> mean;
-      for (int i = 0; i < L; ++i) {
-        prior({o + i}, sigma[g]);
-        if (seen[static_cast<std::size_t>(i)] > 0) mean.push_back(o + i);
-      }
-      if ((g == 0 || g == 1 || g == 3) && !mean.empty()) prior(mean, g == 3 ? 1e-7 : 1e-6);
-    }
+    // Priors: each value N(0, σ_prior of its group), the means of elevation, azimuth and vertical
+    // offsets over the lasers this matching sees held at 0 (detail::addLaserPriors).
+    const std::vector<int> points = laserPoints(set_, *dense_, L);
+    std::vector<bool> seen;
+    for (int n : points) seen.push_back(n > 0);
+    detail::addLaserPriors(problem, laser_block_, layout, options_.laserPrior(), seen);
   }
   const Mat3& R_nom = data_.mounting_used.R_nom;
   const double loss_scale = coarse_ ? 0.3 * set_.radius_m : -1.0;
@@ -1027,53 +998,8 @@ void CorrespondenceObservations::finishDense(const std::array<double, 6>& m0, co
 void CorrespondenceObservations::fillLaserSection(const AdjustmentProblem& adjustment) {
   // Per-laser intrinsics: values, σ, correlation with the boresight and the screening.
   const detail::LaserLayout layout = laserLayout();
-  const int L = layout.lasers;
-  static const char* const kMounting[6] = {"lever arm x", "lever arm y", "lever arm z", "roll", "pitch", "heading"};
-  section_.laser_groups.clear();
-  for (std::size_t g = 0; g < 5; ++g)
-    if (layout.offset[g] >= 0) section_.laser_groups.push_back(kLaserGroups[g].name);
-  section_.lasers = layout.corrections(laser_block_);
-  const std::array<double, 5> prior = options_.laserPriorSigmas();
-  for (std::size_t g = 0; g < 5; ++g) section_.laser_prior_sigma.*kLaserGroups[g].field = prior[g];
-  const double nan = std::nan("");
-  section_.laser_sigma.assign(static_cast<std::size_t>(L), LaserCorrection{nan, nan, nan, nan, nan});
-  section_.laser_boresight_correlation.assign(static_cast<std::size_t>(L), nan);
-  section_.laser_points = laserPoints(set_, *dense_, L);
-  section_.laser_unseparated.clear();
-  // The joint covariance of the mounting and the laser block in the mounting's stochastic model
-  // (AdjustmentProblem::reportCovariance): formal, scaled alike, plus the trajectory errors in time.
-  const Eigen::MatrixXd& joint = adjustment.reportedCovariance(laser_block_);
-  const int n = layout.size;
-  if (joint.rows() != 6 + n) return;
-  const Eigen::MatrixXd C_ll = joint.bottomRightCorner(n, n), C_lm = joint.bottomLeftCorner(n, 6), C_mm = joint.topLeftCorner(6, 6);
-  constexpr double kUnseparated = 0.95;
-  auto corr = [](double cab, double va, double vb) { return va > 0 && vb > 0 ? cab / std::sqrt(va * vb) : 0.0; };
-  for (int i = 0; i < L; ++i) {
-    if (section_.laser_points[static_cast<std::size_t>(i)] == 0) continue;
-    double rho = 0;
-    for (std::size_t g = 0; g < 5; ++g) {
-      const int k = layout.offset[g] < 0 ? -1 : layout.offset[g] + i;
-      if (k < 0) continue;
-      const double v = C_ll(k, k);
-      section_.laser_sigma[static_cast<std::size_t>(i)].*kLaserGroups[g].field = std::sqrt(std::max(v, 0.0));
-      for (int j = 0; j < 6; ++j) {
-        if (!std::isfinite(C_mm(j, j))) continue;  // a held mounting parameter
-        const double r = corr(C_lm(k, j), v, C_mm(j, j));
-        if (j >= 3) rho = std::max(rho, std::abs(r));
-        if (std::abs(r) >= kUnseparated)
-          section_.laser_unseparated.push_back(detail::printfString("laser %d %s ~ %s (%+.2f)", i, kLaserGroups[g].name, kMounting[j], r));
-      }
-      for (std::size_t h = g + 1; h < 5; ++h) {
-        if (layout.offset[h] < 0) continue;
-        const int k2 = layout.offset[h] + i;
-        const double r = corr(C_ll(k, k2), v, C_ll(k2, k2));
-        if (std::abs(r) >= kUnseparated)
-          section_.laser_unseparated.push_back(
-              detail::printfString("laser %d %s ~ laser %d %s (%+.2f)", i, kLaserGroups[g].name, i, kLaserGroups[h].name, r));
-      }
-    }
-    section_.laser_boresight_correlation[static_cast<std::size_t>(i)] = rho;
-  }
+  section_.laser_intrinsics =
+      detail::laserEstimates(adjustment, laser_block_, layout, options_.laserPrior(), laserPoints(set_, *dense_, layout.lasers));
 }
 
 }  // namespace mountcal

@@ -3,7 +3,7 @@
 
 #include <sstream>
 
-#include "../common/laser_elevations.hpp"
+#include "../common/laser_intrinsics.hpp"
 #include "../common/section_format.hpp"
 
 namespace mountcal {
@@ -25,142 +25,62 @@ class CorrespondencesRun final : public MethodRun {
 const std::vector<OptionSpec>& correspondenceOptionSpecs() {
   using T = CorrespondenceOptions;
   static const std::vector<OptionSpec> specs =
-      OptionTable<T>()
-          .number(
-              "apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000,
-              "largest strip-to-strip discrepancy expected before calibration; grown from the data when the strips move further")
-          .integer(
-              "max_misalignment_growths", [](T& o) -> int& { return o.max_misalignment_growths; }, 0, 20,
-              "how often the candidates may be found again with a grown a-priori misalignment")
-          .number(
-              "radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
-          .number(
-              "sample_spacing_m", [](T& o) -> double& { return o.sample_spacing_m; }, "m", 0, 10000, "spacing of the samples; 0: 2 r")
-          .integer(
-              "min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
-          .integer(
-              "max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
-          .integer(
-              "normal_neighbours", [](T& o) -> int& { return o.normal_neighbours; }, 0, 1000,
-              "dense fine stage: neighbours the plane's normal is fitted from (its centroid from max_neighbours); 0: max_neighbours")
-          .number(
-              "max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6,
-              "plane sigma above this x r: rough")
-          .number(
-              "max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6,
-              "plane sigma above this x the median: rough")
-          .number(
-              "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 0, 10,
-              "plane sigma above this: rough (0: off; dense mode: fine stage; multi-beam jobs of a known range accuracy: 1.5 x it)")
-          .number(
-              "max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6,
-              "|distance| above this x r: far")
-          .number(
-              "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
-              "largest angle between the two strips' normals")
-          .number(
-              "mad_factor", [](T& o) -> double& { return o.mad_factor; }, "-", 1e-9, 1e6,
-              "beyond this x sigma_MAD of the distances: rejected")
-          .integer(
-              "budget", [](T& o) -> int& { return o.budget; }, 1, 10000000, "correspondences kept over all pairs")
-          .number(
-              "voxel_size_m", [](T& o) -> double& { return o.voxel_size_m; }, "m", 0, 10000, "coarse hull voxel; 0: 4 r, at least 2 m")
-          .number(
-              "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a distance; 0: from the plane fits")
-          .number(
-              "min_spread_ratio", [](T& o) -> double& { return o.min_spread_ratio; }, "-", 0, 0.999999,
-              "neighbourhoods along a line (one scan line) have no plane")
-          .boolean(
-              "dense", [](T& o) -> bool& { return o.dense; }, "dense matching of passes of a multi-beam scanner over one object")
-          .number(
-              "coarse_radius_m", [](T& o) -> double& { return o.coarse_radius_m; }, "m", 1e-6, 100, "dense mode's coarse stage radius")
-          .number(
-              "thin_cell_m", [](T& o) -> double& { return o.thin_cell_m; }, "m", 0, 10,
-              "dense mode: one point per cube of this size; 0: every point")
-          .number(
-              "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
-              "dense mode: prior sigma of per-laser elevation offsets; 0: not estimated")
-          .number(
-              "laser_azimuth_sigma_deg", [](T& o) -> double& { return o.laser_azimuth_sigma_deg; }, "deg", 0, 10,
-              "dense mode: prior sigma of per-laser azimuth offsets (mean held at 0); 0: not estimated")
-          .number(
-              "laser_range_sigma_m", [](T& o) -> double& { return o.laser_range_sigma_m; }, "m", 0, 1,
-              "dense mode: prior sigma of per-laser range offsets; 0: not estimated")
-          .number(
-              "laser_vertical_sigma_m", [](T& o) -> double& { return o.laser_vertical_sigma_m; }, "m", 0, 1,
-              "dense mode: prior sigma of per-laser vertical origin offsets (mean held at 0); 0: not estimated")
-          .number(
-              "laser_horizontal_sigma_m", [](T& o) -> double& { return o.laser_horizontal_sigma_m; }, "m", 0, 1,
-              "dense mode: prior sigma of per-laser horizontal origin offsets; 0: not estimated")
+      detail::laserPriorOptions(
+          OptionTable<T>()
+              .number(
+                  "apriori_misalignment_m", [](T& o) -> double& { return o.apriori_misalignment_m; }, "m", 0, 1000,
+                  "largest strip-to-strip discrepancy expected before calibration; grown from the data when the strips move further")
+              .integer(
+                  "max_misalignment_growths", [](T& o) -> int& { return o.max_misalignment_growths; }, 0, 20,
+                  "how often the candidates may be found again with a grown a-priori misalignment")
+              .number(
+                  "radius_m", [](T& o) -> double& { return o.radius_m; }, "m", 0, 1000, "plane-fit radius r; 0: 2.5 x the point spacing")
+              .number(
+                  "sample_spacing_m", [](T& o) -> double& { return o.sample_spacing_m; }, "m", 0, 10000, "spacing of the samples; 0: 2 r")
+              .integer(
+                  "min_neighbours", [](T& o) -> int& { return o.min_neighbours; }, 3, 1000, "neighbours within r for a plane")
+              .integer(
+                  "max_neighbours", [](T& o) -> int& { return o.max_neighbours; }, 3, 1000, "neighbours used for the plane")
+              .integer(
+                  "normal_neighbours", [](T& o) -> int& { return o.normal_neighbours; }, 0, 1000,
+                  "dense fine stage: neighbours the plane's normal is fitted from (its centroid from max_neighbours); 0: max_neighbours")
+              .number(
+                  "max_roughness_factor", [](T& o) -> double& { return o.max_roughness_factor; }, "-", 1e-9, 1e6,
+                  "plane sigma above this x r: rough")
+              .number(
+                  "max_roughness_relative", [](T& o) -> double& { return o.max_roughness_relative; }, "-", 1, 1e6,
+                  "plane sigma above this x the median: rough")
+              .number(
+                  "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 0, 10,
+                  "plane sigma above this: rough (0: off; dense mode: fine stage; multi-beam jobs of a known range accuracy: 1.5 x it)")
+              .number(
+                  "max_distance_factor", [](T& o) -> double& { return o.max_distance_factor; }, "-", 1e-9, 1e6,
+                  "|distance| above this x r: far")
+              .number(
+                  "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
+                  "largest angle between the two strips' normals")
+              .number(
+                  "mad_factor", [](T& o) -> double& { return o.mad_factor; }, "-", 1e-9, 1e6,
+                  "beyond this x sigma_MAD of the distances: rejected")
+              .integer(
+                  "budget", [](T& o) -> int& { return o.budget; }, 1, 10000000, "correspondences kept over all pairs")
+              .number(
+                  "voxel_size_m", [](T& o) -> double& { return o.voxel_size_m; }, "m", 0, 10000, "coarse hull voxel; 0: 4 r, at least 2 m")
+              .number(
+                  "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3, "a-priori sigma of a distance; 0: from the plane fits")
+              .number(
+                  "min_spread_ratio", [](T& o) -> double& { return o.min_spread_ratio; }, "-", 0, 0.999999,
+                  "neighbourhoods along a line (one scan line) have no plane")
+              .boolean(
+                  "dense", [](T& o) -> bool& { return o.dense; }, "dense matching of passes of a multi-beam scanner over one object")
+              .number(
+                  "coarse_radius_m", [](T& o) -> double& { return o.coarse_radius_m; }, "m", 1e-6, 100, "dense mode's coarse stage radius")
+              .number(
+                  "thin_cell_m", [](T& o) -> double& { return o.thin_cell_m; }, "m", 0, 10,
+                  "dense mode: one point per cube of this size; 0: every point"),
+          "dense mode: ")
           .specs();
   return specs;
-}
-
-}  // namespace
-
-namespace {
-// Beyond these a per-laser correction is not a calibration residual of a working sensor: the
-// makers' range accuracy is a few centimetres (MultiBeamModel::rangeAccuracy: VLP-16 3 cm, HDL-32E 2 cm).
-constexpr double kPlausibleRangeM = 0.10, kPlausibleOriginM = 0.05, kPlausibleAngleDeg = 1.0;
-
-auto laserFields(const CorrespondenceSection& s) {
-  return std::tie(s.laser_groups, s.lasers, s.laser_sigma, s.laser_boresight_correlation, s.laser_points, s.laser_unseparated);
-}
-
-std::vector<const LaserGroup*> estimatedGroups(const std::vector<std::string>& keys) {
-  std::vector<const LaserGroup*> out;
-  for (const LaserGroup& g : kLaserGroups)
-    if (std::find(keys.begin(), keys.end(), g.name) != keys.end()) out.push_back(&g);
-  return out;
-}
-
-std::string laserText(const CorrespondenceSection& section) {
-  const auto& [laser_groups, lasers, laser_sigma, laser_boresight_correlation, laser_points, laser_unseparated] = laserFields(section);
-  std::ostringstream r;
-  r << "Per-laser intrinsics (by laser id; added to the laser table; means of elevation, azimuth and vertical held at 0; sigma a\n"
-       "priori, the mounting's sigma above eliminates them):\n  laser";
-  const std::vector<const LaserGroup*> groups = estimatedGroups(laser_groups);
-  for (const LaserGroup* g : groups) r << detail::printfString("  %10s [%s] %9s", g->name, g->unit, "sigma");
-  r << "  max|corr| boresight  points\n";
-  for (std::size_t i = 0; i < lasers.size(); ++i) {
-    r << detail::printfString("  %5zu", i);
-    for (const LaserGroup* g : groups)
-      r << detail::printfString("  %+16.4f %9.4f", lasers[i].*g->field * g->to_unit, laser_sigma[i].*g->field * g->to_unit);
-    r << detail::printfString("  %19.2f  %6d\n", laser_boresight_correlation[i], laser_points[i]);
-  }
-  if (laser_unseparated.empty()) {
-    r << "  Correlation screening: every laser parameter separated from the others and from the mounting (|corr| < 0.95).\n";
-  } else {
-    r << "  Correlation screening: " << laser_unseparated.size() << " pair(s) the data do not separate (|corr| >= 0.95):";
-    for (std::size_t k = 0; k < laser_unseparated.size() && k < 12; ++k) r << (k ? "; " : " ") << laser_unseparated[k];
-    r << (laser_unseparated.size() > 12 ? "; ...\n" : "\n");
-  }
-  return r.str();
-}
-
-nlohmann::json laserJson(const CorrespondenceSection& section) {
-  const auto& [laser_groups, lasers, laser_sigma, laser_boresight_correlation, laser_points, laser_unseparated] = laserFields(section);
-  using nlohmann::json;
-  // The complete intrinsics to use from now on (apply and evaluate read them), by laser id.
-  json j = json::object();
-  for (const LaserGroup* g : estimatedGroups(laser_groups)) {
-    json v = json::array(), s = json::array();
-    for (std::size_t i = 0; i < lasers.size(); ++i) {
-      v.push_back(lasers[i].*g->field * g->to_unit);
-      s.push_back(detail::numOrNull(laser_sigma[i].*g->field * g->to_unit));
-    }
-    j[std::string("laser_") + g->name + "_offset_" + g->unit] = v;
-    j[std::string("laser_") + g->name + "_sigma_" + g->unit] = s;
-  }
-  json cor = json::array(), pts = json::array();
-  for (std::size_t i = 0; i < lasers.size(); ++i) {
-    cor.push_back(detail::numOrNull(laser_boresight_correlation[i]));
-    pts.push_back(laser_points[i]);
-  }
-  j["laser_boresight_correlation"] = cor;
-  j["laser_points"] = pts;
-  j["laser_unseparated"] = laser_unseparated;
-  return j;
 }
 
 }  // namespace
@@ -201,7 +121,12 @@ std::string CorrespondenceSection::text(const AdjustmentSummary&) const {
                               p.rejected_mad, p.rejected_budget, p.rejected_moved, p.median_before_m, p.median_after_m, p.rms_before_m,
                               p.rms_after_m);
   }
-  if (!lasers.empty()) r << laserText(*this);
+  if (!laser_intrinsics.empty())
+    r << detail::laserIntrinsicsText(
+        laser_intrinsics,
+        "Per-laser intrinsics (by laser id; added to the laser table; means of elevation, azimuth and vertical "
+        "held at 0; sigma in the mounting's stochastic model):",
+        "points");
   return r.str();
 }
 
@@ -241,7 +166,7 @@ std::string CorrespondenceSection::resultJson(const AdjustmentSummary&) const {
                           {"apriori_misalignment_m", apriori_misalignment_m},
                           {"misalignment_growths", misalignment_growths},
                           {"pairs", list}};
-  if (!lasers.empty()) j["intrinsics"] = laserJson(*this);
+  if (!laser_intrinsics.empty()) j["intrinsics"] = json::parse(detail::laserIntrinsicsJson(laser_intrinsics));
   return j.dump();
 }
 
@@ -262,6 +187,7 @@ std::string CorrespondenceSection::html(const AdjustmentSummary&) const {
       << "</td><td>" << cell(p.rms_after_m) << "</td></tr>";
   }
   h << "</table>";
+  if (!laser_intrinsics.empty()) h << detail::laserIntrinsicsHtml(laser_intrinsics, "Per-laser intrinsics", "points");
   return h.str();
 }
 
@@ -281,22 +207,12 @@ std::vector<std::string> CorrespondenceSection::warnings() const {
         candidates_given ? "; match the pairs again (mountcal match) with correspondences.apriori_misalignment_m at least that"
                          : "; raise correspondences.apriori_misalignment_m or max_misalignment_growths"));
   }
-  for (std::size_t i = 0; i < lasers.size(); ++i) {
-    const LaserCorrection& l = lasers[i];
-    const double angle = std::max(std::abs(l.elevation_rad), std::abs(l.azimuth_rad)) * 180 / kPi;
-    if (std::abs(l.range_m) > kPlausibleRangeM || std::max(std::abs(l.vertical_m), std::abs(l.horizontal_m)) > kPlausibleOriginM ||
-        angle > kPlausibleAngleDeg) {
-      w.push_back(detail::printfString(
-          "laser %zu: intrinsics beyond a working sensor's (range %+.3f m, origin %+.3f / %+.3f m, angles up to %.2f deg; plausible "
-          "within %.2f m, %.2f m, %.1f deg): check the laser table, the laser ids and the data before using them",
-          i, l.range_m, l.vertical_m, l.horizontal_m, angle, kPlausibleRangeM, kPlausibleOriginM, kPlausibleAngleDeg));
-    }
-  }
+  for (std::string& x : detail::laserImplausibleWarnings(laser_intrinsics.lasers)) w.push_back(std::move(x));
   return w;
 }
 
-std::vector<std::string> CorrespondenceSection::doubts() const { return detail::laserPriorDoubts(lasers, laser_points, laser_prior_sigma); }
+std::vector<std::string> CorrespondenceSection::doubts() const { return detail::laserIntrinsicsDoubts(laser_intrinsics); }
 
-LaserCorrections CorrespondenceSection::laserCorrections() const { return lasers; }
+LaserCorrections CorrespondenceSection::laserCorrections() const { return laser_intrinsics.lasers; }
 
 }  // namespace mountcal

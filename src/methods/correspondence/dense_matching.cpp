@@ -82,28 +82,6 @@ DenseMatcher::DenseMatcher(const CalibrationData& data, const CorrespondenceOpti
   }
 }
 
-LaserLayout::LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas) : lasers(laser_count) {
-  for (std::size_t g = 0; g < 5; ++g) {
-    if (!(prior_sigmas[g] > 0) || laser_count <= 0) continue;
-    offset[g] = size;
-    size += laser_count;
-  }
-}
-
-LaserCorrection LaserLayout::correction(const double* block, int laser) const {
-  LaserCorrection c;
-  for (std::size_t g = 0; g < 5; ++g)
-    if (offset[g] >= 0) c.*kLaserGroups[g].field = block[offset[g] + laser];
-  return c;
-}
-
-LaserCorrections LaserLayout::corrections(const double* block) const {
-  LaserCorrections out;
-  if (empty()) return out;
-  for (int l = 0; l < lasers; ++l) out.push_back(correction(block, l));
-  return out;
-}
-
 void DenseMatcher::place(const std::array<double, 6>& m, const LaserCorrections& lasers, const PointShifts& shifts) {
   const MountingParameters& used = data_.mounting_used;
   const Mat3 R_bs = R_zyx(Vec3(m[3], m[4], m[5])) * used.R_nom;

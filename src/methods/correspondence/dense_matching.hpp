@@ -11,24 +11,10 @@
 #include "mountcal/data.hpp"
 #include "mountcal/core/sensor_model.hpp"
 #include "geometry/column_grid.hpp"
+#include "methods/common/laser_intrinsics.hpp"
 #include "mountcal/methods/correspondence/correspondences.hpp"
 
 namespace mountcal::detail {
-
-/// Where the per-laser intrinsics sit in their parameter block: the estimated groups in
-/// LaserCorrection's order (elevation, azimuth, range, vertical, horizontal), each one value per
-/// laser (group g's value of laser l at offset[g] + l).
-struct LaserLayout {
-  int lasers = 0;
-  std::array<int, 5> offset{{-1, -1, -1, -1, -1}};  // −1: the group is not estimated
-  int size = 0;
-  LaserLayout() = default;
-  LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas);
-  bool empty() const { return size == 0; }
-  bool elevationOnly() const { return size > 0 && size == lasers && offset[0] == 0; }
-  LaserCorrection correction(const double* block, int laser) const;
-  LaserCorrections corrections(const double* block) const;
-};
 
 /// A correspondence found by DenseMatcher and the index of its strip pair's statistics.
 struct DenseCandidate {

@@ -13,7 +13,7 @@
 
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
-#include "methods/common/laser_elevations.hpp"
+#include "methods/common/laser_intrinsics.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -634,8 +634,8 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("features options: " + why);
   if (options.laser_elevation_sigma_deg > 0) {
-    laser_ = std::make_unique<detail::LaserElevationBlock>();
-    laser_->setUp(data, "features");
+    laser_ = std::make_unique<detail::LaserIntrinsicsBlock>();
+    laser_->setUp(data, "features", LaserCorrection{deg2rad(options.laser_elevation_sigma_deg), 0, 0, 0, 0});
   }
   auto clock = [] { return std::chrono::steady_clock::now(); };
   const auto t0 = clock();
@@ -809,7 +809,7 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
     for (const Target& T : targets_)
       for (const View& v : T.views)
         for (const View::LaserTerm& t : v.lasers) seen[static_cast<std::size_t>(t.laser)] = true;
-    lasers = laser_->add(problem, seen, options_.laser_elevation_sigma_deg);
+    lasers = laser_->add(problem, seen);
   }
   for (std::size_t k = 0; k < targets_.size(); ++k) {
     Target& T = targets_[k];
@@ -899,7 +899,7 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     for (const auto& vps : points_)
       for (const ViewPoints& vp : vps)
         for (int l : vp.laser) ++points[static_cast<std::size_t>(l)];
-    section_.laser_elevations = laser_->finish(problem, points);
+    section_.laser_intrinsics = laser_->finish(problem, points);
   }
 }
 

@@ -4,7 +4,7 @@
 #include <optional>
 #include <sstream>
 
-#include "../common/laser_elevations.hpp"
+#include "../common/laser_intrinsics.hpp"
 #include "../common/section_format.hpp"
 
 namespace mountcal {
@@ -134,9 +134,9 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
     }
   }
   if (!C.message.empty()) r << "  closed form: " << C.message << "\n";
-  if (!laser_elevations.empty())
-    r << detail::laserElevationTable(
-        laser_elevations,
+  if (!laser_intrinsics.empty())
+    r << detail::laserIntrinsicsText(
+        laser_intrinsics,
         "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the targets' outlines use):", "target points");
   for (const RejectedFeature& t : rejected)
     r << "rejected target " << t.target_id << (t.strip_id.empty() ? "" : " on strip " + t.strip_id) << ": " << t.reason << "\n";
@@ -220,7 +220,7 @@ std::string FeatureSection::resultJson(const AdjustmentSummary&) const {
                    {"extraction_time_s", extraction_time_s},
                    {"matching_time_s", matching_time_s}};
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
-  if (!laser_elevations.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics(laser_elevations));
+  if (!laser_intrinsics.empty()) j["intrinsics"] = json::parse(detail::laserIntrinsicsJson(laser_intrinsics));
   return j.dump();
 }
 
@@ -265,16 +265,16 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
-  if (!laser_elevations.empty()) h << detail::laserElevationHtml(laser_elevations, "Per-laser elevation offsets", "target points");
+  if (!laser_intrinsics.empty()) h << detail::laserIntrinsicsHtml(laser_intrinsics, "Per-laser elevation offsets", "target points");
   return h.str();
 }
 
-std::vector<std::string> FeatureSection::doubts() const { return detail::laserElevationDoubts(laser_elevations); }
+std::vector<std::string> FeatureSection::doubts() const { return detail::laserIntrinsicsDoubts(laser_intrinsics); }
 
 std::vector<std::string> FeatureSection::warnings() const {
   std::vector<std::string> w = doubts();
   if (!rejected.empty()) w.push_back(std::to_string(rejected.size()) + " targets or strip views rejected");
-  if (!laser_elevations.empty())
+  if (!laser_intrinsics.empty())
     w.push_back(
         "per-laser elevation offsets from targets: their sigma leave out the outline's sampling error, systematic per laser (on a "
         "simulated VLP-16 survey up to 5 sigma off); the dense correspondences determine them from the whole overlap");

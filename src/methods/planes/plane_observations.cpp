@@ -11,7 +11,7 @@
 #include <set>
 
 #include "geometry/plane_ransac.hpp"
-#include "methods/common/laser_elevations.hpp"
+#include "methods/common/laser_intrinsics.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -36,7 +36,7 @@ bool PlaneOptions::IsValid(std::string* error) const {
   if (!(edge_margin_m >= 0) || edge_margin_m > 1000) return fail("edge_margin_m must be in [0, 1000]");
   if (!(max_patch_size_m > 0) || max_patch_size_m > 10000) return fail("max_patch_size_m must be in (0, 10000]");
   if (max_patches < 1 || max_patches > 100000) return fail("max_patches must be in [1, 100000]");
-  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
+  if (!laserPriorsValid(error)) return false;
   return true;
 }
 
@@ -129,9 +129,10 @@ struct PlanePointResidual {
   }
 };
 
-/// PlanePointResidual of a multi-beam point whose laser's elevation is off by δω (dl[0]): its
-/// laser vector turned exactly by LaserCorrector (the correction apply writes), and
-/// x(M, δω) = x(M) + R_mb R_bs(M) (r_s' − r_s), with R_bs(M) = R_bs,used + ΔR_bs (MountingMotion).
+/// PlanePointResidual of a multi-beam point whose laser's intrinsics are θ (dl: LaserCorrection's
+/// five groups, detail::OneLaserOfBlock): its laser vector corrected exactly by LaserCorrector (the
+/// correction apply writes), and x(M, θ) = x(M) + R_mb R_bs(M) (r_s' − r_s), with
+/// R_bs(M) = R_bs,used + ΔR_bs (MountingMotion).
 struct PlaneLaserPointResidual {
   const PlaneObservations::PatchPoint* p;
   const MountingParameters* used;
@@ -139,9 +140,7 @@ struct PlaneLaserPointResidual {
   double inv_sigma;
   bool operator()(const double* m, const double* plane, const double* o, const double* dl, double* r) const {
     const detail::MountingMotion motion = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m);
-    LaserCorrection turn;
-    turn.elevation_rad = dl[0];
-    const Vec3 dr = LaserCorrector(turn)(p->r_s) - p->r_s;
+    const Vec3 dr = LaserCorrector(LaserCorrection{dl[0], dl[1], dl[2], dl[3], dl[4]})(p->r_s) - p->r_s;
     const Vec3 x = p->x0_rel + motion.displacement(p->R_mb, p->r_s) + p->R_mb * ((R_bs_used + motion.dR_bs) * dr) + Vec3(o[0], o[1], o[2]);
     const Vec3 n(plane[0], plane[1], plane[2]);
     r[0] = (n.dot(x) / n.norm() - plane[3]) * inv_sigma;
@@ -304,9 +303,9 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
       for (std::size_t i = 0; i < n; i += step) probes_.push_back({data.pose(st, i, &cursor).R_mb, st.r_s[i]});
     }
   }
-  if (options_.laser_elevation_sigma_deg > 0) {
-    laser_ = std::make_unique<detail::LaserElevationBlock>();
-    laser_->setUp(data, "planes");
+  if (options_.estimatesLaserIntrinsics()) {
+    laser_ = std::make_unique<detail::LaserIntrinsicsBlock>();
+    laser_->setUp(data, "planes", options_.laserPrior());
   }
   collectCandidates(data, regions, nullptr);
   strip_order_.clear();
@@ -498,7 +497,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   if (laser_) {
     std::vector<bool> seen;
     for (int n : laserPoints()) seen.push_back(n > 0);
-    lasers = laser_->add(problem, seen, options_.laser_elevation_sigma_deg);
+    lasers = laser_->add(problem, seen);
   }
   for (std::size_t q = 0; q < patches_.size(); ++q) {
     Patch& patch = patches_[q];
@@ -508,9 +507,9 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
     for (const PatchPoint& pp : patch.points) {
       if (lasers) {
         auto* cost =
-            new detail::OneOfBlock(new ceres::NumericDiffCostFunction<PlaneLaserPointResidual, ceres::CENTRAL, 1, 6, 4, 3, 1>(
-                                       new PlaneLaserPointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd),
-                                   pp.laser, laser_->lasers());
+            new detail::OneLaserOfBlock(new ceres::NumericDiffCostFunction<PlaneLaserPointResidual, ceres::CENTRAL, 1, 6, 4, 3, 5>(
+                                            new PlaneLaserPointResidual{&pp, &used_, R_bs_used, inv_sigma}, ceres::TAKE_OWNERSHIP, 1, nd),
+                                        laser_->layout(), pp.laser);
         blocks_[q].push_back(problem->addResidualBlock(cost, section_.sigma_m,
                                                        {problem->mounting(), patch.block, problem->stripOffset(pp.strip_id), lasers}));
       } else {
@@ -575,7 +574,7 @@ void PlaneObservations::finish(const std::array<double, 6>& /*m0*/, const std::a
   const double scale = robustScaleFromNorms(rms, 1);
   for (PatchResidual& pr : section_.patches)
     pr.outlier = pr.rms_after_m > std::max(analysis.outlier_factor * scale, 3.0 * section_.sigma_m);
-  if (laser_) section_.laser_elevations = laser_->finish(problem, laserPoints());
+  if (laser_) section_.laser_intrinsics = laser_->finish(problem, laserPoints());
 }
 
 }  // namespace mountcal

@@ -3,7 +3,7 @@
 
 #include <sstream>
 
-#include "../common/laser_elevations.hpp"
+#include "../common/laser_intrinsics.hpp"
 #include "../common/section_format.hpp"
 #include "mountcal/core/rotation.hpp"
 #include "mountcal/report/svg_plot.hpp"
@@ -33,51 +33,50 @@ class PlanesRun final : public MethodRun {
 const std::vector<OptionSpec>& planeOptionSpecs() {
   using T = PlaneOptions;
   static const std::vector<OptionSpec> specs =
-      OptionTable<T>()
-          .number(
-              "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3,
-              "a-priori sigma of a point-to-plane distance; 0: pooled from the patches' fits")
-          .number(
-              "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-6, 1e3,
-              "RANSAC inlier distance of a strip's plane in a region")
-          .integer(
-              "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
-          .integer(
-              "min_points_per_strip", [](T& o) -> int& { return o.min_points_per_strip; }, 3, 1000000,
-              "fewer inliers: the strip does not see the patch")
-          .integer(
-              "max_points_per_strip", [](T& o) -> int& { return o.max_points_per_strip; }, 3, 1000000,
-              "inliers used per patch and strip (and laser, with per-laser offsets), evenly thinned")
-          .number(
-              "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
-              "a strip's plane tilted more than this from the others' is another surface")
-          .number(
-              "max_plane_offset_m", [](T& o) -> double& { return o.max_plane_offset_m; }, "m", 1e-6, 1e4,
-              "…or parallel but farther than this")
-          .number(
-              "cell_size_m", [](T& o) -> double& { return o.cell_size_m; }, "m", 0, 1000,
-              "automatic patches: plan grid cell; 0: 5 x the point spacing, at least 1.5 m")
-          .number(
-              "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3,
-              "automatic patches: a cell is planar below this plane-fit sigma")
-          .number(
-              "growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999,
-              "automatic patches: region growing joins cells whose normals differ less")
-          .number(
-              "edge_margin_m", [](T& o) -> double& { return o.edge_margin_m; }, "m", 0, 1000,
-              "automatic patches: a patch's box shrinks by this on every side")
-          .number(
-              "max_patch_size_m", [](T& o) -> double& { return o.max_patch_size_m; }, "m", 1e-6, 10000,
-              "automatic patches: largest plan extent")
-          .integer(
-              "max_patches", [](T& o) -> int& { return o.max_patches; }, 1, 100000,
-              "automatic patches: kept, spread over normal directions")
-          .number(
-              "search_margin_m", [](T& o) -> double& { return o.search_margin_m; }, "m", 0, 100,
-              "points this close to a region are re-selected at each mounting")
-          .number(
-              "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
-              "multi-beam strips with laser ids: prior sigma of per-laser elevation offsets; 0: not estimated")
+      detail::laserPriorOptions(
+          OptionTable<T>()
+              .number(
+                  "sigma_m", [](T& o) -> double& { return o.sigma_m; }, "m", 0, 1e3,
+                  "a-priori sigma of a point-to-plane distance; 0: pooled from the patches' fits")
+              .number(
+                  "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-6, 1e3,
+                  "RANSAC inlier distance of a strip's plane in a region")
+              .integer(
+                  "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
+              .integer(
+                  "min_points_per_strip", [](T& o) -> int& { return o.min_points_per_strip; }, 3, 1000000,
+                  "fewer inliers: the strip does not see the patch")
+              .integer(
+                  "max_points_per_strip", [](T& o) -> int& { return o.max_points_per_strip; }, 3, 1000000,
+                  "inliers used per patch and strip (and laser, with per-laser offsets), evenly thinned")
+              .number(
+                  "max_normal_angle_deg", [](T& o) -> double& { return o.max_normal_angle_deg; }, "deg", 1e-6, 89.999,
+                  "a strip's plane tilted more than this from the others' is another surface")
+              .number(
+                  "max_plane_offset_m", [](T& o) -> double& { return o.max_plane_offset_m; }, "m", 1e-6, 1e4,
+                  "…or parallel but farther than this")
+              .number(
+                  "cell_size_m", [](T& o) -> double& { return o.cell_size_m; }, "m", 0, 1000,
+                  "automatic patches: plan grid cell; 0: 5 x the point spacing, at least 1.5 m")
+              .number(
+                  "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3,
+                  "automatic patches: a cell is planar below this plane-fit sigma")
+              .number(
+                  "growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999,
+                  "automatic patches: region growing joins cells whose normals differ less")
+              .number(
+                  "edge_margin_m", [](T& o) -> double& { return o.edge_margin_m; }, "m", 0, 1000,
+                  "automatic patches: a patch's box shrinks by this on every side")
+              .number(
+                  "max_patch_size_m", [](T& o) -> double& { return o.max_patch_size_m; }, "m", 1e-6, 10000,
+                  "automatic patches: largest plan extent")
+              .integer(
+                  "max_patches", [](T& o) -> int& { return o.max_patches; }, 1, 100000,
+                  "automatic patches: kept, spread over normal directions")
+              .number(
+                  "search_margin_m", [](T& o) -> double& { return o.search_margin_m; }, "m", 0, 100,
+                  "points this close to a region are re-selected at each mounting"),
+          "multi-beam strips with laser ids: ")
           .specs();
   return specs;
 }
@@ -125,9 +124,12 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
                               aspectDeg(p.normal), p.rms_before_m, p.rms_after_m, p.outlier ? "  outlier" : "");
   }
-  if (!laser_elevations.empty())
-    r << detail::laserElevationTable(
-        laser_elevations, "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the patches use):", "patch points");
+  if (!laser_intrinsics.empty())
+    r << detail::laserIntrinsicsText(
+        laser_intrinsics,
+        "Per-laser intrinsics (by laser id; added to the laser table; means of elevation, azimuth and vertical "
+        "held at 0 over the lasers the patches use; sigma in the mounting's stochastic model):",
+        "patch points");
   for (const RejectedPatch& p : rejected)
     r << "rejected patch " << p.patch_id << (p.strip_id.empty() ? "" : " on strip " + p.strip_id) << ": " << p.reason << "\n";
   return r.str();
@@ -159,7 +161,7 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
                  {"rejected", rej}};
   if (automatic) j["planes"]["patch_searches"] = patch_searches;
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
-  if (!laser_elevations.empty()) j["intrinsics"] = json::parse(detail::laserElevationIntrinsics(laser_elevations));
+  if (!laser_intrinsics.empty()) j["intrinsics"] = json::parse(detail::laserIntrinsicsJson(laser_intrinsics));
   return j.dump();
 }
 
@@ -198,17 +200,18 @@ std::string PlaneSection::html(const AdjustmentSummary&) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
-  if (!laser_elevations.empty()) h << detail::laserElevationHtml(laser_elevations, "Per-laser elevation offsets", "patch points");
+  if (!laser_intrinsics.empty()) h << detail::laserIntrinsicsHtml(laser_intrinsics, "Per-laser intrinsics", "patch points");
   return h.str();
 }
 
 std::vector<std::string> PlaneSection::warnings() const {
   std::vector<std::string> w = doubts();
   if (!rejected.empty()) w.push_back(std::to_string(rejected.size()) + " plane patches or strip parts rejected");
+  for (std::string& x : detail::laserImplausibleWarnings(laser_intrinsics.lasers)) w.push_back(std::move(x));
   return w;
 }
 
-std::vector<std::string> PlaneSection::doubts() const { return detail::laserElevationDoubts(laser_elevations); }
+std::vector<std::string> PlaneSection::doubts() const { return detail::laserIntrinsicsDoubts(laser_intrinsics); }
 
 int PlaneSection::outliers() const {
   int n = 0;

@@ -16,7 +16,7 @@ class PlanesMethod final : public Method {
   void adoptInput(const std::string& value, std::any* options) const override;
   bool validate(const std::any& options, std::string* error) const override;
   bool estimatesLaserIntrinsics(const std::any& options) const override {
-    return std::any_cast<const PlaneOptions&>(options).laser_elevation_sigma_deg > 0;
+    return std::any_cast<const PlaneOptions&>(options).estimatesLaserIntrinsics();
   }
   void adoptNoise(const NoiseHint& noise, std::any* options) const override;
   std::unique_ptr<MethodRun> run(const MethodContext& context) const override;

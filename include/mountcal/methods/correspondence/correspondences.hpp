@@ -28,6 +28,7 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
 #include "mountcal/methods/method.hpp"
+#include "mountcal/methods/common/laser_priors.hpp"
 
 namespace mountcal {
 
@@ -39,7 +40,9 @@ struct LaserLayout;
 
 /// Settings of the correspondence search. Every length has a default derived from the point
 /// spacing and the a-priori misalignment when left at 0 [m, deg].
-struct CorrespondenceOptions {
+/// Dense mode, multi-beam strips with laser ids (StripData::laser): the per-laser intrinsics'
+/// priors (LaserIntrinsicsPriors) — the sparse correspondences estimate none.
+struct CorrespondenceOptions : LaserIntrinsicsPriors {
   static constexpr const char* kMethod = "correspondences";
   /// The largest strip-to-strip discrepancy expected before calibration [m] (first-round
   /// distance gate: max(3 r, 2 × this)); also the margin of each sample's candidate
@@ -106,23 +109,6 @@ struct CorrespondenceOptions {
   /// Dense mode: strips are thinned to one point per cube of this size before matching (the
   /// first in file order); 0: every point [m].
   double thin_cell_m = 0.0;
-  /// Dense mode, multi-beam strips with laser ids (StripData::laser): estimate one elevation
-  /// offset per laser (SPEC §2 "per-laser elevation offsets"), each with a prior of this σ and
-  /// their mean held at zero (a common offset is the boresight pitch's); 0: not estimated [deg].
-  double laser_elevation_sigma_deg = 0.0;
-  /// Dense mode, the other per-laser intrinsics (LaserCorrection; Glennie & Lichti 2010), each
-  /// group with a prior of this σ per laser; 0: not estimated. The azimuth offsets' mean is held
-  /// at zero (a common one is a boresight rotation about the spin axis), and so is the vertical
-  /// offsets' (a common one is the lever arm along the spin axis); range and horizontal offsets
-  /// keep their common part.
-  double laser_azimuth_sigma_deg = 0.0;
-  double laser_range_sigma_m = 0.0;       ///< [m]
-  double laser_vertical_sigma_m = 0.0;    ///< [m]
-  double laser_horizontal_sigma_m = 0.0;  ///< [m]
-  /// The five groups' prior σ in LaserCorrection's order (elevation, azimuth [rad]; range,
-  /// vertical, horizontal [m]); 0: not estimated.
-  std::array<double, 5> laserPriorSigmas() const;
-  bool estimatesLaserIntrinsics() const;
   bool IsValid(std::string* error) const;
 };
 
@@ -265,19 +251,11 @@ struct CorrespondenceSection : MethodSection {
   double needed_misalignment_m = 0.0;  ///< the last matching's CorrespondenceSet::needed_misalignment_m [m]
   /// The last matching's samples rejected as moved (CorrespondencePairStats::rejected_moved), over all pairs.
   int rejectedMoved() const;
-  /// Dense mode with per-laser intrinsics: the groups estimated (keys of the result file's
-  /// `intrinsics`, LaserCorrection's order), per laser id the estimates and their σ (NaN for a
-  /// group not estimated or a laser no used correspondence saw), and each laser's largest
-  /// |correlation| of a parameter with a boresight angle.
-  std::vector<std::string> laser_groups;
-  LaserCorrections lasers, laser_sigma;
-  LaserCorrection laser_prior_sigma;  ///< each group's prior σ (0: not estimated) [rad, m]
-  std::vector<double> laser_boresight_correlation;
-  std::vector<int> laser_points;  ///< used correspondences' points per laser (A's and B's)
-  /// Correlation screening (Glennie: laser parameters are highly correlated): each pair of one
-  /// laser's parameters, or of a laser parameter and a mounting parameter, that the data do not
-  /// separate (|correlation| ≥ 0.95), as "laser 3 range ~ laser 3 vertical (0.97)".
-  std::vector<std::string> laser_unseparated;
+  /// Dense mode with per-laser intrinsics: per laser id the estimates, their σ (NaN for a group
+  /// not estimated or a laser no used correspondence saw), the priors, the used correspondences'
+  /// points per laser (A's and B's), each laser's largest |correlation| with a boresight angle,
+  /// and the correlation screening.
+  LaserIntrinsicEstimates laser_intrinsics;
 };
 
 class CorrespondenceObservations final : public ObservationSource {

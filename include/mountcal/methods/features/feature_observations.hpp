@@ -36,7 +36,7 @@
 namespace mountcal {
 
 namespace detail {
-class LaserElevationBlock;
+class LaserIntrinsicsBlock;
 }
 
 /// Settings of the feature method (job: the `"features"` object). Lengths [m], angles [deg].
@@ -170,8 +170,8 @@ struct FeatureSection : MethodSection {
   bool sigma_estimated = false;
   double extraction_time_s = 0.0, matching_time_s = 0.0;  ///< [s]
   /// With laser_elevation_sigma_deg > 0: the estimated per-laser elevation offsets.
-  LaserElevationOffsets laser_elevations;
-  LaserCorrections laserCorrections() const override { return laser_elevations.lasers; }
+  LaserIntrinsicEstimates laser_intrinsics;
+  LaserCorrections laserCorrections() const override { return laser_intrinsics.lasers; }
   /// Elevation offsets estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
   std::vector<std::string> doubts() const override;
 };
@@ -271,7 +271,7 @@ class FeatureObservations final : public ObservationSource {
   std::vector<Target> targets_;
   std::vector<std::vector<int>> blocks_;
   FeatureSection section_;
-  std::unique_ptr<detail::LaserElevationBlock> laser_;  // per-laser elevation offsets (null: not estimated)
+  std::unique_ptr<detail::LaserIntrinsicsBlock> laser_;  // per-laser elevation offsets (null: not estimated)
 };
 
 /// Step 3 alone, from matched pairs: the closed form (SPEC §2) at `mounting_used`.

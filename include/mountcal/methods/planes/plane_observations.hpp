@@ -12,8 +12,8 @@
 ///
 /// (SPEC §2 eq. 1, evaluated relative to the point's position at the mounting used, which is
 /// exact) as a `ceres::NumericDiffCostFunction<…, ceres::CENTRAL, 1, 6, 4, 3>`. With per-laser
-/// elevation offsets δω (`laser_elevation_sigma_deg`) a multi-beam point's laser vector is turned
-/// first, exactly: r_s' = cos δω r_s + sin δω u (u: elevationTangent, as LaserCorrector).
+/// intrinsics θ_l (LaserIntrinsicsPriors) a multi-beam point's laser vector is corrected first,
+/// exactly, as apply corrects it: r_s' = LaserCorrector(θ_l)(r_s).
 
 #include <memory>
 #include <string>
@@ -22,15 +22,19 @@
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
 #include "mountcal/methods/method.hpp"
+#include "mountcal/methods/common/laser_priors.hpp"
 
 namespace mountcal {
 
 namespace detail {
-class LaserElevationBlock;
+class LaserIntrinsicsBlock;
 }
 
 /// Settings of the plane method. Lengths [m], angles [deg].
-struct PlaneOptions {
+/// Multi-beam strips with laser ids: the per-laser intrinsics' priors (LaserIntrinsicsPriors),
+/// estimated with the mounting from the patch points (a patch point's laser vector corrected
+/// exactly, LaserCorrector).
+struct PlaneOptions : LaserIntrinsicsPriors {
   static constexpr const char* kMethod = "planes";
   /// Find the patches in the overlaps automatically (job: `"planes": "auto"`) instead of
   /// taking CalibrationData::plane_regions.
@@ -42,7 +46,7 @@ struct PlaneOptions {
   double ransac_threshold_m = 0.10;
   int ransac_iterations = 200;
   int min_points_per_strip = 10;  ///< fewer inliers: the strip does not see the patch
-  /// Inliers used per patch and strip (and laser, when per-laser elevation offsets are
+  /// Inliers used per patch and strip (and laser, when per-laser intrinsics are
   /// estimated), evenly thinned.
   int max_points_per_strip = 24;
   /// A strip's plane that differs from the other strips' by more than this is another surface.
@@ -63,10 +67,6 @@ struct PlaneOptions {
   /// Points within this of a region are candidates: as the mounting changes, the points in
   /// each region are selected again (RANSAC at the current mounting) between solves [m].
   double search_margin_m = 3.0;
-  /// Multi-beam strips with laser ids: prior σ of one elevation offset per laser id, estimated
-  /// with the mounting (a nuisance block; their mean over the lasers the patches use held at 0,
-  /// a common offset being the boresight pitch's); 0: not estimated [deg].
-  double laser_elevation_sigma_deg = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -108,10 +108,10 @@ struct PlaneSection : MethodSection {
   std::vector<PatchResidual> patches;
   std::vector<RejectedPatch> rejected;
   double rms_before_m = 0.0, rms_after_m = 0.0;  ///< over all points [m]
-  /// With laser_elevation_sigma_deg > 0: the estimated per-laser elevation offsets.
-  LaserElevationOffsets laser_elevations;
-  LaserCorrections laserCorrections() const override { return laser_elevations.lasers; }
-  /// Elevation offsets estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
+  /// With per-laser intrinsics estimated: their estimates, σ and screening.
+  LaserIntrinsicEstimates laser_intrinsics;
+  LaserCorrections laserCorrections() const override { return laser_intrinsics.lasers; }
+  /// Intrinsics estimated beyond kLaserPriorDoubt times their prior σ (one sentence naming them).
   std::vector<std::string> doubts() const override;
 };
 
@@ -156,7 +156,7 @@ class PlaneObservations final : public ObservationSource {
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
     double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
-    int laser = -1;       ///< laser id when per-laser elevation offsets are estimated
+    int laser = -1;       ///< laser id when per-laser intrinsics are estimated
   };
   struct Patch {
     std::string id;
@@ -194,7 +194,7 @@ class PlaneObservations final : public ObservationSource {
     Mat3 R_mb;
     Vec3 r_s;
   };
-  /// Patch points per laser id (per-laser elevation offsets estimated).
+  /// Patch points per laser id (per-laser intrinsics estimated).
   std::vector<int> laserPoints() const;
 
   PlaneOptions options_;
@@ -212,7 +212,7 @@ class PlaneObservations final : public ObservationSource {
   std::vector<Patch> patches_;
   std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
   PlaneSection section_;
-  std::unique_ptr<detail::LaserElevationBlock> laser_;  // per-laser elevation offsets (null: not estimated)
+  std::unique_ptr<detail::LaserIntrinsicsBlock> laser_;  // per-laser intrinsics (null: not estimated)
 };
 
 }  // namespace mountcal
