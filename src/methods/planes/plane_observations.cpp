@@ -274,6 +274,23 @@ std::vector<PlanarPatch> findPatchesAt(const CalibrationData& data, const PlaneO
   return out;
 }
 
+/// findPatchesAt with the option's roughness bound, doubled (at most kRoughnessGrowths times)
+/// while fewer than kFewPatches are found; `section` receives the bound used and the growths.
+std::vector<PlanarPatch> findPatchesGrowing(const CalibrationData& data, const PlaneOptions& opts, double cell,
+                                            const std::array<double, 6>* m, PlaneSection* section) {
+  constexpr int kFewPatches = 3, kRoughnessGrowths = 2;
+  PlaneOptions o = opts;
+  std::vector<PlanarPatch> out = findPatchesAt(data, o, cell, m);
+  int growths = 0;
+  for (; growths < kRoughnessGrowths && static_cast<int>(out.size()) < kFewPatches; ++growths) {
+    o.max_roughness_m *= 2;
+    out = findPatchesAt(data, o, cell, m);
+  }
+  section->roughness_bound_m = o.max_roughness_m;
+  section->roughness_growths = growths;
+  return out;
+}
+
 }  // namespace
 
 std::vector<PlanarPatch> findPlanarPatches(const CalibrationData& data, const PlaneOptions& opts) {
@@ -295,7 +312,7 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
     data_ = &data;
     cell_m_ = patchCell(data, options_);
     regions.clear();
-    for (const PlanarPatch& p : findPatchesAt(data, options_, cell_m_, nullptr)) regions.push_back(p.region);
+    for (const PlanarPatch& p : findPatchesGrowing(data, options_, cell_m_, nullptr, &section_)) regions.push_back(p.region);
     // Probes of how far the strips move as the mounting changes: evenly over each strip.
     for (const StripData& st : data.strips) {
       const std::size_t n = st.r_s.size(), step = std::max<std::size_t>(1, n / 256);
@@ -478,7 +495,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   if (data_ && section_.patch_searches < kMaxPatchSearches &&
       movedSinceFound(mounting) > std::max(options_.search_margin_m, 0.5 * cell_m_)) {
     std::vector<PlaneRegion> regions;
-    for (const PlanarPatch& p : findPatchesAt(*data_, options_, cell_m_, &mounting)) regions.push_back(p.region);
+    for (const PlanarPatch& p : findPatchesGrowing(*data_, options_, cell_m_, &mounting, &section_)) regions.push_back(p.region);
     collectCandidates(*data_, regions, &mounting);
     found_at_ = mounting;
     refound_ = true;

@@ -116,6 +116,11 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
   r << detail::printfString("\nPlanes (%s): %d patches, %d points, sigma %.4f m; RMS before %.4f m, after %.4f m\n",
                             automatic ? "found automatically" : "given regions", patches_used, points_used, sigma_m, rms_before_m,
                             rms_after_m);
+  if (roughness_growths > 0)
+    r << detail::printfString(
+        "  found with the cells' roughness bound grown to %.3f m (fewer than three patches within %.3f m, max_roughness_m): the "
+        "strips' own looks at a cell disagreed where they were searched\n",
+        roughness_bound_m, roughness_bound_m / static_cast<double>(1 << roughness_growths));
   if (patch_searches > 1)
     r << "  found again " << patch_searches - 1 << (patch_searches == 2 ? " time" : " times")
       << " where the strips lay once the mounting had moved them beyond the search margin\n";
@@ -159,7 +164,11 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
                  {"rms_after_m", rms_after_m},
                  {"patches", list},
                  {"rejected", rej}};
-  if (automatic) j["planes"]["patch_searches"] = patch_searches;
+  if (automatic) {
+    j["planes"]["patch_searches"] = patch_searches;
+    j["planes"]["roughness_bound_m"] = roughness_bound_m;
+    j["planes"]["roughness_growths"] = roughness_growths;
+  }
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
   if (!laser_intrinsics.empty()) j["intrinsics"] = json::parse(detail::laserIntrinsicsJson(laser_intrinsics));
   return j.dump();

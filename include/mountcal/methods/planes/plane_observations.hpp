@@ -102,6 +102,13 @@ struct PlaneSection : MethodSection {
   /// Automatic patches: how often they were searched for (1: at the used mounting only; more:
   /// found again where the strips lay once the mounting had moved them beyond the search margin).
   int patch_searches = 1;
+  /// Automatic patches: the cells' roughness bound the last search used [m] — the option's
+  /// `max_roughness_m`, or doubled (`roughness_growths` times, at most twice) while the search found
+  /// fewer than three patches: at a mounting far from the truth a strip's own looks at one cell
+  /// disagree (a spinning scanner's lasers and the two sides of its turn), and a cell is rough by
+  /// the misalignment, not by its surface.
+  double roughness_bound_m = 0.0;
+  int roughness_growths = 0;
   int patches_used = 0;
   int points_used = 0;
   double sigma_m = 0.0;  ///< σ of a point-to-plane distance used [m]
