@@ -14,9 +14,9 @@
 
 namespace mountcal::detail {
 
-LaserLayout::LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas) : lasers(laser_count) {
+LaserLayout::LaserLayout(int laser_count, const LaserCorrection& prior) : lasers(laser_count) {
   for (std::size_t g = 0; g < 5; ++g) {
-    if (!(prior_sigmas[g] > 0) || laser_count <= 0) continue;
+    if (!(prior.*kLaserGroups[g].field > 0) || laser_count <= 0) continue;
     offset[g] = size;
     size += laser_count;
   }
@@ -36,27 +36,14 @@ LaserCorrections LaserLayout::corrections(const double* block) const {
   return out;
 }
 
-std::array<double, 5> laserGroupValues(const LaserCorrection& c) {
-  std::array<double, 5> v{};
-  for (std::size_t g = 0; g < 5; ++g) v[g] = c.*kLaserGroups[g].field;
-  return v;
-}
-
-LaserCorrection laserCorrectionOf(const std::array<double, 5>& values) {
-  LaserCorrection c;
-  for (std::size_t g = 0; g < 5; ++g) c.*kLaserGroups[g].field = values[g];
-  return c;
-}
-
 void addLaserPriors(AdjustmentProblem* problem, double* block, const LaserLayout& layout, const LaserCorrection& prior,
                     const std::vector<bool>& seen) {
-  const std::array<double, 5> sigma = laserGroupValues(prior);
   for (std::size_t g = 0; g < 5; ++g) {
     const int o = layout.offset[g];
     if (o < 0) continue;
     std::vector<int> mean;
     for (int i = 0; i < layout.lasers; ++i) {
-      addLaserPrior(problem, block, layout.size, {o + i}, sigma[g]);
+      addLaserPrior(problem, block, layout.size, {o + i}, prior.*kLaserGroups[g].field);
       if (seen[static_cast<std::size_t>(i)]) mean.push_back(o + i);
     }
     if ((g == 0 || g == 1 || g == 3) && !mean.empty()) addLaserPrior(problem, block, layout.size, mean, g == 3 ? 1e-7 : 1e-6);
@@ -247,7 +234,7 @@ void LaserIntrinsicsBlock::setUp(const CalibrationData& data, const std::string&
     for (std::uint16_t id : s.laser) lasers = std::max(lasers, static_cast<int>(id) + 1);
   }
   prior_ = prior;
-  layout_ = LaserLayout(lasers, laserGroupValues(prior));
+  layout_ = LaserLayout(lasers, prior);
   values_.assign(static_cast<std::size_t>(layout_.size), 0.0);
   block_ = nullptr;
 }

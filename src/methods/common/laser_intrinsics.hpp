@@ -50,18 +50,13 @@ struct LaserLayout {
   std::array<int, 5> offset{{-1, -1, -1, -1, -1}};  // −1: the group is not estimated
   int size = 0;
   LaserLayout() = default;
-  /// The groups whose prior σ (LaserCorrection's order) is positive, for `laser_count` lasers.
-  LaserLayout(int laser_count, const std::array<double, 5>& prior_sigmas);
+  /// The groups whose prior σ in `prior` is positive, for `laser_count` lasers.
+  LaserLayout(int laser_count, const LaserCorrection& prior);
   bool empty() const { return size == 0; }
   bool elevationOnly() const { return size > 0 && size == lasers && offset[0] == 0; }
   LaserCorrection correction(const double* block, int laser) const;
   LaserCorrections corrections(const double* block) const;
 };
-
-/// LaserCorrection's five values in its order (elevation, azimuth [rad]; range, vertical, horizontal [m]).
-std::array<double, 5> laserGroupValues(const LaserCorrection& c);
-/// The LaserCorrection of five values in its order.
-LaserCorrection laserCorrectionOf(const std::array<double, 5>& values);
 
 /// The priors of a block laid out by `layout`: each value N(0, its group's σ in `prior`), and the
 /// means of elevation (the boresight pitch's direction, by convention), azimuth (a boresight

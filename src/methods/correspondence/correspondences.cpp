@@ -730,7 +730,7 @@ bool CorrespondenceObservations::settled() const { return !options_.dense || !co
 
 detail::LaserLayout CorrespondenceObservations::laserLayout() const {
   if (!dense_ || laser_dl_.empty()) return {};
-  return detail::LaserLayout(dense_->laserCount(), options_.laserPriorSigmas());
+  return detail::LaserLayout(dense_->laserCount(), options_.laserPrior());
 }
 
 void CorrespondenceObservations::solved(const AdjustmentProblem& problem) {
@@ -744,7 +744,7 @@ void CorrespondenceObservations::addDenseBlocks(const std::array<double, 6>& mou
   if (!dense_) {
     dense_ = std::make_unique<detail::DenseMatcher>(data_, options_);
     if (options_.estimatesLaserIntrinsics())
-      laser_dl_.assign(static_cast<std::size_t>(detail::LaserLayout(dense_->laserCount(), options_.laserPriorSigmas()).size), 0.0);
+      laser_dl_.assign(static_cast<std::size_t>(detail::LaserLayout(dense_->laserCount(), options_.laserPrior()).size), 0.0);
     coarse_ = true;
   }
   // Stage: coarse until the mounting stops moving (or for 15 rounds), then fine.

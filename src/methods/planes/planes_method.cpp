@@ -60,7 +60,8 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
                   "automatic patches: plan grid cell; 0: 5 x the point spacing, at least 1.5 m")
               .number(
                   "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3,
-                  "automatic patches: a cell is planar below this plane-fit sigma")
+                  "automatic patches: a cell is planar below this plane-fit sigma (doubled, at most twice, while fewer than three patches "
+                  "are found)")
               .number(
                   "growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999,
                   "automatic patches: region growing joins cells whose normals differ less")

@@ -2,7 +2,6 @@
 // The priors of per-laser intrinsics a method estimates with the mounting (the dense
 // correspondences, the planes; SPEC §2 "per-laser intrinsics"; Glennie & Lichti 2010).
 
-#include <array>
 #include <string>
 
 #include "mountcal/core/sensor_model.hpp"
@@ -21,20 +20,15 @@ struct LaserIntrinsicsPriors {
   double laser_range_sigma_m = 0.0;        ///< [m]
   double laser_vertical_sigma_m = 0.0;     ///< [m]
   double laser_horizontal_sigma_m = 0.0;   ///< [m]
-  /// The five groups' prior σ in LaserCorrection's order (elevation, azimuth [rad]; range,
-  /// vertical, horizontal [m]); 0: not estimated.
-  std::array<double, 5> laserPriorSigmas() const {
-    return {deg2rad(laser_elevation_sigma_deg), deg2rad(laser_azimuth_sigma_deg), laser_range_sigma_m, laser_vertical_sigma_m,
-            laser_horizontal_sigma_m};
-  }
-  /// The same as a LaserCorrection of σ [rad, m].
+  /// The five groups' prior σ as a LaserCorrection of σ [rad, m]; 0: not estimated.
   LaserCorrection laserPrior() const {
     return {deg2rad(laser_elevation_sigma_deg), deg2rad(laser_azimuth_sigma_deg), laser_range_sigma_m, laser_vertical_sigma_m,
             laser_horizontal_sigma_m};
   }
   bool estimatesLaserIntrinsics() const {
-    for (double s : laserPriorSigmas())
-      if (s > 0) return true;
+    const LaserCorrection prior = laserPrior();
+    for (const LaserGroup& g : kLaserGroups)
+      if (prior.*g.field > 0) return true;
     return false;
   }
   /// Angles in [0, 10] deg, lengths in [0, 1] m; false with the key in `error` otherwise.
