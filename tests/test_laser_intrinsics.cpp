@@ -436,7 +436,8 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
   PlaneOptions& p = o.method<PlaneOptions>();
   p.automatic = true;
   p.laser_elevation_sigma_deg = 2 * rad2deg(laserErrorPreset("VLP-16").elevation_rad);
-  p.sigma_m = 0.003;  // noise-free: pooled from the plane fits at the mounting used it would be the misalignment's 4 cm
+  p.max_patches = 30;  // found again at the first solution, the default 120 are there: 5× the time
+  p.sigma_m = 0.003;   // noise-free: pooled from the plane fits at the mounting used it would be the misalignment's 4 cm
   const CalibrationData data = toCalibrationData(s->survey);
   const auto S = calibrate(data, o);
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
@@ -482,40 +483,46 @@ TEST(LaserIntrinsics, PlanesRecoverTheElevationOffsetsNoiseFree) {
   EXPECT_GT(boresight_held, 2 * boresight);
 }
 
-// Issue 28 item 2, the planes with every group: the VLP-16 survey of the UAV field, noise-free,
+// Issue 28 item 2, the planes with every group: the `model` survey of the UAV field, noise-free,
 // flown with the preset's errors in all five groups, patches found automatically; the planes
-// estimate the five groups (the preset's σ doubled as priors) and the boresight. Every estimated
-// laser parameter within 3σ; those the patches determine (separated by the screening, on a laser
-// with kPlanePoints patch points or more) elevation and azimuth within 0.005°, range within 2 mm;
-// the boresight within 0.002°. Measured (2026-12-06): see the printed line.
-TEST(LaserIntrinsics, PlanesRecoverEveryGroupNoiseFree) {
+// estimate the five groups (the preset's σ doubled as priors) and the boresight. Noise-free the
+// data are exact, and the σ of a distance stated at 0.03 mm makes the priors negligible (at a
+// stated 3 mm they pull what the patches barely determine towards 0: 1e-4°–2e-3°): the
+// parameters the patches determine (separated by the screening, on a laser with kPlanePoints
+// patch points or more) within 1e-4° (elevation, azimuth) and 0.1 mm (range, vertical,
+// horizontal), the boresight within 1e-5°; every estimated laser parameter within 3σ.
+// Measured (2026-12-06): see the printed lines.
+void planesRecoverEveryGroupNoiseFree(const std::string& model) {
   constexpr int kPlanePoints = 100;
-  const auto s = intrinsicsSurvey("VLP-16", 1, false);
+  const auto s = intrinsicsSurvey(model, 1, false);
   MountingCalibrator::Options o = planesBoresightOptions(nullptr);
   PlaneOptions& p = o.method<PlaneOptions>();
-  setLaserPriors(priorsFor("VLP-16"), &p);
-  p.sigma_m = 0.003;  // noise-free: pooled from the plane fits at the mounting used it would be the misalignment's
+  setLaserPriors(priorsFor(model), &p);
+  p.sigma_m = 3e-5;
   p.max_patches = mountcal_tests::kSanitizerBuild ? 8 : 30;  // the sanitizer build runs the five groups' residual on fewer
   const auto S = calibrate(toCalibrationData(s->survey), o);
   ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
   const PlaneSection& ps = S.section<PlaneSection>();
   // The a-priori boresight is 1.5° off: at it a spinning sensor's looks at one cell of one strip
-  // disagree by centimetres, and with the azimuth offsets the cells are rougher than the default
-  // 5 cm (one patch was found there; four with the elevation errors alone): the search grew the
-  // bound once, to 10 cm, and says so.
-  EXPECT_EQ(ps.roughness_growths, 1);
-  EXPECT_NEAR(ps.roughness_bound_m, 0.1, 1e-12);
-  EXPECT_NE(S.FullReport().find("roughness bound grown to 0.100 m"), std::string::npos);
+  // disagree by centimetres, and the cells are rougher than the default 5 cm. The first search
+  // grew the bound (VLP-16: one patch within 5 cm, 23 within 10 cm) or found a few (HDL-32E: 3);
+  // at the first solution the patches were found again within 5 cm, and the section says so.
+  ASSERT_GE(ps.search_bounds_m.size(), 2u);
+  EXPECT_NEAR(ps.search_bounds_m.back(), 0.05, 1e-12);
+  EXPECT_GE(ps.search_patches.back(), 20);
+  EXPECT_NE(S.FullReport().find("found again 1 time"), std::string::npos);
   const LaserIntrinsicEstimates& e = ps.laser_intrinsics;
   ASSERT_EQ(e.lasers.size(), s->config.multibeam.laser_errors.size());
   const Recovery r = recovery(*s, S, e, kPlanePoints);
   int seen = 0;
   for (int n : e.points) seen += n > 0;
   std::printf(
-      "planes, every laser group, noise-free VLP-16: %d patches, %d lasers seen; separated worst elevation %.2e deg, azimuth %.2e deg, "
-      "range %.2e m, vertical %.2e m, horizontal %.2e m; worst |error|/sigma %.2f; boresight %.2e deg; %zu pairs not separated\n",
-      ps.patches_used, seen, r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4],
-      r.worst_ratio, r.worst_boresight_deg, e.unseparated.size());
+      "planes, every laser group, noise-free %s: patches used %d after the first search (bound %.2f m), %d after the last; %d points "
+      "off their surface; %d lasers seen; separated worst elevation %.2e deg, azimuth %.2e deg, range %.2e m, vertical %.2e m, "
+      "horizontal %.2e m; worst |error|/sigma %.2f; boresight %.2e deg; %zu pairs not separated\n",
+      model.c_str(), ps.search_patches.front(), ps.search_bounds_m.front(), ps.patches_used, ps.points_off_surface, seen,
+      r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4], r.worst_ratio,
+      r.worst_boresight_deg, e.unseparated.size());
   // The section says what it estimated: the five groups in its text and the result file.
   const std::string text = S.FullReport();
   EXPECT_NE(text.find("horizontal [m]"), std::string::npos);
@@ -523,13 +530,25 @@ TEST(LaserIntrinsics, PlanesRecoverEveryGroupNoiseFree) {
   for (const char* key : {"laser_elevation_offset_deg", "laser_azimuth_offset_deg", "laser_range_offset_m", "laser_vertical_offset_m",
                           "laser_horizontal_offset_m", "laser_unseparated"})
     EXPECT_TRUE(j["intrinsics"].contains(key)) << key;
+  EXPECT_EQ(j["planes"]["search_bounds_m"].size(), ps.search_bounds_m.size());
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the recovery's tolerances");
+  // A few points off their surface at most (the HDL-32E's: three points 2–6 cm off one patch,
+  // where a roof face meets the next surface; kept, the boresight ended 1.8e-4° off).
+  EXPECT_LE(ps.points_off_surface, 10);
   EXPECT_GE(seen, 8);
-  EXPECT_LE(r.worst_separated[0], 0.005);
-  EXPECT_LE(r.worst_separated[1], 0.005);
-  EXPECT_LE(r.worst_separated[2], 0.002);
+  EXPECT_LE(r.worst_separated[0], 1e-4);
+  EXPECT_LE(r.worst_separated[1], 1e-4);
+  for (int g : {2, 3, 4}) EXPECT_LE(r.worst_separated[g], 1e-4) << g;
   EXPECT_LE(r.worst_ratio, 3.0);
-  EXPECT_LE(r.worst_boresight_deg, 0.002);
+  EXPECT_LE(r.worst_boresight_deg, 1e-5);
+}
+
+TEST(LaserIntrinsics, PlanesRecoverEveryGroupNoiseFree) { planesRecoverEveryGroupNoiseFree("VLP-16"); }
+
+TEST(LaserIntrinsics, PlanesRecoverEveryGroupNoiseFreeHdl32e) {
+  if (mountcal_tests::kSanitizerBuild)
+    GTEST_SKIP() << "sanitizer build: the same code as PlanesRecoverEveryGroupNoiseFree (VLP-16), on the HDL-32E's 32 lasers";
+  planesRecoverEveryGroupNoiseFree("HDL-32E");
 }
 
 // The planes' laser σ under survey noise (the preset's, stated as flown): ten seeds of the VLP-16

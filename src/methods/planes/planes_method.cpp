@@ -122,9 +122,18 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
         "  found with the cells' roughness bound grown to %.3f m (fewer than three patches within %.3f m, max_roughness_m): the "
         "strips' own looks at a cell disagreed where they were searched\n",
         roughness_bound_m, roughness_bound_m / static_cast<double>(1 << roughness_growths));
-  if (patch_searches > 1)
+  if (points_off_surface > 0)
+    r << "  " << points_off_surface
+      << " points set aside after a solve: off their patch's surface (beyond 5 x its robust scale, 2 sigma and "
+         "ransac_threshold_m / 10; another surface within ransac_threshold_m)\n";
+  if (patch_searches > 1) {
     r << "  found again " << patch_searches - 1 << (patch_searches == 2 ? " time" : " times")
-      << " where the strips lay once the mounting had moved them beyond the search margin\n";
+      << " where the strips lay once a solve had moved them (beyond the roughness bound at the first solution, beyond the "
+         "search margin after it); patches used (roughness bound):";
+    for (std::size_t k = 0; k < search_bounds_m.size() && k < search_patches.size(); ++k)
+      r << detail::printfString("%s %d (%.3f m)", k ? "," : "", search_patches[k], search_bounds_m[k]);
+    r << "\n";
+  }
   r << "  patch                 strips points  tilt[deg] aspect[deg]  RMS before [m]  after [m]\n";
   for (const PatchResidual& p : patches) {
     r << detail::printfString("  %-22s %5d %6d %9.1f %10.1f %15.4f %10.4f%s\n", p.patch_id.c_str(), p.strips, p.points, tiltDeg(p.normal),
@@ -157,18 +166,16 @@ std::string PlaneSection::resultJson(const AdjustmentSummary&) const {
   json rej = json::array();
   for (const RejectedPatch& r : rejected) rej.push_back({{"patch_id", r.patch_id}, {"strip_id", r.strip_id}, {"reason", r.reason}});
   json j;
-  j["planes"] = {{"automatic", automatic},
-                 {"patches_used", patches_used},
-                 {"points_used", points_used},
-                 {"sigma_m", sigma_m},
-                 {"rms_before_m", rms_before_m},
-                 {"rms_after_m", rms_after_m},
-                 {"patches", list},
-                 {"rejected", rej}};
+  j["planes"] = {
+      {"automatic", automatic}, {"patches_used", patches_used}, {"points_used", points_used}, {"points_off_surface", points_off_surface},
+      {"sigma_m", sigma_m},     {"rms_before_m", rms_before_m}, {"rms_after_m", rms_after_m}, {"patches", list},
+      {"rejected", rej}};
   if (automatic) {
     j["planes"]["patch_searches"] = patch_searches;
     j["planes"]["roughness_bound_m"] = roughness_bound_m;
     j["planes"]["roughness_growths"] = roughness_growths;
+    j["planes"]["search_bounds_m"] = search_bounds_m;
+    j["planes"]["search_patches"] = search_patches;
   }
   // The intrinsics to use from now on (apply and evaluate read them), by laser id.
   if (!laser_intrinsics.empty()) j["intrinsics"] = json::parse(detail::laserIntrinsicsJson(laser_intrinsics));

@@ -109,8 +109,15 @@ struct PlaneSection : MethodSection {
   /// the misalignment, not by its surface.
   double roughness_bound_m = 0.0;
   int roughness_growths = 0;
+  /// Automatic patches, per search (the first at the used mounting): the roughness bound it
+  /// used [m] and the patches it gave (used, at the mounting it searched at).
+  std::vector<double> search_bounds_m;
+  std::vector<int> search_patches;
   int patches_used = 0;
   int points_used = 0;
+  /// Points set aside after a solve as off their patch's surface (beyond 5 × its robust scale, 2σ
+  /// and ransac_threshold_m / 10): where a patch meets another surface within ransac_threshold_m.
+  int points_off_surface = 0;
   double sigma_m = 0.0;  ///< σ of a point-to-plane distance used [m]
   std::vector<PatchResidual> patches;
   std::vector<RejectedPatch> rejected;
@@ -144,10 +151,12 @@ class PlaneObservations final : public ObservationSource {
   std::string kind() const override { return "planes"; }
   /// The points in each region are selected again at each new mounting, and automatic patches
   /// found again once some point has moved beyond the search margin (at least half a plan cell)
-  /// since they were found (at most kMaxPatchSearches searches).
+  /// since they were found, and once where a solve first moved the strips by more than the
+  /// cells' roughness bound (at most kMaxPatchSearches searches).
   bool rematches() const override { return true; }
   /// False in the round after the automatic patches were found again (a new set of patches).
-  bool settled() const override { return !refound_; }
+  /// And in the round after points off a patch's surface were set aside (solved()).
+  bool settled() const override { return !refound_ && !trimmed_; }
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void solved(const AdjustmentProblem& problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
@@ -162,8 +171,9 @@ class PlaneObservations final : public ObservationSource {
     Vec3 x0_rel = Vec3::Zero();  ///< position at M_used minus the patch centre [m]
     Mat3 R_mb = Mat3::Identity();
     Vec3 r_s = Vec3::Zero();
-    double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
-    int laser = -1;       ///< laser id when per-laser intrinsics are estimated
+    double time_s = 0.0;          ///< the pulse's time [s] (trajectory errors in time)
+    int laser = -1;               ///< laser id when per-laser intrinsics are estimated
+    std::uint32_t candidate = 0;  ///< its index among its region's candidates
   };
   struct Patch {
     std::string id;
@@ -172,6 +182,7 @@ class PlaneObservations final : public ObservationSource {
     std::vector<PatchPoint> points;
     int strips = 0;
     double* block = nullptr;  ///< the plane block of the current problem
+    std::size_t region = 0;   ///< its region (the candidates its points are selected from)
   };
   const std::vector<Patch>& patches() const { return patches_; }
 
@@ -183,6 +194,7 @@ class PlaneObservations final : public ObservationSource {
     Vec3 r_s = Vec3::Zero();
     double time_s = 0.0;  ///< the pulse's time [s] (trajectory errors in time)
     int laser = -1;
+    bool off_surface = false;  ///< found off its patch's surface after a solve: not selected again
   };
   struct Region {
     PlaneRegion box;
@@ -195,6 +207,9 @@ class PlaneObservations final : public ObservationSource {
   void collectCandidates(const CalibrationData& data, const std::vector<PlaneRegion>& regions, const std::array<double, 6>* m);
   /// The largest move of a probe point between the mounting the patches were found at and m [m].
   double movedSinceFound(const std::array<double, 6>& m) const;
+  /// Automatic patches found at mounting m (null: M_used), their candidates collected and
+  /// selected; the roughness bound doubled while fewer than three patches are used.
+  void search(const std::array<double, 6>* m);
   /// Searches for automatic patches at most (the first included).
   static constexpr int kMaxPatchSearches = 6;
   struct Probe {
@@ -216,6 +231,9 @@ class PlaneObservations final : public ObservationSource {
   double cell_m_ = 0.0;
   std::vector<Probe> probes_;
   bool refound_ = false;
+  bool searched_at_solution_ = false;  // found again after a solve (the roughness bound's search)
+  bool trimmed_ = false;               // the last solve set points off their surface aside
+  int trim_rounds_ = 0, solves_since_search_ = 0;
   std::vector<Patch> patches_;
   std::vector<std::vector<int>> blocks_;  // residual block of each point, per patch
   PlaneSection section_;
