@@ -159,14 +159,16 @@ MountingCalibrator::Options planesBoresightOptions(const NoiseModel* noise) {
 /// samples per pair (0: uavDenseOptions').
 /// `checks`: the re-solve check and the laser offsets' model sensitivity solved again (two more
 /// solves, AnalysisOptions::resolve_check) — off where a test looks at the estimate and its σ only.
+/// `sigma_m`: the σ of a distance stated (0: pooled from the plane fits).
 MountingCalibrator::Summary calibrateIntrinsics(const IntrinsicsSurvey& s, const LaserErrorSigmas& prior, bool as_flown = false,
-                                                int budget = 0, bool checks = true) {
+                                                int budget = 0, bool checks = true, double sigma_m = 0.0) {
   MountingCalibrator::Options o = mountcal_tests::uavDenseOptions();
   o.resolve_check = checks;
   if (as_flown) statedAsFlown(s.config.noise, &o);
   CorrespondenceOptions& c = o.method<CorrespondenceOptions>();
   setLaserPriors(prior, &c);
   if (budget > 0) c.budget = budget;
+  c.sigma_m = sigma_m;
   if (mountcal_tests::kSanitizerBuild) c.budget = 300;  // the code under the sanitizers, on fewer samples
   return calibrate(toCalibrationData(s.survey), o);
 }
@@ -237,19 +239,23 @@ LaserErrorSigmas priorsFor(const std::string& model) {
 
 // Issue 28's Done-when, noise-free: VLP-16 and HDL-32E surveys flown with the preset's errors in
 // all five groups on every laser that sees the field; the dense correspondences estimate all
-// five groups and the boresight. Elevation and azimuth within 0.005°, range within 2 mm for every
-// parameter the data determine (the others — elevation with vertical, azimuth with horizontal, as
-// Glennie found, named by the screening; lasers that barely reach the overlap, here 10 and 78
-// points, whose σ of 0.03–0.06° says that their prior decides — are held to 3σ); every parameter
-// within 3σ; the passes meet to 0.1 mm. Measured (2026-11-27): VLP-16 elevation 1.6e-3°, azimuth
-// 3.5e-4°, range 0.4 mm, boresight 4.6e-4°; HDL-32E 2.3e-3°, 8.4e-4°, 0.4 mm, 4.5e-4°.
+// five groups and the boresight, the σ of a distance stated at 0.03 mm (noise-free the data are
+// exact, and the priors then negligible; pooled from the plane fits, 0.02–0.03 mm here but larger
+// while the strips are apart, they pulled what the data barely determine 1e-3° off). Elevation and
+// azimuth within 1e-4°, range, vertical and horizontal within 0.1 mm for every parameter the
+// data determine (the others — elevation with vertical, azimuth with horizontal, as Glennie
+// found, named by the screening; lasers that barely reach the overlap — are held to 3σ); the
+// boresight within 2e-5°; every parameter within 3σ; the passes meet to 0.1 mm. Measured
+// (2026-12-06): VLP-16 elevation 3.7e-6°, azimuth 2.0e-6°, range 0.020 mm, boresight 2.2e-6°;
+// HDL-32E 7.6e-6°, range 0.007 mm, vertical 0.008 mm, boresight 4.6e-6° (2026-11-27, σ pooled:
+// VLP-16 1.6e-3°, 3.5e-4°, 0.4 mm, boresight 4.6e-4°; HDL-32E 2.3e-3°, 8.4e-4°, 0.4 mm, 4.5e-4°).
 TEST(LaserIntrinsics, DenseCorrespondencesRecoverEveryGroupNoiseFree) {
   // The sanitizer build runs the general per-laser residual on the VLP-16 survey (3 min there)
   // and checks the recovery in the Release suite.
   for (const char* model : {"VLP-16", "HDL-32E"}) {
     if (mountcal_tests::kSanitizerBuild && std::string(model) == "HDL-32E") break;
     const auto s = intrinsicsSurvey(model, 1, false);
-    const auto S = calibrateIntrinsics(*s, priorsFor(model), false, 0, false);
+    const auto S = calibrateIntrinsics(*s, priorsFor(model), false, 0, false, 3e-5);
     ASSERT_TRUE(S.IsSolutionUsable()) << S.FullReport();
     const Recovery r = recovery(*s, S, S.section<CorrespondenceSection>().laser_intrinsics);
     const CorrespondenceSection& c = S.section<CorrespondenceSection>();
@@ -259,11 +265,11 @@ TEST(LaserIntrinsics, DenseCorrespondencesRecoverEveryGroupNoiseFree) {
         model, r.worst_separated[0], r.worst_separated[1], r.worst_separated[2], r.worst_separated[3], r.worst_separated[4], r.worst_ratio,
         r.worst_boresight_deg, c.laser_intrinsics.unseparated.size(), c.median_after_m);
     if (mountcal_tests::kSanitizerBuild) continue;
-    EXPECT_LE(r.worst_separated[0], 0.005) << model;
-    EXPECT_LE(r.worst_separated[1], 0.005) << model;
-    EXPECT_LE(r.worst_separated[2], 0.002) << model;
+    EXPECT_LE(r.worst_separated[0], 1e-4) << model;
+    EXPECT_LE(r.worst_separated[1], 1e-4) << model;
+    for (int g : {2, 3, 4}) EXPECT_LE(r.worst_separated[g], 1e-4) << model << " " << g;
     EXPECT_LE(r.worst_ratio, 3.0) << model;
-    EXPECT_LE(r.worst_boresight_deg, 0.002) << model;
+    EXPECT_LE(r.worst_boresight_deg, 2e-5) << model;
     EXPECT_LT(c.median_after_m, 1e-4) << model;
   }
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the HDL-32E survey and the recovery's tolerances");
