@@ -733,7 +733,8 @@ TEST(LaserIntrinsics, PlanesEveryGroupSigmasAreHonestUnderSurveyNoise) {
       "planes, every laser group, %s, %d seeds with the preset's noise: %d parameters, %.1f %% within 2 sigma, %.1f %% within 3 "
       "sigma, worst %.2f; RMS of |error|/sigma elevation %.2f, azimuth %.2f, range %.2f, vertical %.2f, horizontal %.2f; boresight RMS "
       "%.2f, %d of %d within 2 sigma\n",
-      sensor.c_str(), seeds, n, 100.0 * within2 / n, 100.0 * within3 / n, worst, rms[0], rms[1], rms[2], rms[3], rms[4], std::sqrt(ssb / nb), nb2, nb);
+      sensor.c_str(), seeds, n, 100.0 * within2 / n, 100.0 * within3 / n, worst, rms[0], rms[1], rms[2], rms[3], rms[4],
+      std::sqrt(ssb / nb), nb2, nb);
   EXPECT_GE(static_cast<double>(within2) / n, 0.88);
   EXPECT_GE(static_cast<double>(within3) / n, 0.99);
   for (std::size_t g = 0; g < 5; ++g) {
