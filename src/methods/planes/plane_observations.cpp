@@ -290,7 +290,6 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
   if (!options_.IsValid(&why)) throw InvalidInput("plane options: " + why);
   section_.automatic = options_.automatic;
   selected_at_ = found_at_ = used_.toArray();
-  std::vector<PlaneRegion> regions = data.plane_regions;
   if (options_.automatic) {
     data_ = &data;
     cell_m_ = patchCell(data, options_);
@@ -310,7 +309,7 @@ PlaneObservations::PlaneObservations(const CalibrationData& data, const PlaneOpt
   if (options_.automatic) {
     search(nullptr);
   } else {
-    collectCandidates(data, regions, nullptr);
+    collectCandidates(data, data.plane_regions, nullptr);
     select(selected_at_);
   }
 }
@@ -512,7 +511,7 @@ void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, Adjustm
   // at the first solution).
   refound_ = false;
   const double moved = data_ ? movedSinceFound(mounting) : 0.0;
-  const bool at_first_solution = data_ && !searched_at_solution_ && mounting != found_at_ && moved > section_.roughness_bound_m;
+  const bool at_first_solution = data_ && !searched_at_solution_ && moved > section_.roughness_bound_m;
   if (data_ && section_.patch_searches < kMaxPatchSearches &&
       (at_first_solution || moved > std::max(options_.search_margin_m, 0.5 * cell_m_))) {
     searched_at_solution_ = true;
@@ -589,11 +588,7 @@ void PlaneObservations::solved(const AdjustmentProblem& problem) {
     if (blocks.size() != patch.points.size() || blocks.size() < 10) continue;
     std::vector<double> d(blocks.size());
     for (std::size_t i = 0; i < blocks.size(); ++i) d[i] = std::abs(problem.residual(blocks[i])[0]) * section_.sigma_m;
-    std::vector<double> sorted = d;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-    const double cut =
-        std::max({kOffSurface * 1.4826 * sorted[sorted.size() / 2], 2.0 * section_.sigma_m, 0.1 * options_.ransac_threshold_m});
-    if (!(cut > 0)) continue;
+    const double cut = std::max({kOffSurface * robustScaleFromNorms(d, 1), 2.0 * section_.sigma_m, 0.1 * options_.ransac_threshold_m});
     std::vector<std::size_t> off;
     for (std::size_t i = 0; i < d.size(); ++i)
       if (d[i] > cut) off.push_back(i);

@@ -61,7 +61,7 @@ const std::vector<OptionSpec>& planeOptionSpecs() {
               .number(
                   "max_roughness_m", [](T& o) -> double& { return o.max_roughness_m; }, "m", 1e-6, 1e3,
                   "automatic patches: a cell is planar below this plane-fit sigma (doubled, at most twice, while fewer than three patches "
-                  "are found)")
+                  "are used)")
               .number(
                   "growing_angle_deg", [](T& o) -> double& { return o.growing_angle_deg; }, "deg", 1e-6, 89.999,
                   "automatic patches: region growing joins cells whose normals differ less")
@@ -119,7 +119,7 @@ std::string PlaneSection::text(const AdjustmentSummary&) const {
                             rms_after_m);
   if (roughness_growths > 0)
     r << detail::printfString(
-        "  found with the cells' roughness bound grown to %.3f m (fewer than three patches within %.3f m, max_roughness_m): the "
+        "  found with the cells' roughness bound grown to %.3f m (fewer than three patches used within %.3f m, max_roughness_m): the "
         "strips' own looks at a cell disagreed where they were searched\n",
         roughness_bound_m, roughness_bound_m / static_cast<double>(1 << roughness_growths));
   if (points_off_surface > 0)

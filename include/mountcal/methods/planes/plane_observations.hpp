@@ -100,11 +100,12 @@ struct PlaneSection : MethodSection {
   std::vector<PlanMark> planMarks() const override;
   bool automatic = false;
   /// Automatic patches: how often they were searched for (1: at the used mounting only; more:
-  /// found again where the strips lay once the mounting had moved them beyond the search margin).
+  /// found again where the strips lay once the first solve had moved them beyond the roughness
+  /// bound, or a later one beyond the search margin).
   int patch_searches = 1;
   /// Automatic patches: the cells' roughness bound the last search used [m] — the option's
-  /// `max_roughness_m`, or doubled (`roughness_growths` times, at most twice) while the search found
-  /// fewer than three patches: at a mounting far from the truth a strip's own looks at one cell
+  /// `max_roughness_m`, or doubled (`roughness_growths` times, at most twice) while the search gave
+  /// fewer than three patches used: at a mounting far from the truth a strip's own looks at one cell
   /// disagree (a spinning scanner's lasers and the two sides of its turn), and a cell is rough by
   /// the misalignment, not by its surface.
   double roughness_bound_m = 0.0;
