@@ -23,6 +23,12 @@ class ScatterOfErrors {
     for (double z : z_) s += z * z;
     return z_.empty() ? 0.0 : std::sqrt(s / static_cast<double>(z_.size()));
   }
+  /// The upper bound (RMS of error/σ below 1.6): with honest σ, P(χ²(18) > 2.56 · 18) = 2e-4
+  /// (P(χ²(6) > 2.56 · 6) = 0.013); σ understated by 1.6 or more fail it about half the time.
+  void expectNotUnderstated(const std::string& what) const {
+    ASSERT_GE(z_.size(), 6u) << what << ": too few values to bound the scatter";
+    EXPECT_LT(rms(), 1.6) << what << ": the RMS of error/σ over " << z_.size() << " values is " << rms() << " — σ understated";
+  }
   /// The lower bound (RMS of error/σ above 0.3), with `what` in the message.
   void expectNotOverstated(const std::string& what) const {
     ASSERT_GE(z_.size(), 6u) << what << ": too few values to bound the scatter";

@@ -697,7 +697,9 @@ TEST(LaserIntrinsics, PlanesAndFeaturesDoubtElevationOffsetsBeyondFourPriorSigma
 // VLP-16 seeds: 800 parameters, 99.8 % within 2σ, 100 % within 3σ (worst 2.4σ); RMS of error/σ per
 // group 0.64 (elevation), 0.69 (azimuth), 0.51 (range), 0.52 (vertical), 0.58 (horizontal) — the
 // priors, twice the preset's σ, decide much of range and vertical, and a parameter its prior
-// decides has an RMS near 0.5; the boresight RMS 0.58, 30 of 30 within 2σ.
+// decides has an RMS near 0.5; the boresight RMS 0.58, 30 of 30 within 2σ (0.57 since the
+// simulator's GNSS error starts stationary) — its σ too large by the σ of a distance pooled at
+// the used mounting and laser table (docs/model-and-methods.md), not by the consider term.
 TEST(LaserIntrinsics, PlanesEveryGroupSigmasAreHonestUnderSurveyNoise) {
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the planes' five groups over seeds");
   int n = 0, within2 = 0, within3 = 0, nb = 0, nb2 = 0;

@@ -95,8 +95,15 @@ void expectRecovered(const MountingCalibrator::Summary& S, const MountingParamet
   for (int j : {kLeverX, kLeverY}) EXPECT_LT(std::abs(e[j] - t[j]), lever_m) << what << " " << mountingParameterNames()[j];
 }
 
-/// |error| < 3σ for every parameter; each error/σ also goes into `scatter` (its lower bound).
-void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const MountingParameters& truth, const std::string& what,
+/// The bound on one |error|/σ. These tests check 6 values per seed and up to 18 per test: at 3σ
+/// an honest σ fails a test of 18 values one time in twenty (a Gaussian's 0.27 % each); at 3.5σ
+/// one in a hundred (5e-4 each). Too small σ the scatter's upper bound sees (expectNotUnderstated);
+/// too large ones its lower bound. (3σ held while the simulator's GNSS error started at 0, the
+/// first lines quieter than stated; started stationary, seed 2's correspondences heading is 3.01σ.)
+constexpr double kSigmaBound = 3.5;
+
+/// |error| < kSigmaBound σ for every parameter; each error/σ also goes into `scatter` (its bounds).
+void expectWithinSigmaBound(const MountingCalibrator::Summary& S, const MountingParameters& truth, const std::string& what,
                             mountcal_tests::ScatterOfErrors* scatter) {
   ASSERT_TRUE(S.IsSolutionUsable()) << what;
   const auto e = S.mounting.toArray(), t = truth.toArray();
@@ -104,7 +111,7 @@ void expectWithinThreeSigma(const MountingCalibrator::Summary& S, const Mounting
   for (int j = 0; j < 6; ++j) {
     if (!S.estimated[j]) continue;
     ++estimated;
-    EXPECT_LT(std::abs(e[j] - t[j]), 3 * S.sigma[j]) << what << " " << mountingParameterNames()[j] << "\n" << S.FullReport();
+    EXPECT_LT(std::abs(e[j] - t[j]), kSigmaBound * S.sigma[j]) << what << " " << mountingParameterNames()[j] << "\n" << S.FullReport();
     scatter->add(e[j] - t[j], S.sigma[j]);
   }
   EXPECT_EQ(estimated, 6) << what << "\n" << S.observability_report;
@@ -214,31 +221,33 @@ TEST(CorrespondenceMethod, LibraryCallReturnsCorrespondencesAndStatistics) {
 
 // ---- survey-grade noise: honest σ -----------------------------------------------------------------
 
-TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+TEST(PlaneMethod, SurveyGradeNoiseEveryEstimateWithinItsSigmaBound) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"})));
-    expectWithinThreeSigma(S, s.config.true_mounting, "planes, seed " + std::to_string(seed), &scatter);
+    expectWithinSigmaBound(S, s.config.true_mounting, "planes, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
   scatter.expectNotOverstated("planes");
+  scatter.expectNotUnderstated("planes");
 }
 
-TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+TEST(PlaneMethod, AutomaticSurveyGradeNoiseEveryEstimateWithinItsSigmaBound) {
   mountcal_tests::ScatterOfErrors scatter;
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"planes"}, true)));
-    expectWithinThreeSigma(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed), &scatter);
+    expectWithinSigmaBound(S, s.config.true_mounting, "planes auto, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
   scatter.expectNotOverstated("planes auto");
+  scatter.expectNotUnderstated("planes auto");
 }
 
-TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
+TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinItsSigmaBound) {
   if (mountcal_tests::kSanitizerBuild)
     GTEST_SKIP() << "sanitizer build: the correspondences calibrate a noisy survey of this field under the sanitizers in "
                     "StripsMovingBeyondTheAprioriMisalignmentGrowItFromTheData (28 s here); the σ over three seeds in the Release suite";
@@ -246,11 +255,12 @@ TEST(CorrespondenceMethod, SurveyGradeNoiseEveryEstimateWithinThreeSigma) {
   for (std::uint64_t seed : statisticalSeeds()) {
     const SimulatedSurvey& s = denseField(seed, true);
     const auto S = calibrate(withControl(s), noisy(methodOptions({"correspondences"})));
-    expectWithinThreeSigma(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed), &scatter);
+    expectWithinSigmaBound(S, s.config.true_mounting, "correspondences, seed " + std::to_string(seed), &scatter);
     EXPECT_GT(S.variance_factor, 0.5);
     EXPECT_LT(S.variance_factor, 2.0);
   }
   scatter.expectNotOverstated("correspondences");
+  scatter.expectNotUnderstated("correspondences");
 }
 
 // A mounting far from the one used (boresight 0.25°, −0.30°, 0.40°): during the calibration the
@@ -269,7 +279,7 @@ TEST(CorrespondenceMethod, StripsMovingBeyondTheAprioriMisalignmentGrowItFromThe
   ASSERT_EQ(o.method<CorrespondenceOptions>().apriori_misalignment_m, 1.0);  // the default: no hand tuning
   const auto S = calibrate(withControl(s), o);
   mountcal_tests::ScatterOfErrors scatter;
-  expectWithinThreeSigma(S, c.true_mounting, "correspondences, grown misalignment", &scatter);
+  expectWithinSigmaBound(S, c.true_mounting, "correspondences, grown misalignment", &scatter);
   const CorrespondenceSection& cs = S.section<CorrespondenceSection>();
   EXPECT_GE(cs.misalignment_growths, 1);
   EXPECT_GT(cs.apriori_misalignment_m, 5.0);
@@ -322,7 +332,7 @@ TEST(PlaneMethod, AutomaticPatchesFromAFarMountingAreFoundAgainWhereTheStripsMee
   const auto e = S.mounting.toArray(), t = s.config.true_mounting.toArray();
   for (int j = 0; j < 6; ++j) {
     ASSERT_TRUE(S.estimated[j]) << mountingParameterNames()[j] << "\n" << S.observability_report;
-    EXPECT_LT(std::abs(e[j] - t[j]), 3 * S.sigma[j]) << mountingParameterNames()[j] << "\n" << S.FullReport();
+    EXPECT_LT(std::abs(e[j] - t[j]), kSigmaBound * S.sigma[j]) << mountingParameterNames()[j] << "\n" << S.FullReport();
   }
   EXPECT_LT(std::abs(e[kLeverX] - t[kLeverX]), 0.1);
   EXPECT_LT(std::abs(e[kLeverY] - t[kLeverY]), 0.1);

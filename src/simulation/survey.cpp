@@ -209,7 +209,20 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
   const double dt = 1.0 / config.trajectory_rate_hz;
   const double lead_s = 2.0;  // trajectory before and after each line
   double t_line = config.time_origin_s;
+  // The GNSS and attitude errors start from their stationary distribution (as MarkovDrift does):
+  // started at 0 the first lines would be quieter than the stated σ — the GNSS error's variance
+  // reaching 1 − exp(−2t/τ) of it after t, two thirds after 100 s at τ = 100 s — and a calibration
+  // that states that σ would look too cautious there. Drawn from a stream of their own, so that
+  // every other draw of a survey stays as it was.
   Vec3 gnss_err = Vec3::Zero(), att_err = Vec3::Zero();
+  {
+    detail::Rng start(config.seed * 0x9E3779B97F4A7C15ull + 2);
+    for (int a = 0; a < 3; ++a) {
+      const double g = start.normal(), r = start.normal();
+      gnss_err[a] = noise.gnss_sigma_m * g;
+      att_err[a] = (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad * r;
+    }
+  }
   double t_prev = t_line - lead_s;
   for (const FlightLine& line : config.lines) {
     const LineFrame f = lineFrame(line, t_line);
