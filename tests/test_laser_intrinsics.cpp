@@ -726,9 +726,9 @@ TEST(LaserIntrinsics, PlanesEveryGroupSigmasAreHonestUnderSurveyNoise) {
     within2 += r.within_2sigma, within3 += r.within_3sigma, worst = std::max(worst, r.worst_ratio);
     const auto e = S.mounting.toArray(), t = s->config.true_mounting.toArray();
     for (int j = 3; j < 6; ++j) {
-      const double q = std::abs(e[j] - t[j]) / S.sigma[j];
+      const double q = std::abs(e[j] - t[j]) / S.sigma[j], error_deg = rad2deg(e[j] - t[j]);
       ++nb, nb2 += q <= 2, ssb += q * q;
-      sse[static_cast<std::size_t>(j - 3)] += rad2deg(e[j] - t[j]) * rad2deg(e[j] - t[j]);
+      sse[static_cast<std::size_t>(j - 3)] += error_deg * error_deg;
     }
   }
   std::array<double, 5> rms{};

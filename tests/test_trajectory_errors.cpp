@@ -906,7 +906,7 @@ UnevenHonesty planesUnderUnevenDrift(int seeds) {
 TEST(TrajectoryErrors, AnAccuracyFileOfUnevenLinesKeepsThePlaneSigmasHonest) {
   const int seeds = mountcal_tests::seedsFor(40, 2);
   const UnevenHonesty h = planesUnderUnevenDrift(seeds);
-  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 40 seeds");
   double worst_constant = 0;
   for (std::size_t j = 0; j < 6; ++j) {
     if (h.stated.counted[j] == 0) continue;

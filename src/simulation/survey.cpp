@@ -214,13 +214,14 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
   // reaching 1 − exp(−2t/τ) of it after t, two thirds after 100 s at τ = 100 s — and a calibration
   // that states that σ would look too cautious there. Drawn from a stream of their own, so that
   // every other draw of a survey stays as it was.
+  const Vec3 att_sigma = noise.attitude_sigma_rad * Vec3(1.0, 1.0, 2.0);  // roll, pitch; heading twice
   Vec3 gnss_err = Vec3::Zero(), att_err = Vec3::Zero();
   {
     detail::Rng start(config.seed * 0x9E3779B97F4A7C15ull + 2);
     for (int a = 0; a < 3; ++a) {
       const double g = start.normal(), r = start.normal();
       gnss_err[a] = noise.gnss_sigma_m * g;
-      att_err[a] = (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad * r;
+      att_err[a] = att_sigma[a] * r;
     }
   }
   double t_prev = t_line - lead_s;
@@ -245,7 +246,7 @@ void simulateTrajectories(const SurveyConfig& config, SimulatedSurvey* out, std:
       t_prev = t;
       for (int a = 0; a < 3; ++a) {
         gnss_err[a] = gaussMarkov(gnss_err[a], step, noise.gnss_correlation_s, noise.gnss_sigma_m, rng);
-        att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s, (a == 2 ? 2.0 : 1.0) * noise.attitude_sigma_rad, rng);
+        att_err[a] = gaussMarkov(att_err[a], step, noise.attitude_correlation_s, att_sigma[a], rng);
       }
       const std::array<double, 6> d = drift.at(t, dt, rng);
       TrajectorySample m = s;
