@@ -323,7 +323,17 @@ std::string MountingCalibrator::Summary::FullReport() const {
       << (boresight_first_restart ? " (started again with the boresight first: the lever arm had moved beyond "
                                     "analysis.lever_arm_change_warning_m)\n"
                                   : "\n");
-  for (const auto& k : kinds) r << "  " << k.kind << ": " << k.blocks << " residual blocks, " << k.residuals << " residuals\n";
+  for (const auto& k : kinds) {
+    r << "  " << k.kind << ": " << k.blocks << " residual blocks, " << k.residuals << " residuals";
+    if (k.covariance_scale < 1.0) {
+      std::snprintf(buf, sizeof buf,
+                    "; its σ of a distance, estimated where the calibration started, is %.2f times what its residuals show "
+                    "(σ₀² %.3g): the σ below take the residuals' scatter",
+                    1.0 / std::sqrt(k.covariance_scale), k.variance_factor);
+      r << buf;
+    }
+    r << "\n";
+  }
   std::snprintf(buf, sizeof buf, "Degrees of freedom %d, variance factor %.4g\n\n", degrees_of_freedom, variance_factor);
   r << buf;
   r << "parameter            used            estimated       sigma             formal sigma\n";
@@ -420,8 +430,12 @@ MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
                     variance_factor);
       doubt(buf);
     } else if (variance_factor < 0.3) {
+      // Not where every kind's σ came from the data at the start and its covariance already takes
+      // the residuals' scatter (AdjustmentSummary::KindCount::covariance_scale).
+      bool taken = !kinds.empty();
+      for (const auto& k : kinds) taken = taken && (k.residuals == 0 || k.covariance_scale < 1.0);
       std::snprintf(buf, sizeof buf, "σ₀² = %.3g: the stated σ are larger than the residuals show", variance_factor);
-      doubt(buf);
+      if (!taken) doubt(buf);
     }
     if (degrees_of_freedom < 10) doubt("few observations: " + std::to_string(degrees_of_freedom) + " degrees of freedom");
   }

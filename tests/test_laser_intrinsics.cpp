@@ -598,6 +598,55 @@ TEST(LaserIntrinsics, PlanesElevationSigmasAreHonestUnderSurveyNoise) {
   EXPECT_LE(std::sqrt(ssb / nb), 1.4);
 }
 
+// A σ of a distance that the planes pool where the calibration starts is checked at the solution
+// (ObservationSource::sigmaFromStart). The VLP-16 survey flown with the preset's noise and its
+// a-priori boresight 1.5° off, lasers as the table states them: a spinning sensor sees a cell from
+// many lasers and directions, so at the used mounting a strip's own fits are rougher than the
+// residuals at the solution. With one kind, no priors and no robust loss the sandwich
+// N⁻¹ (s N) N⁻¹ is s N⁻¹: the covariance is the formal one (Ceres') times the kind's σ₀² — here
+// assembled from the reduced Jacobians and set against Ceres' covariance. And a calibration that
+// states that σ (the ordinary formal path) lands on the same σ within 1 % and the same estimate
+// within its σ: not to the digit, since how long it re-matches depends on the σ it states.
+TEST(LaserIntrinsics, APlaneSigmaPooledAtTheStartIsTakenFromTheResidualsAtTheSolution) {
+  mountcal::simulation::SurveyConfig config;
+  mountcal::simulation::Scene scene;
+  mountcal_tests::uavThreePasses(1, &config, &scene);
+  const CalibrationData data = toCalibrationData(simulate(config, scene));
+  MountingCalibrator::Options o = planesBoresightOptions(nullptr);  // no strip offsets, no trajectory errors: no priors
+  o.method<PlaneOptions>().max_patches = 30;                        // no laser block: cheap under the sanitizers too
+  const auto pooled = calibrate(data, o);
+  ASSERT_TRUE(pooled.IsSolutionUsable()) << pooled.FullReport();
+  ASSERT_EQ(pooled.kinds.size(), 1u);
+  const auto& k = pooled.kinds[0];
+  const double sigma_m = pooled.section<PlaneSection>().sigma_m;
+  std::printf("pooled at the start %.4f m, its sigma0^2 at the solution %.3f, scale %.3f\n", sigma_m, k.variance_factor,
+              k.covariance_scale);
+  ASSERT_LT(k.variance_factor, 0.5) << pooled.FullReport();
+  EXPECT_NEAR(k.variance_factor, pooled.variance_factor, 1e-12);  // one kind, no priors: its redundancy is the whole
+  EXPECT_EQ(k.covariance_scale, k.variance_factor);
+  EXPECT_NE(pooled.FullReport().find("the σ below take the residuals' scatter"), std::string::npos);
+  EXPECT_NE(pooled.sigma_model.find("σ of a distance from the residuals at the solution: planes"), std::string::npos);
+  for (int j = 3; j < 6; ++j)
+    EXPECT_NEAR(pooled.sigma[j], std::sqrt(k.variance_factor) * pooled.formal_sigma[j], 1e-6 * pooled.sigma[j]) << j;
+  for (const std::string& reason : pooled.verdict().reasons)  // σ₀² < 0.3, but no σ was stated
+    EXPECT_EQ(reason.find("the stated σ are larger"), std::string::npos) << reason;
+  const nlohmann::json kind = nlohmann::json::parse(resultJson(pooled))["kinds"][0];
+  EXPECT_NEAR(kind["variance_factor"].get<double>(), k.variance_factor, 1e-12);
+  EXPECT_NEAR(kind["covariance_scale"].get<double>(), k.variance_factor, 1e-12);
+
+  o.method<PlaneOptions>().sigma_m = sigma_m * std::sqrt(k.variance_factor);
+  const auto stated = calibrate(data, o);
+  ASSERT_TRUE(stated.IsSolutionUsable()) << stated.FullReport();
+  EXPECT_TRUE(std::isnan(stated.kinds[0].variance_factor));
+  EXPECT_EQ(stated.sigma_model, "formal");
+  EXPECT_NEAR(stated.variance_factor, 1.0, 0.05);
+  const auto a = pooled.mounting.toArray(), b = stated.mounting.toArray();
+  for (int j = 3; j < 6; ++j) {
+    EXPECT_NEAR(pooled.sigma[j], stated.sigma[j], 0.01 * stated.sigma[j]) << j;
+    EXPECT_NEAR(a[j], b[j], stated.sigma[j]) << j;
+  }
+}
+
 // Two methods estimating the elevation offsets are refused with the planes too.
 TEST(LaserIntrinsics, PlanesAndTheDenseCorrespondencesEachEstimatingOffsetsAreRefused) {
   MountingCalibrator::Options o;
@@ -698,8 +747,11 @@ TEST(LaserIntrinsics, PlanesAndFeaturesDoubtElevationOffsetsBeyondFourPriorSigma
 // group 0.64 (elevation), 0.69 (azimuth), 0.51 (range), 0.52 (vertical), 0.58 (horizontal) — the
 // priors, twice the preset's σ, decide much of range and vertical, and a parameter its prior
 // decides has an RMS near 0.5; the boresight RMS 0.58, 30 of 30 within 2σ (0.57 since the
-// simulator's GNSS error starts stationary; RMS errors roll 0.0034°, pitch 0.0080°, heading 0.0145°) — its σ too large by the σ of a
-// distance pooled at the used mounting and laser table (docs/model-and-methods.md), not by the consider term.
+// simulator's GNSS error starts stationary; RMS errors roll 0.0034°, pitch 0.0080°, heading 0.0145°).
+// Over thirty seeds the boresight was 0.77 (the first ten's errors are small: heading 0.0341° over
+// thirty); since the pooled σ of a distance is checked at the solution (σ₀² 0.23–0.28, the
+// covariance at the residuals' scatter; docs/model-and-methods.md) thirty seeds give the boresight
+// 0.86, the groups 0.79 / 0.77 / 0.71 / 0.49 / 0.61, 99.4 % within 2σ, 100 % within 3σ.
 TEST(LaserIntrinsics, PlanesEveryGroupSigmasAreHonestUnderSurveyNoise) {
   MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("the planes' five groups over seeds");
   int n = 0, within2 = 0, within3 = 0, nb = 0, nb2 = 0;

@@ -55,7 +55,9 @@ class MountingCalibrator {
   ///    over three times the stated σ: outliers, a wrong model, or a wrong stochastic model);
   ///    nothing asked for could be determined;
   ///  - doubtful: a parameter asked for was held; σ₀² above 2 or below 0.3 (the σ do not match
-  ///    the residuals — above 2, the stated σ are optimistic); fewer than 10 degrees of freedom
+  ///    the residuals — above 2, the stated σ are optimistic; below 0.3 not where every kind's σ
+  ///    came from the data and its covariance takes the residuals' scatter,
+  ///    ObservationSource::sigmaFromStart); fewer than 10 degrees of freedom
   ///    (none: nothing checks the result); more than 5 % of the observations flagged as outliers;
   ///    a model-dependent mounting (ModelSensitivity: switching off a free lever arm moves it by
   ///    over 3σ although the data cannot reject that); an estimated lever arm that moved further

@@ -672,6 +672,27 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
   }
 }
 
+/// One residual block's reduced Jacobian Ĵ = J_kept − J_e X over the first `kept` columns of
+/// reducedSystem() (its blocks' Jacobians `J`, blockJacobians; X = N_ee⁻¹ N_ek from it).
+Eigen::MatrixXd reducedJacobian(const AdjustmentProblem::Record& rec, const std::vector<RowMat>& J, const Columns& cols,
+                                const Eigen::MatrixXd& X, const double* m, int kept) {
+  Eigen::MatrixXd Jr = Eigen::MatrixXd::Zero(rec.cost->num_residuals(), kept);
+  for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
+    if (rec.blocks[b] == m) {
+      Jr.leftCols(6) += J[b];
+      continue;
+    }
+    auto it = cols.col.find(rec.blocks[b]);
+    if (it == cols.col.end()) continue;
+    const auto [first, size] = it->second;
+    if (first < kept)
+      Jr.middleCols(first, size) += J[b];
+    else if (X.rows() > 0)
+      Jr -= J[b] * X.middleRows(first - kept, size);
+  }
+  return Jr;
+}
+
 /// Reduced normal matrix of the first `kept` columns — the mounting's 6, then (kept > 6) the
 /// blocks asked for by reportCovariance — every other nuisance block (the sources' blocks and the
 /// strip offsets) eliminated by a Schur complement, and the unreduced diagonal, from the
@@ -738,6 +759,40 @@ void reducedSystem(AdjustmentProblem& problem, int kept, Eigen::MatrixXd* N_red,
   *N_red = Nkk - Nek.transpose() * X;
   *N_red = 0.5 * (*N_red + N_red->transpose());
   if (X_out) *X_out = std::move(X);
+}
+
+/// A σ that a kind estimated at the start is taken from its residuals at the solution below this
+/// σ₀² (ObservationSource::sigmaFromStart): the residuals scatter by less than 0.71 of it.
+constexpr double kStartSigmaCheck = 0.5;
+
+/// What the covariance takes off where kinds' σ came from the start and their residuals scatter
+/// less (ObservationSource::sigmaFromStart): the estimate was computed at the stated weights W,
+/// and with kind k's residuals scattering by s_k ≤ 1 times what W states its covariance is the
+/// sandwich
+///
+///   N⁻¹ (Σ_k s_k Ĵ_kᵀ W_k Ĵ_k + the rest) N⁻¹ = N⁻¹ − N⁻¹ D N⁻¹,  D = Σ_k (1 − s_k) Ĵ_kᵀ W_k Ĵ_k,
+///
+/// Ĵ the reduced Jacobian (J_kept − J_e X, every other nuisance block eliminated; priors are the
+/// rest). Returns D over the first `kept` columns of reducedSystem(); `scale` per record (1:
+/// unchanged), `robust` per record the loss's weight ρ′ at its residual (as Ceres' covariance
+/// weighs it).
+Eigen::MatrixXd startSigmaCorrection(AdjustmentProblem& problem, int kept, const std::vector<double>& scale,
+                                     const std::vector<double>& robust) {
+  Eigen::MatrixXd N_red, X;
+  Eigen::VectorXd diag;
+  Columns cols;
+  reducedSystem(problem, kept, &N_red, &diag, &X, &cols);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(kept, kept);
+  const double* m = problem.mounting();
+  const auto& recs = problem.records();
+  for (std::size_t i = 0; i < recs.size(); ++i) {
+    if (!(scale[i] < 1.0)) continue;
+    const auto& rec = recs[i];
+    const std::vector<RowMat> J = blockJacobians(rec, cols);
+    const Eigen::MatrixXd Jr = reducedJacobian(rec, J, cols, X, m, kept);
+    D += (1.0 - scale[i]) * robust[i] * Jr.transpose() * Jr;
+  }
+  return 0.5 * (D + D.transpose());
 }
 
 /// reducedSystem() of the mounting block alone (every nuisance block eliminated).
@@ -830,20 +885,7 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   for (const auto& rec : problem.records()) {
     if (rec.epochs.empty()) continue;
     const std::vector<RowMat> J = blockJacobians(rec, cols);
-    Eigen::MatrixXd Jr = Eigen::MatrixXd::Zero(rec.cost->num_residuals(), kept);  // reduced Jacobian Ĵ
-    for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
-      if (rec.blocks[b] == m) {
-        Jr.leftCols(6) += J[b];
-        continue;
-      }
-      auto it = cols.col.find(rec.blocks[b]);
-      if (it == cols.col.end()) continue;
-      const auto [first, size] = it->second;
-      if (first < kept)
-        Jr.middleCols(first, size) += J[b];
-      else
-        Jr -= J[b] * X.middleRows(first - kept, size);
-    }
+    const Eigen::MatrixXd Jr = reducedJacobian(rec, J, cols, X, m, kept);  // Ĵ
     for (const auto& e : rec.epochs) {
       Mat63 hp = Jr.transpose() * J[static_cast<std::size_t>(e.block)];
       Mat63 ha = -hp * skew(e.u_m);  // ∂x/∂δψ = −[u]×
@@ -1312,7 +1354,10 @@ class Estimation {
     modelSensitivity(est, N_red);
     timeOffset(est);
     trajectoryCorrections(est);
-    for (std::size_t k = 0; k < sources_.size(); ++k) S_.kinds.push_back({sources_[k]->kind(), 0, 0});
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      const double vf = k < kind_variance_factor_.size() ? kind_variance_factor_[k] : std::nan("");
+      S_.kinds.push_back({sources_[k]->kind(), 0, 0, vf, k < kind_scale_.size() ? kind_scale_[k] : 1.0});
+    }
     for (const auto& r : P_->records()) {
       if (r.source < 0) continue;
       auto& kc = S_.kinds[static_cast<std::size_t>(r.source)];
@@ -1504,6 +1549,16 @@ class Estimation {
     }
     for (int j = 0; j < 6; ++j) S_.formal_sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     S_.sigma_model = "formal";
+    startSigmaScales();
+    if (n_est > 0 && any_start_scaled_) {
+      // Kinds whose σ came from the start and whose residuals scatter less: the sandwich
+      // (startSigmaCorrection) on the formal part; the formal σ stay as they were.
+      const Mat6 Pinv = inverseOnEstimated(N_red, est);
+      const Mat6 less = Pinv * Mat6(startSigmaCorrection(*P_, 6, record_scale_, record_robust_)) * Pinv;
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b)
+          if (est[a] && est[b]) cov(a, b) -= scale * less(a, b);
+    }
     if (n_est > 0 && o_.trajectory.any()) {
       // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
       const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
@@ -1529,12 +1584,69 @@ class Estimation {
         S_.sigma_model += " + time offset";
       }
     }
+    if (n_est > 0 && any_start_scaled_) S_.sigma_model += startSigmaLabel();
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.covariance(a, b) = (est[a] && est[b]) ? cov(a, b) : std::nan("");
     for (int j = 0; j < 6; ++j) S_.sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) S_.correlation(a, b) = (est[a] && est[b]) ? cov(a, b) / (S_.sigma[a] * S_.sigma[b]) : std::nan("");
     reportedCovariances(est, scale, reported_formal);
+  }
+
+  /// Each source's own σ₀² where its σ came from the start (ObservationSource::sigmaFromStart):
+  /// Σ ρ(r²) over its observations (the blocks with a σ; its priors not) over their redundancy,
+  /// their residuals less their share of the unknowns — and per record the factor of its share
+  /// in the covariance: that σ₀² where it is below ½, not below (floor/σ)²; 1 elsewhere. With the
+  /// loss's weight ρ′ at each residual.
+  void startSigmaScales() {
+    const auto& recs = P_->records();
+    record_scale_.assign(recs.size(), 1.0);
+    record_robust_.assign(recs.size(), 1.0);
+    kind_variance_factor_.assign(sources_.size(), std::nan(""));
+    kind_scale_.assign(sources_.size(), 1.0);
+    any_start_scaled_ = false;
+    std::vector<ObservationSource::StartSigma> start(sources_.size());
+    for (std::size_t k = 0; k < sources_.size(); ++k) start[k] = sources_[k]->sigmaFromStart();
+    std::vector<double> sum(sources_.size(), 0.0), count(sources_.size(), 0.0);
+    auto eligible = [&start](const AdjustmentProblem::Record& r) {
+      return r.source >= 0 && r.loss_sigma_m > 0 && start[static_cast<std::size_t>(r.source)].sigma_m > 0;
+    };
+    double n_all = 0;
+    for (std::size_t i = 0; i < recs.size(); ++i) {
+      const auto& r = recs[i];
+      n_all += r.cost->num_residuals();
+      if (!eligible(r)) continue;
+      const double sq = P_->residual(static_cast<int>(i)).squaredNorm();
+      double rho[3] = {sq, 1.0, 0.0};
+      if (r.loss) r.loss->Evaluate(sq, rho);
+      record_robust_[i] = rho[1];
+      sum[static_cast<std::size_t>(r.source)] += rho[0];
+      count[static_cast<std::size_t>(r.source)] += r.cost->num_residuals();
+    }
+    const double unknowns = n_all - S_.degrees_of_freedom;
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      const double redundancy = count[k] - (n_all > 0 ? unknowns * count[k] / n_all : 0.0);
+      if (count[k] > 0 && redundancy > 0) kind_variance_factor_[k] = sum[k] / redundancy;
+      const double vf = kind_variance_factor_[k], least = start[k].floor_m / start[k].sigma_m;
+      if (vf < kStartSigmaCheck) kind_scale_[k] = std::min(1.0, std::max(vf, least * least));
+    }
+    for (std::size_t i = 0; i < recs.size(); ++i) {
+      if (!eligible(recs[i])) continue;
+      record_scale_[i] = kind_scale_[static_cast<std::size_t>(recs[i].source)];
+      any_start_scaled_ = any_start_scaled_ || record_scale_[i] < 1.0;
+    }
+  }
+
+  /// The σ model's note of the kinds whose σ startSigmaScales() took from their residuals.
+  std::string startSigmaLabel() const {
+    std::string out;
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      if (!(kind_scale_[k] < 1.0)) continue;
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "%s%s σ₀² %.3g", out.empty() ? "" : ", ", sources_[k]->kind().c_str(), kind_variance_factor_[k]);
+      out += buf;
+    }
+    return out.empty() ? out : " (σ of a distance from the residuals at the solution: " + out + ")";
   }
 
   /// The mounting's first-order move when a free lever arm (estimated, no prior) is held at its
@@ -1679,7 +1791,8 @@ class Estimation {
   /// The joint covariance of the mounting and each reported block in the mounting's stochastic
   /// model: the formal part (reportedFormal; else the reduced system's inverse, scaled alike)
   /// plus the trajectory errors in time, C = N⁻¹ + N⁻¹ M N⁻¹ over the mounting and every
-  /// reported block kept together (trajectoryErrorTerm with their columns). Held mounting
+  /// reported block kept together (trajectoryErrorTerm with their columns), less what the kinds
+  /// whose σ came from the start do not scatter (startSigmaCorrection). Held mounting
   /// parameters: NaN rows and columns.
   void reportedCovariances(const std::array<bool, 6>& est, double scale, const std::map<const double*, Eigen::MatrixXd>& reported_formal) {
     const std::vector<const double*> reported = variableReported();
@@ -1699,10 +1812,14 @@ class Estimation {
       reducedSystem(*P_, kept, &N_red, &diag);
     }
     const Eigen::MatrixXd Pinv = inverseOnEstimated(N_red, keep);
-    Eigen::MatrixXd consider = Eigen::MatrixXd::Zero(kept, kept);
+    Eigen::MatrixXd beyond = Eigen::MatrixXd::Zero(kept, kept);  // what the formal part does not state
+    if (any_start_scaled_) {
+      const Eigen::MatrixXd less = Pinv * startSigmaCorrection(*P_, kept, record_scale_, record_robust_) * Pinv;
+      if (less.allFinite()) beyond -= scale * less;
+    }
     if (term.M.size() > 0) {
       const Eigen::MatrixXd extra = Pinv * (term.M - boundedSelf(term.self, N_red, keep)) * Pinv;
-      if (extra.allFinite()) consider = extra;
+      if (extra.allFinite()) beyond += extra;
     }
     for (const double* r : reported) {
       const int first = cols.col.at(r).first, n = cols.col.at(r).second;
@@ -1714,7 +1831,7 @@ class Estimation {
         for (int b = 0; b < 6 + n; ++b) {
           const double f = formal != reported_formal.end() ? formal->second(a, b) : scale * Pinv(idx[a], idx[b]);
           const bool held = (a < 6 && !est[a]) || (b < 6 && !est[b]);
-          C(a, b) = held ? std::nan("") : f + consider(idx[a], idx[b]);
+          C(a, b) = held ? std::nan("") : f + beyond(idx[a], idx[b]);
         }
       reportedSensitivity(r, C, est);
       P_->setReportedCovariance(r, std::move(C));
@@ -1869,6 +1986,10 @@ class Estimation {
   const MountingAdjustment::Options& o_;
   const MotionFunction& motion_;
   const std::vector<ObservationSource*>& sources_;
+  // startSigmaScales(): per record the factor of its share in the covariance and the loss's ρ′,
+  // per source its own σ₀² (NaN unless its σ came from the start).
+  std::vector<double> record_scale_, record_robust_, kind_variance_factor_, kind_scale_;
+  bool any_start_scaled_ = false;
   const std::array<double, 6>* start_;
   const std::array<double, 6> m0_;
   AdjustmentSummary& S_;

@@ -194,7 +194,13 @@ std::string resultJson(const MountingCalibrator::Summary& summary, const ResultE
                  {"analysis_time_s", summary.analysis_time_s}};
   j["methods"] = summary.methods;
   json kinds = json::array();
-  for (const auto& k : summary.kinds) kinds.push_back({{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}});
+  for (const auto& k : summary.kinds) {
+    json e = {{"kind", k.kind}, {"residual_blocks", k.blocks}, {"residuals", k.residuals}};
+    // Where the kind's σ came from the data at the start: its own σ₀² and the factor of its share
+    // in the covariance (AdjustmentSummary::KindCount).
+    if (std::isfinite(k.variance_factor)) e["variance_factor"] = k.variance_factor, e["covariance_scale"] = k.covariance_scale;
+    kinds.push_back(std::move(e));
+  }
   j["kinds"] = kinds;
   j["covariance_source"] = summary.covariance_source;
   addSensitivityChecks(summary, &j);

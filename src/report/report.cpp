@@ -110,7 +110,11 @@ std::string htmlReport(const MountingCalibrator::Summary& summary, const ResultE
     return m;
   }())
     << ". Observations per kind:";
-  for (const auto& k : summary.kinds) h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals);";
+  for (const auto& k : summary.kinds) {
+    h << " " << esc(k.kind) << " " << k.blocks << " blocks (" << k.residuals << " residuals";
+    if (k.covariance_scale < 1.0) h << "; σ of a distance from the residuals, σ₀² " << f(k.variance_factor, "%.3g");
+    h << ");";
+  }
   h << "</p>";
   for (const auto& section : summary.sections) h << section->html(summary);
   if (ev) {

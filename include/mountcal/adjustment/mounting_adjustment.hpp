@@ -17,6 +17,7 @@
 #include <ceres/manifold.h>
 
 #include <array>
+#include <cmath>
 #include <deque>
 #include <functional>
 #include <limits>
@@ -542,6 +543,20 @@ class ObservationSource {
   /// finishes with) returns false: the estimation goes on re-matching even if the mounting
   /// stopped changing.
   virtual bool settled() const { return true; }
+  /// A σ of a distance that this kind estimated from the data where the calibration started —
+  /// the mounting used and the nominal laser table — rather than one the user stated, with the
+  /// least σ the kind allows (its floor) [m]; both 0 (the default) for stated σ. The adjustment
+  /// checks it at the solution: where the kind's own σ₀² (its observations' residuals, not its
+  /// priors) is below one half — the residuals scatter by less than 0.71 of that σ, clearly —
+  /// the covariance is that of the estimate computed at the stated weights with the scatter the
+  /// residuals show (a sandwich, N⁻¹ (Σ s_k N_k + the rest) N⁻¹, s_k = σ₀²_k, never below
+  /// (floor/σ)²); the estimate itself is unchanged. An excess (σ₀²_k > 1) is left to the
+  /// trajectory errors in time, which a strip's own fit cannot show.
+  struct StartSigma {
+    double sigma_m = 0.0;
+    double floor_m = 0.0;
+  };
+  virtual StartSigma sigmaFromStart() const { return {}; }
   /// After each solve, while `problem` holds that solve's estimates (e.g. to carry nuisance
   /// values that persist across re-matchings into the next problem).
   virtual void solved(const AdjustmentProblem& problem) { (void)problem; }
@@ -662,6 +677,12 @@ struct AdjustmentSummary {
     std::string kind;
     int blocks = 0;
     int residuals = 0;
+    /// The kind's own σ₀² (Σ ρ(r²) over its observations / their redundancy), where its σ came
+    /// from the data at the start (ObservationSource::sigmaFromStart); NaN otherwise.
+    double variance_factor = std::nan("");
+    /// The factor its normal-matrix share was given in the covariance (1: none; σ₀² below ½,
+    /// not below the kind's floor).
+    double covariance_scale = 1.0;
   };
   std::vector<KindCount> kinds;
   std::vector<std::pair<std::string, Vec3>> strip_offsets_m;  ///< estimated o_i [m]

@@ -42,6 +42,9 @@ bool PlaneOptions::IsValid(std::string* error) const {
 
 namespace {
 
+/// The least σ of a point-to-plane distance pooled from the plane fits [m].
+constexpr double kPooledSigmaFloorM = 0.002;
+
 struct StripCloud {
   const StripData* strip = nullptr;
   std::vector<Vec3> x0;                    ///< at M_used [m]
@@ -483,7 +486,7 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
       section_.sigma_m = options_.sigma_m;
     } else if (!fit_sigmas.empty()) {
       std::nth_element(fit_sigmas.begin(), fit_sigmas.begin() + static_cast<long>(fit_sigmas.size() / 2), fit_sigmas.end());
-      section_.sigma_m = std::max(0.002, fit_sigmas[fit_sigmas.size() / 2]);
+      section_.sigma_m = std::max(kPooledSigmaFloorM, fit_sigmas[fit_sigmas.size() / 2]);
     } else {
       section_.sigma_m = 0.02;
     }
@@ -494,6 +497,11 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
     for (const Candidate& c : region.candidates) section_.points_off_surface += c.off_surface;
   section_.points_used = 0;
   for (const Patch& p : patches_) section_.points_used += static_cast<int>(p.points.size());
+}
+
+ObservationSource::StartSigma PlaneObservations::sigmaFromStart() const {
+  if (options_.sigma_m > 0) return {};
+  return {section_.sigma_m, kPooledSigmaFloorM};
 }
 
 void PlaneObservations::addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) {

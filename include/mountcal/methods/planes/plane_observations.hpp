@@ -158,6 +158,9 @@ class PlaneObservations final : public ObservationSource {
   /// False in the round after the automatic patches were found again (a new set of patches).
   /// And in the round after points off a patch's surface were set aside (solved()).
   bool settled() const override { return !refound_ && !trimmed_; }
+  /// The σ of a distance pooled from the strips' own plane fits where the patches were first
+  /// selected (at the mounting used), floored at 2 mm — unless PlaneOptions::sigma_m states it.
+  StartSigma sigmaFromStart() const override;
   void addBlocks(const std::array<double, 6>& mounting, AdjustmentProblem* problem) override;
   void solved(const AdjustmentProblem& problem) override;
   void finish(const std::array<double, 6>& mounting_used, const std::array<double, 6>& mounting, const AdjustmentProblem& problem,
