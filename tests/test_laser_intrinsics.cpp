@@ -634,6 +634,13 @@ TEST(LaserIntrinsics, APlaneSigmaPooledAtTheStartIsTakenFromTheResidualsAtTheSol
   EXPECT_NEAR(kind["variance_factor"].get<double>(), k.variance_factor, 1e-12);
   EXPECT_NEAR(kind["covariance_scale"].get<double>(), k.variance_factor, 1e-12);
 
+  // Asked to scale by the whole σ₀² instead (AnalysisOptions), the covariance is that once, not twice.
+  MountingCalibrator::Options scaled_options = o;
+  scaled_options.scale_covariance_by_variance_factor = true;
+  const auto scaled = calibrate(data, scaled_options);
+  EXPECT_EQ(scaled.kinds[0].covariance_scale, 1.0);
+  for (int j = 3; j < 6; ++j) EXPECT_NEAR(scaled.sigma[j], pooled.sigma[j], 1e-6 * pooled.sigma[j]) << j;
+
   o.method<PlaneOptions>().sigma_m = sigma_m * std::sqrt(k.variance_factor);
   const auto stated = calibrate(data, o);
   ASSERT_TRUE(stated.IsSolutionUsable()) << stated.FullReport();

@@ -1630,6 +1630,8 @@ class Estimation {
       const double vf = kind_variance_factor_[k], least = start[k].floor_m / start[k].sigma_m;
       if (vf < kStartSigmaCheck) kind_scale_[k] = std::min(1.0, std::max(vf, least * least));
     }
+    // A covariance scaled by the whole σ₀² already takes every kind's scatter.
+    if (o_.scale_covariance_by_variance_factor) std::fill(kind_scale_.begin(), kind_scale_.end(), 1.0);
     for (std::size_t i = 0; i < recs.size(); ++i) {
       if (!eligible(recs[i])) continue;
       record_scale_[i] = kind_scale_[static_cast<std::size_t>(recs[i].source)];

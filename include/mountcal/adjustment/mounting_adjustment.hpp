@@ -306,7 +306,8 @@ struct AnalysisOptions {
   double rank_tolerance = 1e-12;
   /// Scale the covariance by the a-posteriori variance factor σ₀². Off by default: the
   /// covariance then follows the stated a-priori sigmas, and variance_factor tells how well
-  /// they match the residuals (≈ 1 when they do).
+  /// they match the residuals (≈ 1 when they do). On, it takes the place of the check of a σ
+  /// that a kind estimated at the start (ObservationSource::sigmaFromStart), not added to it.
   bool scale_covariance_by_variance_factor = false;
   /// An observation whose residual exceeds this many times the robust residual scale of its
   /// kind is flagged as an outlier [-].
