@@ -773,15 +773,12 @@ constexpr double kStartSigmaCheck = 0.5;
 ///   N⁻¹ (Σ_k s_k Ĵ_kᵀ W_k Ĵ_k + the rest) N⁻¹ = N⁻¹ − N⁻¹ D N⁻¹,  D = Σ_k (1 − s_k) Ĵ_kᵀ W_k Ĵ_k,
 ///
 /// Ĵ the reduced Jacobian (J_kept − J_e X, every other nuisance block eliminated; priors are the
-/// rest). Returns D over the first `kept` columns of reducedSystem(); `scale` per record (1:
+/// rest). Returns D over the first `kept` columns of reducedSystem(), whose X and columns it takes
+/// (the caller has just built them); `scale` per record (1:
 /// unchanged), `robust` per record the loss's weight ρ′ at its residual (as Ceres' covariance
 /// weighs it).
-Eigen::MatrixXd startSigmaCorrection(AdjustmentProblem& problem, int kept, const std::vector<double>& scale,
-                                     const std::vector<double>& robust) {
-  Eigen::MatrixXd N_red, X;
-  Eigen::VectorXd diag;
-  Columns cols;
-  reducedSystem(problem, kept, &N_red, &diag, &X, &cols);
+Eigen::MatrixXd startSigmaCorrection(AdjustmentProblem& problem, int kept, const Eigen::MatrixXd& X, const Columns& cols,
+                                     const std::vector<double>& scale, const std::vector<double>& robust) {
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(kept, kept);
   const double* m = problem.mounting();
   const auto& recs = problem.records();
@@ -829,10 +826,12 @@ struct TrajectoryTerm {
   Mat M, self;  ///< every epoch's error, own variances included; Σ share · h C hᵀ of the in_sigma epochs
 };
 
-/// `N_red_out` (optional): the reduced normal matrix of the kept columns it worked with.
+/// `N_red_out`, `X_out`, `cols_out` (optional): the reduced system of the kept columns it worked
+/// with (reducedSystem()'s N_red, X and columns).
 template <int Rows>
 TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude, int kept = 6,
-                                         Eigen::MatrixXd* N_red_out = nullptr) {
+                                         Eigen::MatrixXd* N_red_out = nullptr, Eigen::MatrixXd* X_out = nullptr,
+                                         Columns* cols_out = nullptr) {
   using Mat = typename TrajectoryTerm<Rows>::Mat;
   Eigen::MatrixXd N_red, X;
   Eigen::VectorXd diag;
@@ -844,6 +843,8 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   std::map<const double*, Vec3> offset_var;
   reducedSystem(problem, kept, &N_red, &diag, &X, &cols, any_in_sigma ? &offset_var : nullptr);
   if (N_red_out) *N_red_out = N_red;
+  if (X_out) *X_out = X;
+  if (cols_out) *cols_out = cols;
   using Mat63 = Eigen::Matrix<double, Rows, 3>;
   const Mat zero = Mat::Zero(kept, kept);
   const Mat63 zero3 = Mat63::Zero(kept, 3);
@@ -1355,8 +1356,7 @@ class Estimation {
     timeOffset(est);
     trajectoryCorrections(est);
     for (std::size_t k = 0; k < sources_.size(); ++k) {
-      const double vf = k < kind_variance_factor_.size() ? kind_variance_factor_[k] : std::nan("");
-      S_.kinds.push_back({sources_[k]->kind(), 0, 0, vf, k < kind_scale_.size() ? kind_scale_[k] : 1.0});
+      S_.kinds.push_back({sources_[k]->kind(), 0, 0, kind_variance_factor_[k], kind_scale_[k]});
     }
     for (const auto& r : P_->records()) {
       if (r.source < 0) continue;
@@ -1502,6 +1502,7 @@ class Estimation {
     for (const auto& b : P_->nuisanceBlocks()) n_unknowns += b.manifold ? b.manifold->TangentSize() : b.size;
     if (P_->stripOffsetSigma() > 0) n_unknowns += 3 * static_cast<int>(P_->stripOffsets().size());
     S_.degrees_of_freedom = n_res - n_unknowns;
+    n_residuals_ = n_res;
     S_.variance_factor = S_.degrees_of_freedom > 0 ? 2.0 * cs_.final_cost / S_.degrees_of_freedom : 1.0;
   }
 
@@ -1550,18 +1551,15 @@ class Estimation {
     for (int j = 0; j < 6; ++j) S_.formal_sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     S_.sigma_model = "formal";
     startSigmaScales();
-    if (n_est > 0 && any_start_scaled_) {
-      // Kinds whose σ came from the start and whose residuals scatter less: the sandwich
-      // (startSigmaCorrection) on the formal part; the formal σ stay as they were.
-      const Mat6 Pinv = inverseOnEstimated(N_red, est);
-      const Mat6 less = Pinv * Mat6(startSigmaCorrection(*P_, 6, record_scale_, record_robust_)) * Pinv;
-      for (int a = 0; a < 6; ++a)
-        for (int b = 0; b < 6; ++b)
-          if (est[a] && est[b]) cov(a, b) -= scale * less(a, b);
-    }
+    // The reduced system's X and columns, where the start-σ check needs them: the trajectory
+    // term builds them; without it, built here.
+    Eigen::MatrixXd X;
+    Columns cols;
+    const bool start_check = n_est > 0 && any_start_scaled_;
     if (n_est > 0 && o_.trajectory.any()) {
       // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
-      const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
+      const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), 6, nullptr,
+                                                            start_check ? &X : nullptr, start_check ? &cols : nullptr);
       const Mat6 Pinv = inverseOnEstimated(N_red, est);
       const Mat6 extra = Pinv * (term.M - boundedSelf(term.self, N_red, std::vector<bool>(est.begin(), est.end()))) * Pinv;
       if (extra.allFinite() && extra.norm() > 0) {
@@ -1571,6 +1569,19 @@ class Estimation {
         S_.sigma_model = "formal + trajectory errors in time";
         if (o_.trajectory.series && !o_.trajectory.series->empty()) S_.sigma_model += " (their σ along time as the trajectory states them)";
       }
+    } else if (start_check) {
+      Eigen::MatrixXd N;
+      Eigen::VectorXd d;
+      reducedSystem(*P_, 6, &N, &d, &X, &cols);
+    }
+    if (start_check) {
+      // Kinds whose σ came from the start and whose residuals scatter less: the sandwich
+      // (startSigmaCorrection) on the formal part; the formal σ stay as they were.
+      const Mat6 Pinv = inverseOnEstimated(N_red, est);
+      const Mat6 less = Pinv * Mat6(startSigmaCorrection(*P_, 6, X, cols, record_scale_, record_robust_)) * Pinv;
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b)
+          if (est[a] && est[b]) cov(a, b) -= scale * less(a, b);
     }
     if (n_est > 0 && o_.time_offset_sigma_s > 0 && !o_.estimate_time_offset) {
       // The time offset as a consider parameter: the mounting moves by s = −N⁻¹ n_mt per second.
@@ -1611,10 +1622,9 @@ class Estimation {
     auto eligible = [&start](const AdjustmentProblem::Record& r) {
       return r.source >= 0 && r.loss_sigma_m > 0 && start[static_cast<std::size_t>(r.source)].sigma_m > 0;
     };
-    double n_all = 0;
+    const double n_all = n_residuals_;  // varianceFactor()'s count
     for (std::size_t i = 0; i < recs.size(); ++i) {
       const auto& r = recs[i];
-      n_all += r.cost->num_residuals();
       if (!eligible(r)) continue;
       const double sq = P_->residual(static_cast<int>(i)).squaredNorm();
       double rho[3] = {sq, 1.0, 0.0};
@@ -1804,19 +1814,20 @@ class Estimation {
     for (const double* r : reported) kept += cols.col.at(r).second;
     std::vector<bool> keep(static_cast<std::size_t>(kept), true);
     for (std::size_t j = 0; j < 6; ++j) keep[j] = est[j];
-    Eigen::MatrixXd N_red;
+    Eigen::MatrixXd N_red, X;  // X: reducedSystem()'s, for the start-σ check
+    Eigen::MatrixXd* X_out = any_start_scaled_ ? &X : nullptr;
     TrajectoryTerm<Eigen::Dynamic> term;
     if (o_.trajectory.any()) {
-      // The term's own reduced system serves the inverse as well.
-      term = trajectoryErrorTerm<Eigen::Dynamic>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), kept, &N_red);
+      // The term's own reduced system serves the inverse and the start-σ check as well.
+      term = trajectoryErrorTerm<Eigen::Dynamic>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), kept, &N_red, X_out);
     } else {
       Eigen::VectorXd diag;
-      reducedSystem(*P_, kept, &N_red, &diag);
+      reducedSystem(*P_, kept, &N_red, &diag, X_out);
     }
     const Eigen::MatrixXd Pinv = inverseOnEstimated(N_red, keep);
     Eigen::MatrixXd beyond = Eigen::MatrixXd::Zero(kept, kept);  // what the formal part does not state
     if (any_start_scaled_) {
-      const Eigen::MatrixXd less = Pinv * startSigmaCorrection(*P_, kept, record_scale_, record_robust_) * Pinv;
+      const Eigen::MatrixXd less = Pinv * startSigmaCorrection(*P_, kept, X, cols, record_scale_, record_robust_) * Pinv;
       if (less.allFinite()) beyond -= scale * less;
     }
     if (term.M.size() > 0) {
@@ -1991,6 +2002,7 @@ class Estimation {
   // startSigmaScales(): per record the factor of its share in the covariance and the loss's ρ′,
   // per source its own σ₀² (NaN unless its σ came from the start).
   std::vector<double> record_scale_, record_robust_, kind_variance_factor_, kind_scale_;
+  int n_residuals_ = 0;  // varianceFactor(): the residuals of every record
   bool any_start_scaled_ = false;
   const std::array<double, 6>* start_;
   const std::array<double, 6> m0_;
