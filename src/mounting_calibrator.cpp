@@ -279,8 +279,10 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
   fillSections();
+  summary.resolve.reject_sigma = options_.resolve_reject_sigma;
   if (options.resolve_check && summary.IsSolutionUsable() && built.rematches()) {
     summary.resolve = resolveFrom(summary, data, options, modules, free_gcps);
+    summary.resolve.reject_sigma = options_.resolve_reject_sigma;
     solveWithoutLaserOffsets(&summary, data, options, modules, free_gcps);
   }
   summary.time_s = elapsed();
@@ -452,7 +454,12 @@ MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
                   names[j].c_str(), moved);
     doubt(buf);
   }
-  if (resolve.unsettled()) doubt(resolve.text());
+  if (resolve.rejects()) {
+    std::snprintf(buf, sizeof buf, " (beyond %.3gσ: its σ claim a precision that the data do not give)", resolve.reject_sigma);
+    reject(resolve.text() + buf);
+  } else if (resolve.unsettled()) {
+    doubt(resolve.text());
+  }
   for (const auto& s : sections)
     for (const std::string& d : s->doubts()) doubt(d);
   int outliers = 0, observations = 0;

@@ -265,6 +265,31 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
   }
 }
 
+// The re-solve check's reject bound (AnalysisOptions::resolve_reject_sigma): a job key, written
+// back, and refused below the doubtful bound of 2σ with the key named.
+TEST(Registry, TheReSolveRejectBoundIsReadWrittenBackAndChecked) {
+  const fs::path dir = freshDir("resolve_reject");
+  json j = minimalJob();
+  const std::string path = (dir / "job.json").string();
+  writeJson(path, j);
+  EXPECT_EQ(readJob(path).options.resolve_reject_sigma, 4.5);
+  j["solver"] = {{"resolve_reject_sigma", 6.0}};
+  writeJson(path, j);
+  const Job job = readJob(path);
+  EXPECT_EQ(job.options.resolve_reject_sigma, 6.0);
+  const std::string again = (dir / "again.json").string();
+  std::ofstream(again) << jobJson(job);
+  EXPECT_EQ(readJob(again).options.resolve_reject_sigma, 6.0);
+  j["solver"]["resolve_reject_sigma"] = 1.5;
+  writeJson(path, j);
+  try {
+    readJob(path);
+    ADD_FAILURE() << "a reject bound below 2σ was accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("resolve_reject_sigma"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked) {
   const fs::path dir = freshDir("trajectory_corrections");
   json j = minimalJob();

@@ -230,27 +230,41 @@ TEST(Verdict, AReSolveFromTheResultComesBackWhenTheMatchingHasSettled) {
 
 TEST(Verdict, AMatchingThatNeverSettlesIsNamedByTheReSolveCheck) {
   // The toy method (tests/methods/toy/) measures the vertical lever arm where each run first
-  // sees it, plus 5 cm: the re-solve moves it 5 cm again, 5σ of its 1 cm σ.
+  // sees it, plus drift_m: the re-solve moves it by drift_m again, drift_m / 1 cm in σ. 3 cm:
+  // doubtful (beyond 2σ); 5 cm: reject (beyond AnalysisOptions::resolve_reject_sigma, 4.5σ).
   CalibrationData data = toCalibrationData(noiseFreeField());
   MountingCalibrator::Options options;
   options.methods = {"vtpm", "toy"};
   options.estimate.fill(true);
   const Method* toy = findMethod("toy");
   ASSERT_NE(toy, nullptr);
-  std::any& toy_options = options.method_options.at("toy", toy->defaultOptions());
-  for (const OptionSpec& spec : toy->options())
-    if (spec.key == "drift_m") spec.set(toy_options, 0.05);
-  const auto S = calibrate(data, options);
-  ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
-  ASSERT_TRUE(S.resolve.done);
-  EXPECT_NEAR(S.resolve.shift[kLeverZ], 0.05, 0.005);
-  EXPECT_GT(S.resolve.shift_in_sigma[kLeverZ], 4.0);
-  EXPECT_TRUE(S.resolve.unsettled());
-  const auto verdict = S.verdict();
-  EXPECT_EQ(verdict.kind, MountingCalibrator::Verdict::Kind::kDoubtful);
-  bool named = false;
-  for (const auto& r : verdict.reasons) named |= r.find("re-solve started from the result moves lever_arm_z") != std::string::npos;
-  EXPECT_TRUE(named) << S.FullReport();
+  auto withDrift = [&](double drift_m) {
+    std::any& toy_options = options.method_options.at("toy", toy->defaultOptions());
+    for (const OptionSpec& spec : toy->options())
+      if (spec.key == "drift_m") spec.set(toy_options, drift_m);
+    return calibrate(data, options);
+  };
+  const struct {
+    double drift_m;
+    MountingCalibrator::Verdict::Kind kind;
+  } cases[] = {{0.03, MountingCalibrator::Verdict::Kind::kDoubtful}, {0.05, MountingCalibrator::Verdict::Kind::kReject}};
+  for (const auto& c : cases) {
+    const auto S = withDrift(c.drift_m);
+    ASSERT_TRUE(S.IsSolutionUsable()) << S.message;
+    ASSERT_TRUE(S.resolve.done);
+    EXPECT_NEAR(S.resolve.shift[kLeverZ], c.drift_m, 0.005);
+    EXPECT_NEAR(S.resolve.shift_in_sigma[kLeverZ], std::abs(S.resolve.shift[kLeverZ]) / S.sigma[kLeverZ], 1e-9);
+    EXPECT_TRUE(S.resolve.unsettled());
+    EXPECT_EQ(S.resolve.rejects(), c.kind == MountingCalibrator::Verdict::Kind::kReject) << S.resolve.text();
+    const auto verdict = S.verdict();
+    EXPECT_EQ(verdict.kind, c.kind) << S.FullReport();
+    bool named = false;
+    for (const auto& r : verdict.reasons) named |= r.find("re-solve started from the result moves lever_arm_z") != std::string::npos;
+    EXPECT_TRUE(named) << S.FullReport();
+  }
+  // The bound is an option: 6σ makes the 5 cm drift doubtful again.
+  options.resolve_reject_sigma = 6.0;
+  EXPECT_EQ(withDrift(0.05).verdict().kind, MountingCalibrator::Verdict::Kind::kDoubtful);
   // Switched off: no second solve, no doubt from it.
   options.resolve_check = false;
   EXPECT_FALSE(calibrate(data, options).resolve.done);

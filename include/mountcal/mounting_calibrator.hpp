@@ -10,6 +10,7 @@
 /// (AdjustmentSummary) and one section per method that ran.
 
 #include <array>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,7 +63,8 @@ class MountingCalibrator {
   ///    a model-dependent mounting (ModelSensitivity: switching off a free lever arm moves it by
   ///    over 3σ although the data cannot reject that); an estimated lever arm that moved further
   ///    than lever_arm_change_warning_m from its used value; a re-solve started from the result
-  ///    (AnalysisOptions::resolve_check) that moves a parameter by more than 2σ, or fails;
+  ///    (AnalysisOptions::resolve_check) that moves a parameter by more than 2σ, or fails —
+  ///    reject beyond AnalysisOptions::resolve_reject_sigma (4.5σ by default);
   ///  - accept otherwise. A strong correlation is not a doubt by itself: the σ carry it (the
   ///    report's warnings name it).
   struct Verdict {
@@ -89,6 +91,13 @@ class MountingCalibrator {
       double largestInSigma() const;
       /// More than 2σ, or the second solve failed: the result depends on where the solve started.
       bool unsettled() const { return done && (!usable || largestInSigma() > 2.0); }
+      /// AnalysisOptions::resolve_reject_sigma of the run [σ].
+      double reject_sigma = 4.5;
+      /// A converged re-solve that moved some parameter by more than reject_sigma (a finite move).
+      bool rejects() const {
+        const double z = largestInSigma();
+        return done && usable && std::isfinite(z) && z > reject_sigma;
+      }
       std::string text() const;  ///< one line for reports and the verdict
     };
     ResolveCheck resolve;

@@ -160,6 +160,7 @@ bool AnalysisOptions::IsValid(std::string* error) const {
   if (!(undeterminable_sigma_m > 0) || !(undeterminable_sigma_deg > 0))
     return failWith(error, "undeterminable_sigma_m and undeterminable_sigma_deg must be positive");
   if (!(lever_arm_change_warning_m > 0)) return failWith(error, "lever_arm_change_warning_m must be positive");
+  if (!(resolve_reject_sigma >= 2.0)) return failWith(error, "resolve_reject_sigma must be at least 2 (the doubtful bound)");
   return true;
 }
 

@@ -134,8 +134,9 @@ void addSensitivityChecks(const MountingCalibrator::Summary& summary, json* out)
       shift.push_back(summary.estimated[k] ? json(k < 3 ? rc.shift[k] : rad2deg(rc.shift[k])) : json(nullptr));
       z.push_back(summary.estimated[k] ? json(rc.shift_in_sigma[k]) : json(nullptr));
     }
-    j["resolve_check"] = {{"converged", rc.usable},      {"shift_m_deg", shift}, {"shift_in_sigma", z},
-                          {"unsettled", rc.unsettled()}, {"time_s", rc.time_s},  {"text", rc.text()}};
+    j["resolve_check"] = {{"converged", rc.usable},      {"shift_m_deg", shift},    {"shift_in_sigma", z},
+                          {"unsettled", rc.unsettled()}, {"rejects", rc.rejects()}, {"reject_sigma", rc.reject_sigma},
+                          {"time_s", rc.time_s},         {"text", rc.text()}};
   } else {
     j["resolve_check"] = nullptr;
   }

@@ -483,7 +483,7 @@ void readSettings(const Fields& top, Job* job) {
   if (top.has("solver")) {
     const Fields s = top.sub("solver", {"max_iterations", "loss", "loss_scale_m", "function_tolerance", "parameter_tolerance",
                                         "scale_covariance_by_variance_factor", "max_rematch_rounds", "rematch_tolerance_m",
-                                        "rematch_tolerance_deg", "max_iterations_per_matching", "resolve_check"});
+                                        "rematch_tolerance_deg", "max_iterations_per_matching", "resolve_check", "resolve_reject_sigma"});
     opts.max_iterations = s.integer("max_iterations", opts.max_iterations, 1, 100000);
     const std::string loss = s.str("loss", lossName(opts.loss));
     if (loss == "trivial")
@@ -503,6 +503,7 @@ void readSettings(const Fields& top, Job* job) {
     opts.max_iterations_per_matching = s.integer("max_iterations_per_matching", opts.max_iterations_per_matching, 0, 100000);
     opts.rematch_tolerance_rad = deg2rad(s.num("rematch_tolerance_deg", rad2deg(opts.rematch_tolerance_rad)));
     opts.resolve_check = s.boolean("resolve_check", opts.resolve_check);
+    opts.resolve_reject_sigma = s.num("resolve_reject_sigma", opts.resolve_reject_sigma, 2.0, 1e6);
   }
 }
 
@@ -722,6 +723,7 @@ void writeOptions(const MountingCalibrator::Options& opts, json* out, const std:
   j["solver"] = {{"max_iterations", opts.max_iterations}, {"loss", lossName(opts.loss)}};
   if (opts.loss != LossType::kTrivial) j["solver"]["loss_scale_m"] = opts.loss_scale_m;
   if (opts.resolve_check != def.resolve_check) j["solver"]["resolve_check"] = opts.resolve_check;
+  if (opts.resolve_reject_sigma != def.resolve_reject_sigma) j["solver"]["resolve_reject_sigma"] = opts.resolve_reject_sigma;
 }
 
 }  // namespace

@@ -301,6 +301,11 @@ struct AnalysisOptions {
   /// settled — it depends on where the solve started — and the verdict says so (doubtful).
   /// Costs a second solve when some method re-matches; nothing when none does.
   bool resolve_check = true;
+  /// A re-solve that moves a parameter by more than this many σ rejects the calibration (exit 1):
+  /// two solutions k σ apart, each self-consistent, say the parameter's true σ is k/√2 times the
+  /// stated one or more, and 4.5/√2 = 3.2 is the factor at which σ₀² > 10 rejects (residuals
+  /// over √10 times their stated σ). Between 2σ and this: doubtful [σ].
+  double resolve_reject_sigma = 4.5;
   /// Eigenvalues of the bound-scaled reduced normal matrix below this fraction of the largest
   /// are a rank deficiency (infinite σ along their direction) [-].
   double rank_tolerance = 1e-12;
