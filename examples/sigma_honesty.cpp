@@ -12,6 +12,8 @@
 //                 [--per-seed]               (each seed's errors, σ and strip offsets against the truth)
 //                 [--offset-sigma M]         (the strip offsets' σ; default 0.005, the survey's strip-
 //                                             to-strip GNSS bias — the drift is TrajectoryAccuracy's)
+//                 [--resolve-check]          (run the re-solve check and the verdict, and count how
+//                                             often they doubt or reject surveys whose truth is known)
 //
 // The field is the first paper's crossing field (two heights, roofs of several aspects; pulses
 // cast within 12 m of every feature), or the VLP-16 UAV preset for `features`. Noise
@@ -20,6 +22,7 @@
 // the same magnitudes as Gauss–Markov processes whose correlation times are drawn per line and
 // axis from 10–100 s (position) and 1–30 s (attitude), against the calibrator's single τ. A σ
 // of 0 counts as an error beyond 2σ (and is named).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -63,6 +66,7 @@ int main(int argc, char** argv) {
   std::string method = "vtpm", noise = "navigation_drift_gauss_markov";
   int seeds = 10, first_seed = 1;
   bool model_drift = false, trajectory_none = false, per_seed = false, priors_from_accuracy = false, offsets_within_drift = false;
+  bool resolve_check = false;
   double offset_sigma = 0.005;  // the simulated survey's strip-to-strip GNSS bias (gnss_sigma_m below)
   int corr_position = 0, corr_attitude = 0;
   double attitude_tau = TrajectoryAccuracy().attitude_correlation_s, position_tau = TrajectoryAccuracy().position_correlation_s;
@@ -92,6 +96,8 @@ int main(int argc, char** argv) {
       offset_sigma = std::atof(argv[++i]);
     else if (a == "--offsets-within-drift")  // the offsets' prior as the drift's constant part
       offsets_within_drift = true;
+    else if (a == "--resolve-check")
+      resolve_check = true;
     else if (a == "--corrections" && i + 1 < argc && std::sscanf(argv[i + 1], "%d,%d", &corr_position, &corr_attitude) == 2)
       ++i;
     else {
@@ -99,7 +105,7 @@ int main(int argc, char** argv) {
           stderr,
           "usage: %s [--method M] [--seeds N] [--first-seed S] [--noise realistic|navigation_drift|navigation_drift_gauss_markov] "
           "[--model-attitude-drift] [--trajectory-none] [--per-seed] [--priors-from-accuracy] [--attitude-tau S] [--position-tau S] "
-          "[--offset-sigma M] [--offsets-within-drift] [--corrections P,A]\n",
+          "[--offset-sigma M] [--offsets-within-drift] [--corrections P,A] [--resolve-check]\n",
           argv[0]);
       return 2;
     }
@@ -125,6 +131,9 @@ int main(int argc, char** argv) {
   std::array<int, 6> within{}, counted{}, zero_sigma{};
   double vf = 0;
   int used = 0;
+  // --resolve-check: each seed's largest re-solve move [σ], and the verdicts.
+  std::vector<double> moves;
+  std::array<int, 3> verdicts{};
   std::printf("%s, %s noise, seeds %d–%d\n", method.c_str(), noise.c_str(), first_seed, first_seed + seeds - 1);
   for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
     Scene scene;
@@ -145,7 +154,7 @@ int main(int argc, char** argv) {
     o.method<PlaneOptions>().automatic = automatic;
     o.strip_offset_sigma_m = offset_sigma;
     o.estimate = {true, true, false, true, true, true};
-    o.resolve_check = false;  // the estimate and its σ are what is measured here
+    o.resolve_check = resolve_check;  // off by default: the estimate and its σ are what is measured
     o.trajectory.attitude_correlation_s = attitude_tau;
     o.trajectory.position_correlation_s = position_tau;
     o.trajectory.offsets_within_drift = offsets_within_drift;
@@ -167,6 +176,15 @@ int main(int argc, char** argv) {
     vf += summary.variance_factor;
     const auto e = summary.mounting.toArray(), t = c.true_mounting.toArray();
     if (per_seed) printSeed(seed, s, summary, e, t);
+    if (resolve_check) {
+      const MountingCalibrator::Verdict v = summary.verdict();
+      ++verdicts[static_cast<std::size_t>(v.kind)];
+      if (summary.resolve.done) moves.push_back(summary.resolve.usable ? summary.resolve.largestInSigma() : 1e9);
+      if (per_seed || v.kind != MountingCalibrator::Verdict::Kind::kAccept) {
+        std::printf("seed %d: %s; %s\n", seed, v.name(), summary.resolve.text().c_str());
+        for (const std::string& r : v.reasons) std::printf("    %s\n", r.c_str());
+      }
+    }
     for (std::size_t j = 0; j < 6; ++j) {
       if (!summary.estimated[j]) continue;
       // A σ of 0 (or not a number) claims what no survey gives: counted, as an error beyond 2σ.
@@ -189,5 +207,13 @@ int main(int argc, char** argv) {
     std::printf("\n");
   }
   std::printf("mean variance factor %.2f over %d usable solves\n", used ? vf / used : 0.0, used);
+  if (resolve_check) {
+    std::sort(moves.begin(), moves.end());
+    int over2 = 0, over45 = 0;
+    for (double m : moves) over2 += m > 2.0, over45 += m > 4.5;
+    std::printf("re-solve check in %zu solves: largest move median %.2fσ, largest %.2fσ; over 2σ in %d, over 4.5σ in %d\n", moves.size(),
+                moves.empty() ? 0.0 : moves[moves.size() / 2], moves.empty() ? 0.0 : moves.back(), over2, over45);
+    std::printf("verdicts: accept %d, doubtful %d, reject %d\n", verdicts[0], verdicts[1], verdicts[2]);
+  }
   return used == seeds ? 0 : 1;
 }
