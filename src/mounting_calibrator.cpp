@@ -279,12 +279,11 @@ MountingCalibrator::Summary MountingCalibrator::calibrate(const CalibrationData&
   summary.lever_arm_change_warning_m = options_.lever_arm_change_warning_m;
   summary.construction_time_s += construction_s;
   fillSections();
-  summary.resolve.reject_sigma = options_.resolve_reject_sigma;
   if (options.resolve_check && summary.IsSolutionUsable() && built.rematches()) {
     summary.resolve = resolveFrom(summary, data, options, modules, free_gcps);
-    summary.resolve.reject_sigma = options_.resolve_reject_sigma;
     solveWithoutLaserOffsets(&summary, data, options, modules, free_gcps);
   }
+  summary.resolve.reject_sigma = options_.resolve_reject_sigma;
   summary.time_s = elapsed();
   return summary;
 }
@@ -406,9 +405,10 @@ std::string MountingCalibrator::Summary::FullReport() const {
 
 MountingCalibrator::Verdict MountingCalibrator::Summary::verdict() const {
   Verdict v;
+  std::size_t rejecting = 0;  // the reasons that reject come first, in the order found
   auto reject = [&](const std::string& why) {
     v.kind = Verdict::Kind::kReject;
-    v.reasons.push_back(why);
+    v.reasons.insert(v.reasons.begin() + static_cast<long>(rejecting++), why);
   };
   auto doubt = [&](const std::string& why) {
     if (v.kind == Verdict::Kind::kAccept) v.kind = Verdict::Kind::kDoubtful;

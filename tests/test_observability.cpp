@@ -261,6 +261,10 @@ TEST(Verdict, AMatchingThatNeverSettlesIsNamedByTheReSolveCheck) {
     bool named = false;
     for (const auto& r : verdict.reasons) named |= r.find("re-solve started from the result moves lever_arm_z") != std::string::npos;
     EXPECT_TRUE(named) << S.FullReport();
+    if (c.kind == MountingCalibrator::Verdict::Kind::kReject) {
+      ASSERT_FALSE(verdict.reasons.empty());
+      EXPECT_NE(verdict.reasons.front().find("re-solve"), std::string::npos) << "a reject's own reason first: " << verdict.reasons.front();
+    }
   }
   // The bound is an option: 6σ makes the 5 cm drift doubtful again.
   options.resolve_reject_sigma = 6.0;

@@ -70,7 +70,7 @@ class MountingCalibrator {
   struct Verdict {
     enum class Kind { kAccept, kDoubtful, kReject };
     Kind kind = Kind::kAccept;
-    std::vector<std::string> reasons;  ///< empty for kAccept
+    std::vector<std::string> reasons;  ///< empty for kAccept; a reject's own reasons first
     const char* name() const { return kind == Kind::kAccept ? "accept" : kind == Kind::kDoubtful ? "doubtful" : "reject"; }
   };
 

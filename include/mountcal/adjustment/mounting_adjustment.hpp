@@ -298,7 +298,8 @@ struct AnalysisOptions {
   /// After the solve, MountingCalibrator solves once more from its estimate, with every
   /// observation that depends on the mounting selected again there (correspondences, plane
   /// points, feature targets, control). A mounting that then moves by more than 2σ has not
-  /// settled — it depends on where the solve started — and the verdict says so (doubtful).
+  /// settled — it depends on where the solve started — and the verdict says so (doubtful;
+  /// beyond resolve_reject_sigma, reject).
   /// Costs a second solve when some method re-matches; nothing when none does.
   bool resolve_check = true;
   /// A re-solve that moves a parameter by more than this many σ rejects the calibration (exit 1):
