@@ -33,6 +33,17 @@ fs::path freshDir(const std::string& name) {
   return d;
 }
 
+/// `bad` written to `path` and read: refused with a FileError whose message names `field`.
+void expectRefusedNaming(const std::string& path, const json& bad, const std::string& field) {
+  writeJson(path, bad);
+  try {
+    readJob(path);
+    ADD_FAILURE() << "accepted: " << bad.dump();
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
 /// The smallest valid job: one strip, ties, a local frame (files need not exist to be read).
 json minimalJob() {
   return {{"frame", {{"type", "local"}}},
@@ -256,13 +267,7 @@ TEST(Registry, TrajectoryAccuracyIsReadWrittenBackAndChecked) {
   writeJson(path, j);
   EXPECT_FALSE(readJob(path).options.trajectory.any());
   j["stochastic"]["trajectory"] = {{"position_sigma_m", -1}};
-  writeJson(path, j);
-  try {
-    readJob(path);
-    ADD_FAILURE() << "a negative σ was accepted";
-  } catch (const FileError& e) {
-    EXPECT_NE(std::string(e.what()).find("position_sigma_m"), std::string::npos) << e.what();
-  }
+  expectRefusedNaming(path, j, "position_sigma_m");  // a negative σ
 }
 
 // The re-solve check's reject bound (AnalysisOptions::resolve_reject_sigma): a job key, written
@@ -281,13 +286,7 @@ TEST(Registry, TheReSolveRejectBoundIsReadWrittenBackAndChecked) {
   std::ofstream(again) << jobJson(job);
   EXPECT_EQ(readJob(again).options.resolve_reject_sigma, 6.0);
   j["solver"]["resolve_reject_sigma"] = 1.5;
-  writeJson(path, j);
-  try {
-    readJob(path);
-    ADD_FAILURE() << "a reject bound below 2σ was accepted";
-  } catch (const FileError& e) {
-    EXPECT_NE(std::string(e.what()).find("resolve_reject_sigma"), std::string::npos) << e.what();
-  }
+  expectRefusedNaming(path, j, "resolve_reject_sigma");  // below the doubtful bound
 }
 
 TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked) {
@@ -311,15 +310,7 @@ TEST(Registry, TrajectoryCorrectionsAndTheTimeOffsetAreReadWrittenBackAndChecked
   EXPECT_EQ(back.options.corrections.attitude_degree, 1);
   EXPECT_EQ(back.options.corrections.heading_sigma_deg, 0.02);
   EXPECT_TRUE(back.options.estimate_time_offset);
-  auto refused = [&](const json& bad, const std::string& field) {
-    writeJson(path, bad);
-    try {
-      readJob(path);
-      ADD_FAILURE() << "accepted: " << bad["stochastic"].dump();
-    } catch (const FileError& e) {
-      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-    }
-  };
+  auto refused = [&](const json& bad, const std::string& field) { expectRefusedNaming(path, bad, field); };
   json bad = j;
   bad["stochastic"]["corrections"]["position_degree"] = 4;
   refused(bad, "position_degree");
