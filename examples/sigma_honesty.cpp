@@ -131,8 +131,10 @@ int main(int argc, char** argv) {
   std::array<int, 6> within{}, counted{}, zero_sigma{};
   double vf = 0;
   int used = 0;
-  // --resolve-check: each seed's largest re-solve move [σ], and the verdicts.
+  // --resolve-check: each seed's largest re-solve move [σ], the checks that doubt (unsettled) or
+  // reject (the calibrator's own bounds), and the verdicts.
   std::vector<double> moves;
+  int unsettled = 0, rejects = 0;
   std::array<int, 3> verdicts{};
   std::printf("%s, %s noise, seeds %d–%d\n", method.c_str(), noise.c_str(), first_seed, first_seed + seeds - 1);
   for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
@@ -180,6 +182,8 @@ int main(int argc, char** argv) {
       const MountingCalibrator::Verdict v = summary.verdict();
       ++verdicts[static_cast<std::size_t>(v.kind)];
       if (summary.resolve.done) moves.push_back(summary.resolve.usable ? summary.resolve.largestInSigma() : 1e9);
+      unsettled += summary.resolve.unsettled();
+      rejects += summary.resolve.rejects();
       if (per_seed || v.kind != MountingCalibrator::Verdict::Kind::kAccept) {
         std::printf("seed %d: %s; %s\n", seed, v.name(), summary.resolve.text().c_str());
         for (const std::string& r : v.reasons) std::printf("    %s\n", r.c_str());
@@ -209,10 +213,10 @@ int main(int argc, char** argv) {
   std::printf("mean variance factor %.2f over %d usable solves\n", used ? vf / used : 0.0, used);
   if (resolve_check) {
     std::sort(moves.begin(), moves.end());
-    int over2 = 0, over45 = 0;
-    for (double m : moves) over2 += m > 2.0, over45 += m > 4.5;
-    std::printf("re-solve check in %zu solves: largest move median %.2fσ, largest %.2fσ; over 2σ in %d, over 4.5σ in %d\n", moves.size(),
-                moves.empty() ? 0.0 : moves[moves.size() / 2], moves.empty() ? 0.0 : moves.back(), over2, over45);
+    std::printf(
+        "re-solve check in %zu solves: largest move median %.2fσ, largest %.2fσ; unsettled (over 2σ or not converged) in %d, "
+        "rejecting in %d\n",
+        moves.size(), moves.empty() ? 0.0 : moves[moves.size() / 2], moves.empty() ? 0.0 : moves.back(), unsettled, rejects);
     std::printf("verdicts: accept %d, doubtful %d, reject %d\n", verdicts[0], verdicts[1], verdicts[2]);
   }
   return used == seeds ? 0 : 1;
