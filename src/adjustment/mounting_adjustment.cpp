@@ -1202,12 +1202,16 @@ class Estimation {
     return true;
   }
 
+  /// The mounting's reduced normal matrix at the current values (reducedNormalMatrix()), its X
+  /// and columns kept for the start-σ check of the covariance that follows.
+  void reducedNormal(Mat6* N_red, Vec6* diag) { reducedNormalMatrix(*P_, N_red, diag, &reduced_X_, &reduced_cols_); }
+
   /// Observability (SPEC §3 step 5) by an absolute rule: while an estimated parameter's
   /// marginal σ exceeds its physical bound (AnalysisOptions), hold the most undetermined one
   /// (named in the summary with its σ and what it cannot be separated from). True when
   /// something was held.
   bool holdUndeterminable(std::array<bool, 6>* est, Mat6* N_red, Vec6* diag) {
-    reducedNormalMatrix(*P_, N_red, diag);
+    reducedNormal(N_red, diag);
     bool refixed = false;
     for (int pass = 0; pass < 6; ++pass) {
       const MarginalSigmas ms = marginalSigmas(*N_red, *est);
@@ -1504,6 +1508,7 @@ class Estimation {
     if (P_->stripOffsetSigma() > 0) n_unknowns += 3 * static_cast<int>(P_->stripOffsets().size());
     S_.degrees_of_freedom = n_res - n_unknowns;
     n_residuals_ = n_res;
+    n_unknowns_ = n_unknowns;
     S_.variance_factor = S_.degrees_of_freedom > 0 ? 2.0 * cs_.final_cost / S_.degrees_of_freedom : 1.0;
   }
 
@@ -1552,15 +1557,10 @@ class Estimation {
     for (int j = 0; j < 6; ++j) S_.formal_sigma[j] = est[j] ? std::sqrt(std::max(cov(j, j), 0.0)) : std::nan("");
     S_.sigma_model = "formal";
     startSigmaScales();
-    // The reduced system's X and columns, where the start-σ check needs them: the trajectory
-    // term builds them; without it, built here.
-    Eigen::MatrixXd X;
-    Columns cols;
     const bool start_check = n_est > 0 && any_start_scaled_;
     if (n_est > 0 && o_.trajectory.any()) {
       // TrajectoryAccuracy: C = N⁻¹ + N⁻¹ M N⁻¹ (consider parameters), on the estimated block.
-      const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect(), 6, nullptr,
-                                                            start_check ? &X : nullptr, start_check ? &cols : nullptr);
+      const TrajectoryTerm<6> term = trajectoryErrorTerm<6>(*P_, o_.trajectory, !o_.pulse_noise.attitudeRandomEffect());
       const Mat6 Pinv = inverseOnEstimated(N_red, est);
       const Mat6 extra = Pinv * (term.M - boundedSelf(term.self, N_red, std::vector<bool>(est.begin(), est.end()))) * Pinv;
       if (extra.allFinite() && extra.norm() > 0) {
@@ -1570,16 +1570,13 @@ class Estimation {
         S_.sigma_model = "formal + trajectory errors in time";
         if (o_.trajectory.series && !o_.trajectory.series->empty()) S_.sigma_model += " (their σ along time as the trajectory states them)";
       }
-    } else if (start_check) {
-      Eigen::MatrixXd N;
-      Eigen::VectorXd d;
-      reducedSystem(*P_, 6, &N, &d, &X, &cols);
     }
     if (start_check) {
       // Kinds whose σ came from the start and whose residuals scatter less: the sandwich
-      // (startSigmaCorrection) on the formal part; the formal σ stay as they were.
+      // (startSigmaCorrection) on the formal part; the formal σ stay as they were. X and the
+      // columns: the reduced system that gave N_red (reducedNormal()).
       const Mat6 Pinv = inverseOnEstimated(N_red, est);
-      const Mat6 less = Pinv * Mat6(startSigmaCorrection(*P_, 6, X, cols, record_scale_, record_robust_)) * Pinv;
+      const Mat6 less = Pinv * Mat6(startSigmaCorrection(*P_, 6, reduced_X_, reduced_cols_, record_scale_, record_robust_)) * Pinv;
       for (int a = 0; a < 6; ++a)
         for (int b = 0; b < 6; ++b)
           if (est[a] && est[b]) cov(a, b) -= scale * less(a, b);
@@ -1634,7 +1631,7 @@ class Estimation {
       sum[static_cast<std::size_t>(r.source)] += rho[0];
       count[static_cast<std::size_t>(r.source)] += r.cost->num_residuals();
     }
-    const double unknowns = n_all - S_.degrees_of_freedom;
+    const double unknowns = n_unknowns_;
     for (std::size_t k = 0; k < sources_.size(); ++k) {
       const double redundancy = count[k] - (n_all > 0 ? unknowns * count[k] / n_all : 0.0);
       if (count[k] > 0 && redundancy > 0) kind_variance_factor_[k] = sum[k] / redundancy;
@@ -2003,7 +2000,11 @@ class Estimation {
   // startSigmaScales(): per record the factor of its share in the covariance and the loss's ρ′,
   // per source its own σ₀² (NaN unless its σ came from the start).
   std::vector<double> record_scale_, record_robust_, kind_variance_factor_, kind_scale_;
-  int n_residuals_ = 0;  // varianceFactor(): the residuals of every record
+  int n_residuals_ = 0, n_unknowns_ = 0;  // varianceFactor(): the residuals of every record, the unknowns
+  // The reduced system of the mounting's 6 columns at the solution (reducedNormalMatrix() in
+  // holdUndeterminable or after its re-solve): X and columns, for the start-σ check.
+  Eigen::MatrixXd reduced_X_;
+  Columns reduced_cols_;
   bool any_start_scaled_ = false;
   const std::array<double, 6>* start_;
   const std::array<double, 6> m0_;
@@ -2103,7 +2104,7 @@ AdjustmentSummary MountingAdjustment::solve(const MountingParameters& mounting_u
       return summary;
     }
     t_mark = e.elapsed();
-    reducedNormalMatrix(e.problem(), &N_red, &diag);
+    e.reducedNormal(&N_red, &diag);
   }
   e.analyse(est, N_red, mounting_used);
   summary.analysis_time_s += e.elapsed() - t_mark;
