@@ -596,3 +596,74 @@ TEST(ResidualShare, IsWhatTheAbsorbedPolynomialsLeaveByHand) {
   const Eigen::VectorXd line = mountcal::detail::residualShare({0.0, 5.0, 10.0}, {1.0, 1.0, 1.0}, tau, {0, 1}, 1.0);
   EXPECT_NEAR(line(1), 4 * vrv / 6, 1e-12);
 }
+
+namespace {
+
+/// r = (x − y) / σ for a point block x (3 residuals).
+class PointEcho final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  PointEcho(const mountcal::Vec3& y, double sigma) : y_(y), s_(sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    for (int a = 0; a < 3; ++a) r[a] = (p[0][a] - y_[a]) / s_;
+    if (J && J[0]) {
+      std::fill(J[0], J[0] + 9, 0.0);
+      J[0][0] = J[0][4] = J[0][8] = 1.0 / s_;
+    }
+    return true;
+  }
+
+ private:
+  mountcal::Vec3 y_;
+  double s_;
+};
+
+/// r = (m_j − y) / σ on one mounting parameter.
+class MountingEcho final : public ceres::SizedCostFunction<1, 6> {
+ public:
+  MountingEcho(int j, double y, double sigma) : j_(j), y_(y), s_(sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** J) const override {
+    r[0] = (p[0][j_] - y_) / s_;
+    if (J && J[0]) {
+      std::fill(J[0], J[0] + 6, 0.0);
+      J[0][j_] = 1.0 / s_;
+    }
+    return true;
+  }
+
+ private:
+  int j_;
+  double y_, s_;
+};
+
+}  // namespace
+
+TEST(AdjustmentProblem, LeverageIsTheWeightedMeansHatMatrix) {
+  // A point observed three times (σ 1, 2 and 4 cm) with a prior of 3 cm, the mounting's roll
+  // observed twice (σ 2 and 4 mrad) and its pitch once, pitch held. By hand, a weighted mean's
+  // hat matrix is w_i / Σ w on each axis (w = 1/σ²), a held parameter's observation has none,
+  // and the redundancies sum to observations − unknowns: 15 − (3 + 1) = 11.
+  using mountcal::AdjustmentProblem;
+  AdjustmentProblem P({0, 0, 0, 0, 0, 0}, 0.0, mountcal::LossType::kTrivial, 0.5, 1e-6);
+  const double zero[3] = {0, 0, 0};
+  double* x = P.addNuisanceBlock(3, zero);
+  const double point_sigma[4] = {0.01, 0.02, 0.04, 0.03};  // the last: the prior
+  std::vector<int> records;
+  for (double s : point_sigma) records.push_back(P.addResidualBlock(new PointEcho(mountcal::Vec3(0.1, -0.2, 0.3), s), 0.0, {x}));
+  const double roll_sigma[2] = {0.002, 0.004};
+  for (double s : roll_sigma) records.push_back(P.addResidualBlock(new MountingEcho(3, 0.001, s), 0.0, {P.mounting()}));
+  records.push_back(P.addResidualBlock(new MountingEcho(4, 0.002, 0.003), 0.0, {P.mounting()}));
+  P.setEstimated({true, true, true, true, false, true});
+  const std::vector<Eigen::MatrixXd> H = P.leverage(records);
+  ASSERT_EQ(H.size(), records.size());
+  double W = 0, Wr = 0, redundancy = 0;
+  for (double s : point_sigma) W += 1 / (s * s);
+  for (double s : roll_sigma) Wr += 1 / (s * s);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Matrix3d expected = Eigen::Matrix3d::Identity() / (point_sigma[i] * point_sigma[i] * W);
+    EXPECT_LT((H[static_cast<std::size_t>(i)] - expected).cwiseAbs().maxCoeff(), 1e-9) << "observation " << i;
+  }
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(H[static_cast<std::size_t>(4 + i)](0, 0), 1 / (roll_sigma[i] * roll_sigma[i] * Wr), 1e-9);
+  EXPECT_NEAR(H[6](0, 0), 0.0, 1e-12) << "a held parameter's observation has no leverage";
+  for (const Eigen::MatrixXd& h : H) redundancy += static_cast<double>(h.rows()) - h.trace();
+  EXPECT_NEAR(redundancy, 11.0, 1e-9);
+}

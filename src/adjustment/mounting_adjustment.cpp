@@ -673,6 +673,63 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
   }
 }
 
+}  // namespace
+
+std::vector<Eigen::MatrixXd> AdjustmentProblem::leverage(const std::vector<int>& indices) const {
+  const Columns cols = columnsOf(*this);
+  const int n = cols.n;
+  std::vector<Eigen::Triplet<double>> trip;
+  std::vector<int> first_row(records_.size(), 0);
+  int row = 0;
+  for (std::size_t i = 0; i < records_.size(); ++i) {
+    const Record& rec = records_[i];
+    const int nr = rec.cost->num_residuals();
+    std::vector<RowMat> J = blockJacobians(rec, cols);
+    if (rec.loss) {  // the loss's weight ρ′ at this residual, as Ceres' last step weighs it
+      std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
+      Eigen::VectorXd r(nr);
+      rec.cost->Evaluate(params.data(), r.data(), nullptr);
+      double rho[3] = {r.squaredNorm(), 1.0, 0.0};
+      rec.loss->Evaluate(rho[0], rho);
+      for (RowMat& Jb : J) Jb *= std::sqrt(std::max(rho[1], 0.0));
+    }
+    for (std::size_t b = 0; b < rec.blocks.size(); ++b)
+      if (rec.blocks[b] == mounting_)
+        for (int j = 0; j < 6; ++j)
+          if (!estimated_[static_cast<std::size_t>(j)]) J[b].col(j).setZero();  // held
+    first_row[i] = row;
+    addTriplets(rec, J, cols, mounting_, row, 0, &trip);
+    row += nr;
+  }
+  Eigen::SparseMatrix<double> Js(row, n);
+  Js.setFromTriplets(trip.begin(), trip.end());
+  const Eigen::SparseMatrix<double> Jt = Js.transpose();
+  Eigen::SparseMatrix<double> N = Jt * Js;
+  // Held and unseen columns (no entry) decouple; a direction the data leave free is regularised
+  // as reducedSystem() does (it has no leverage on any residual).
+  const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(N.diagonal()).cwiseAbs().maxCoeff());
+  for (int c = 0; c < n; ++c) N.coeffRef(c, c) += N.coeff(c, c) == 0.0 ? 1.0 : eps;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(N);
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> Jrows = Js;
+  std::vector<Eigen::MatrixXd> out;
+  out.reserve(indices.size());
+  for (int index : indices) {
+    const std::size_t i = static_cast<std::size_t>(index);
+    const int nr = records_.at(i).cost->num_residuals();
+    const Eigen::MatrixXd Jr = Eigen::MatrixXd(Jrows.middleRows(first_row[i], nr));
+    if (ldlt.info() != Eigen::Success) {
+      out.push_back(Eigen::MatrixXd::Constant(nr, nr, std::nan("")));
+      continue;
+    }
+    const Eigen::MatrixXd X = ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
+    const Eigen::MatrixXd H = Jr * X;
+    out.push_back(0.5 * (H + H.transpose()));
+  }
+  return out;
+}
+
+namespace {
+
 /// One residual block's reduced Jacobian Ĵ = J_kept − J_e X over the first `kept` columns of
 /// reducedSystem() (its blocks' Jacobians `J`, blockJacobians; X = N_ee⁻¹ N_ek from it).
 Eigen::MatrixXd reducedJacobian(const AdjustmentProblem::Record& rec, const std::vector<RowMat>& J, const Columns& cols,
@@ -1396,6 +1453,7 @@ class Estimation {
     if (!problem.HasParameterBlock(P_->mounting())) problem.AddParameterBlock(P_->mounting(), 6);
     for (int j = 0; j < 6; ++j)
       if (est[j] && priorOn(o_, j)) P_->addResidualBlock(new MountingPrior(j, o_.prior_value[j], o_.prior_sigma[j]), 0.0, {P_->mounting()});
+    P_->setEstimated(est);
     std::vector<int> fixed;
     for (int j = 0; j < 6; ++j)
       if (!est[j]) fixed.push_back(j);

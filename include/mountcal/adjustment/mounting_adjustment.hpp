@@ -464,6 +464,17 @@ class AdjustmentProblem {
 
   /// Residual vector of block `index` at the current parameter values (unweighted by loss).
   Eigen::VectorXd residual(int index) const;
+  /// The leverage of records (indices as addResidualBlock returned them): for each the diagonal
+  /// block H_rr = J_r N⁻¹ J_rᵀ of the whole adjustment's hat matrix at the current values, with
+  /// N = Σ Jᵀ ρ′ J over every record, priors included (ρ′ the loss's weight at each residual, as
+  /// in the solve's last step), in each block's tangent space, the mounting's held parameters
+  /// left out (setEstimated). I − H_rr is the record's redundancy, its share of the degrees of
+  /// freedom (over every record they sum to observations − unknowns): what a source's variance
+  /// components divide by (Förstner: σ² = Σ e² / Σ redundancy), so that the parameters that fit
+  /// its residuals — the mounting, strip offsets, laser offsets, not only its own — are counted.
+  std::vector<Eigen::MatrixXd> leverage(const std::vector<int>& records) const;
+  /// Which mounting parameters the solve estimates (the others held): for leverage().
+  void setEstimated(const std::array<bool, 6>& estimated) { estimated_ = estimated; }
   int residualBlockCount() const { return static_cast<int>(records_.size()); }
   /// Current values of a strip offset (zero when the strip has none) [m].
   Vec3 stripOffsetValue(const std::string& strip_id) const;
@@ -524,6 +535,7 @@ class AdjustmentProblem {
   std::vector<StripCorrection> corrections_blocks_;
   double* time_offset_block_ = nullptr;
   bool committed_ = false;
+  std::array<bool, 6> estimated_{{true, true, true, true, true, true}};
   std::vector<const double*> reported_;
   std::map<const double*, std::string> reported_names_;
   std::map<const double*, Eigen::MatrixXd> reported_covariance_;
