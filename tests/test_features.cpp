@@ -448,10 +448,11 @@ TEST(FeatureMethod, CommandRunsTheSimulatedJobAndAJobWrittenByHand) {
 // lasers fire 0.1° (σ) off their table. Nine 1.5 m targets seen by two or three lasers each barely
 // determine sixteen offsets: measured (2026-11-28) σ 0.02–0.17° per laser (NaN for the three
 // lasers no target view holds), every offset within 0.15° of the truth (about the seen lasers'
-// mean), the boresight within 3σ, its worst error 0.0163° with the offsets against 0.0136° without
-// — no gain on this survey, where the dense correspondences recover the same errors to 1e-4°.
-// **Missed:** honest σ for the offsets — two well-seen lasers are 3.8σ and 5.2σ off (worst |error|/σ
-// printed): the outline's sampling error, systematic per laser, is not in their σ.
+// mean), the boresight within 3σ, its worst error 0.0082° with the offsets against 0.0054° without
+// (2026-12-06) — no gain on this survey, where the dense correspondences recover the same errors to
+// 1e-4°. Their σ: worst |error|/σ 1.7, RMS 0.7 since they take the views' leave-one-out residuals
+// (3.7 and 1.4 with the formal σ; 5.2 and 1.9 before the features' redundancy came from the
+// leverage) — over many seeds in PerLaserElevationSigmasAreHonestOverSeeds.
 TEST(FeatureMethod, PerLaserElevationOffsetsAreEstimatedWithTheBoresight) {
   auto s = std::make_unique<Uav>();
   makePreset("uav-vlp16", 1, &s->config, &s->scene);
@@ -499,4 +500,55 @@ TEST(FeatureMethod, PerLaserElevationOffsetsAreEstimatedWithTheBoresight) {
   }
   std::printf("features, lasers 0.1 deg off: boresight worst %.4f deg without the offsets, %.4f deg with\n", worst_without, worst_with);
   EXPECT_LT(worst_with, 0.03);  // the rigorous method's noise-free limit on this survey (pitch, above)
+}
+
+// The per-laser elevation offsets' σ over many surveys with the preset's noise and lasers 0.1°
+// off their table (issue 28 with issue 26's honest-σ rule: RMS of error/σ within [0.7, 1.4], at
+// least 85 % within 2σ): their σ take the views' share from the views' leave-one-out residuals
+// (AdjustmentProblem::leaveOneOutCovariance) — with the formal σ the RMS was 1.55–1.62 (seeds
+// 1–60 and 61–120), 76–83 % within 2σ. The boresight keeps its formal σ and stays honest. The
+// truth is compared about its mean over the lasers the views see, as the offsets are estimated.
+// Measured 2026-12-06: see the printed line. About 15 s in Release; 2 seeds under the sanitizers.
+TEST(FeatureMethod, PerLaserElevationSigmasAreHonestOverSeeds) {
+  const int seeds = mountcal_tests::seedsFor(40, 2);
+  double z2 = 0, bz2[3] = {0, 0, 0};
+  int n = 0, within = 0, usable = 0;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    auto s = std::make_unique<Uav>();
+    makePreset("uav-vlp16", static_cast<std::uint64_t>(seed), &s->config, &s->scene);
+    s->config.multibeam.laser_errors = drawLaserErrors(16, static_cast<std::uint64_t>(10 + seed), deg2rad(0.1));
+    s->survey = simulate(s->config, s->scene);
+    MountingCalibrator::Options o = featureOptions(true);
+    o.method<FeatureOptions>().laser_elevation_sigma_deg = 0.1;
+    const auto S = calibrate(toCalibrationData(s->survey), o);
+    ASSERT_TRUE(S.IsSolutionUsable()) << "seed " << seed << S.FullReport();
+    ++usable;
+    const FeatureSection& F = S.section<FeatureSection>();
+    double mean = 0;
+    int seen = 0;
+    for (std::size_t i = 0; i < 16; ++i)
+      if (F.laser_intrinsics.points[i] > 0) mean += s->config.multibeam.laser_errors[i].elevation_rad, ++seen;
+    mean /= std::max(seen, 1);
+    for (std::size_t i = 0; i < 16; ++i) {
+      if (F.laser_intrinsics.points[i] == 0) continue;
+      const double z = (F.laser_intrinsics.lasers[i].elevation_rad - (s->config.multibeam.laser_errors[i].elevation_rad - mean)) /
+                       F.laser_intrinsics.sigma[i].elevation_rad;
+      ASSERT_TRUE(std::isfinite(z)) << "seed " << seed << " laser " << i;
+      z2 += z * z, within += std::abs(z) < 2, ++n;
+    }
+    for (int a = 0; a < 3; ++a) bz2[a] += std::pow(angleError(S.mounting, s->config.true_mounting, a) * kDeg / S.sigma[3 + a], 2);
+  }
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 40 seeds");
+  const double rms = std::sqrt(z2 / n), share = static_cast<double>(within) / n;
+  std::printf(
+      "features, per-laser elevation offsets over %d seeds: %d offsets, RMS of error/sigma %.2f, %.1f %% within 2 sigma; "
+      "boresight RMS of error/sigma %.2f %.2f %.2f\n",
+      usable, n, rms, 100 * share, std::sqrt(bz2[0] / usable), std::sqrt(bz2[1] / usable), std::sqrt(bz2[2] / usable));
+  EXPECT_GE(rms, 0.7) << "σ too large";
+  EXPECT_LE(rms, 1.4) << "σ too small";
+  EXPECT_GE(share, 0.85);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GE(std::sqrt(bz2[a] / usable), 0.6) << "angle " << a;
+    EXPECT_LE(std::sqrt(bz2[a] / usable), 1.4) << "angle " << a;
+  }
 }

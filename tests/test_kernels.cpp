@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -666,4 +667,42 @@ TEST(AdjustmentProblem, LeverageIsTheWeightedMeansHatMatrix) {
   EXPECT_NEAR(H[6](0, 0), 0.0, 1e-12) << "a held parameter's observation has no leverage";
   for (const Eigen::MatrixXd& h : H) redundancy += static_cast<double>(h.rows()) - h.trace();
   EXPECT_NEAR(redundancy, 11.0, 1e-9);
+}
+
+TEST(AdjustmentProblem, LeaveOneOutCovarianceIsTheWeightedMeansHc3ByHand) {
+  // A point observed on one axis by three observations (σ 1, 2 and 4 cm) and a prior (3 cm) at 0,
+  // x at its weighted mean. By hand, per axis: h_i = w_i / W, e_i = (x − y_i)/σ_i, and the
+  // covariance with the three observations' share from their leave-one-out residuals is
+  // Σ_i (1/σ_i)² e_i² / (1 − h_i)² / W² + (1/σ_p)² / W² (the prior formal); the formal one 1/W.
+  // Relative tolerance 1e-9: N carries a 1e-12 regularisation (a free direction's guard).
+  using mountcal::AdjustmentProblem;
+  AdjustmentProblem P({0, 0, 0, 0, 0, 0}, 0.0, mountcal::LossType::kTrivial, 0.5, 1e-6);
+  const double zero[3] = {0, 0, 0};
+  double* x = P.addNuisanceBlock(3, zero);
+  const double sigma[3] = {0.01, 0.02, 0.04}, y[3] = {0.012, -0.03, 0.05}, sigma_p = 0.03;
+  std::vector<int> observations;
+  for (int i = 0; i < 3; ++i)
+    observations.push_back(P.addResidualBlock(new PointEcho(mountcal::Vec3(y[i], y[i], y[i]), sigma[i]), 0.0, {x}));
+  P.addResidualBlock(new PointEcho(mountcal::Vec3::Zero(), sigma_p), 0.0, {x});
+  double W = 1 / (sigma_p * sigma_p), mean = 0;
+  for (int i = 0; i < 3; ++i) W += 1 / (sigma[i] * sigma[i]), mean += y[i] / (sigma[i] * sigma[i]);
+  mean /= W;
+  std::fill(x, x + 3, mean);
+  const double prior_term = 1 / (sigma_p * sigma_p * W * W);  // diagonal: the prior's formal share
+  double hand = prior_term;
+  for (int i = 0; i < 3; ++i) {
+    const double h = 1 / (sigma[i] * sigma[i] * W), e = (mean - y[i]) / sigma[i];
+    hand += e * e / (sigma[i] * sigma[i] * (1 - h) * (1 - h) * W * W);
+  }
+  Eigen::MatrixXd formal;
+  const Eigen::MatrixXd C = P.leaveOneOutCovariance(x, observations, &formal);
+  ASSERT_EQ(C.rows(), 3);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(C(a, a), hand, 1e-9 * hand) << a;
+    EXPECT_NEAR(formal(a, a), 1 / W, 1e-9 / W) << a;
+  }
+  EXPECT_NEAR(C(0, 1), hand - prior_term, 1e-9 * hand) << "the same error on every axis here: the observations' share is all one";
+  const Eigen::MatrixXd none = P.leaveOneOutCovariance(x, {});
+  EXPECT_NEAR(none(0, 0), 1 / W, 1e-9 / W) << "nothing listed: the formal covariance";
+  EXPECT_THROW(P.leaveOneOutCovariance(P.mounting(), {}), std::invalid_argument);
 }

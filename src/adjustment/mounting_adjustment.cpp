@@ -675,57 +675,121 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
 
 }  // namespace
 
-std::vector<Eigen::MatrixXd> AdjustmentProblem::leverage(const std::vector<int>& indices) const {
-  const Columns cols = columnsOf(*this);
-  const int n = cols.n;
+namespace {
+
+/// The whole adjustment linearised at the current values: every record's Jacobian (tangent
+/// spaces, the mounting's held columns zero, each residual and its rows weighted by the loss's
+/// √ρ′ as the solve's last step weighs them), N = JᵀJ factorised (held and unseen columns
+/// decoupled, a free direction regularised as reducedSystem() does), and each record's rows.
+struct Linearised {
+  Columns cols;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> J;
+  std::vector<int> first_row;
+  std::vector<Eigen::VectorXd> residual;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  bool ok = false;
+  Eigen::MatrixXd rows(std::size_t record, int nr) const { return Eigen::MatrixXd(J.middleRows(first_row[record], nr)); }
+};
+
+void linearise(const AdjustmentProblem& problem, const double* mounting, const std::array<bool, 6>& estimated, Linearised* L) {
+  L->cols = columnsOf(problem);
+  const auto& records = problem.records();
   std::vector<Eigen::Triplet<double>> trip;
-  std::vector<int> first_row(records_.size(), 0);
+  L->first_row.assign(records.size(), 0);
+  L->residual.assign(records.size(), Eigen::VectorXd());
   int row = 0;
-  for (std::size_t i = 0; i < records_.size(); ++i) {
-    const Record& rec = records_[i];
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const AdjustmentProblem::Record& rec = records[i];
     const int nr = rec.cost->num_residuals();
-    std::vector<RowMat> J = blockJacobians(rec, cols);
+    std::vector<RowMat> J = blockJacobians(rec, L->cols);
+    std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
+    Eigen::VectorXd r(nr);
+    rec.cost->Evaluate(params.data(), r.data(), nullptr);
     if (rec.loss) {  // the loss's weight ρ′ at this residual, as Ceres' last step weighs it
-      std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
-      Eigen::VectorXd r(nr);
-      rec.cost->Evaluate(params.data(), r.data(), nullptr);
       double rho[3] = {r.squaredNorm(), 1.0, 0.0};
       rec.loss->Evaluate(rho[0], rho);
-      for (RowMat& Jb : J) Jb *= std::sqrt(std::max(rho[1], 0.0));
+      const double w = std::sqrt(std::max(rho[1], 0.0));
+      for (RowMat& Jb : J) Jb *= w;
+      r *= w;
     }
+    L->residual[i] = r;
     for (std::size_t b = 0; b < rec.blocks.size(); ++b)
-      if (rec.blocks[b] == mounting_)
+      if (rec.blocks[b] == mounting)
         for (int j = 0; j < 6; ++j)
-          if (!estimated_[static_cast<std::size_t>(j)]) J[b].col(j).setZero();  // held
-    first_row[i] = row;
-    addTriplets(rec, J, cols, mounting_, row, 0, &trip);
+          if (!estimated[static_cast<std::size_t>(j)]) J[b].col(j).setZero();  // held
+    L->first_row[i] = row;
+    addTriplets(rec, J, L->cols, mounting, row, 0, &trip);
     row += nr;
   }
+  const int n = L->cols.n;
   Eigen::SparseMatrix<double> Js(row, n);
   Js.setFromTriplets(trip.begin(), trip.end());
-  const Eigen::SparseMatrix<double> Jt = Js.transpose();
-  Eigen::SparseMatrix<double> N = Jt * Js;
-  // Held and unseen columns (no entry) decouple; a direction the data leave free is regularised
-  // as reducedSystem() does (it has no leverage on any residual).
+  Eigen::SparseMatrix<double> N = Eigen::SparseMatrix<double>(Js.transpose()) * Js;
   const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(N.diagonal()).cwiseAbs().maxCoeff());
   for (int c = 0; c < n; ++c) N.coeffRef(c, c) += N.coeff(c, c) == 0.0 ? 1.0 : eps;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(N);
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> Jrows = Js;
+  L->ldlt.compute(N);
+  L->ok = L->ldlt.info() == Eigen::Success;
+  L->J = Js;
+}
+
+}  // namespace
+
+std::vector<Eigen::MatrixXd> AdjustmentProblem::leverage(const std::vector<int>& indices) const {
+  Linearised L;
+  linearise(*this, mounting_, estimated_, &L);
   std::vector<Eigen::MatrixXd> out;
   out.reserve(indices.size());
   for (int index : indices) {
     const std::size_t i = static_cast<std::size_t>(index);
     const int nr = records_.at(i).cost->num_residuals();
-    const Eigen::MatrixXd Jr = Eigen::MatrixXd(Jrows.middleRows(first_row[i], nr));
-    if (ldlt.info() != Eigen::Success) {
+    if (!L.ok) {
       out.push_back(Eigen::MatrixXd::Constant(nr, nr, std::nan("")));
       continue;
     }
-    const Eigen::MatrixXd X = ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
-    const Eigen::MatrixXd H = Jr * X;
+    const Eigen::MatrixXd Jr = L.rows(i, nr);
+    const Eigen::MatrixXd H = Jr * L.ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
     out.push_back(0.5 * (H + H.transpose()));
   }
   return out;
+}
+
+Eigen::MatrixXd AdjustmentProblem::leaveOneOutCovariance(const double* block, const std::vector<int>& indices,
+                                                         Eigen::MatrixXd* formal) const {
+  Linearised L;
+  linearise(*this, mounting_, estimated_, &L);
+  const auto it = L.cols.col.find(block);
+  if (it == L.cols.col.end()) throw std::invalid_argument("leaveOneOutCovariance: not a variable block of this adjustment");
+  const auto [first, size] = it->second;
+  if (!L.ok) {
+    if (formal) *formal = Eigen::MatrixXd::Constant(size, size, std::nan(""));
+    return Eigen::MatrixXd::Constant(size, size, std::nan(""));
+  }
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(L.cols.n, size);
+  for (int a = 0; a < size; ++a) E(first + a, a) = 1.0;
+  const Eigen::MatrixXd X = L.ldlt.solve(E);  // N⁻¹ E: the block's columns of N⁻¹
+  std::vector<bool> listed(records_.size(), false);
+  for (int i : indices) listed.at(static_cast<std::size_t>(i)) = true;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(size, size), F = Eigen::MatrixXd::Zero(size, size);
+  for (std::size_t i = 0; i < records_.size(); ++i) {
+    const int nr = records_[i].cost->num_residuals();
+    const Eigen::MatrixXd Jr = L.rows(i, nr);
+    const Eigen::MatrixXd G = Jr * X;  // the record's rows of J N⁻¹ E
+    F += G.transpose() * G;
+    if (!listed[i]) {
+      C += G.transpose() * G;
+      continue;
+    }
+    // (I − H_rr)⁻¹ e: the residual the record would have had without itself in the solve (its
+    // eigenvalues floored at 1e-9: a record that alone determines a direction stays finite).
+    const Eigen::MatrixXd H = Jr * L.ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd::Identity(nr, nr) - 0.5 * (H + H.transpose()));
+    const Eigen::VectorXd loo =
+        eig.eigenvectors() * eig.eigenvalues().cwiseMax(1e-9).cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() * L.residual[i];
+    const Eigen::VectorXd g = G.transpose() * loo;
+    C += g * g.transpose();
+  }
+  if (formal) *formal = 0.5 * (F + F.transpose());
+  return 0.5 * (C + C.transpose());
 }
 
 namespace {

@@ -473,6 +473,14 @@ class AdjustmentProblem {
   /// components divide by (Förstner: σ² = Σ e² / Σ redundancy), so that the parameters that fit
   /// its residuals — the mounting, strip offsets, laser offsets, not only its own — are counted.
   std::vector<Eigen::MatrixXd> leverage(const std::vector<int>& records) const;
+  /// The covariance of a nuisance `block` (its tangent columns) with the listed records' share
+  /// taken from their own leave-one-out residuals — a sandwich N⁻¹ B N⁻¹, B = Σ over the other
+  /// records of Jᵀ J (their stated σ) + Σ over the listed ones of Jᵀ ẽ ẽᵀ J, ẽ = (I − H_rr)⁻¹ e
+  /// the residual each would have without itself in the solve (the "HC3" estimator, MacKinnon
+  /// & White 1985; leverage() for H). For parameters that few observations determine, whose
+  /// fit hides their errors in small residuals. `formal` (optional): N⁻¹'s block from the same
+  /// linearisation. Throws std::invalid_argument when `block` is not a variable block here.
+  Eigen::MatrixXd leaveOneOutCovariance(const double* block, const std::vector<int>& records, Eigen::MatrixXd* formal = nullptr) const;
   /// Which mounting parameters the solve estimates (the others held): for leverage().
   void setEstimated(const std::array<bool, 6>& estimated) { estimated_ = estimated; }
   int residualBlockCount() const { return static_cast<int>(records_.size()); }

@@ -51,7 +51,7 @@ void addLaserPriors(AdjustmentProblem* problem, double* block, const LaserLayout
 }
 
 LaserIntrinsicEstimates laserEstimates(const AdjustmentProblem& adjustment, const double* block, const LaserLayout& layout,
-                                       const LaserCorrection& prior, const std::vector<int>& points) {
+                                       const LaserCorrection& prior, const std::vector<int>& points, const Eigen::MatrixXd& block_change) {
   LaserIntrinsicEstimates out;
   if (!block || layout.empty()) return out;
   const int L = layout.lasers;
@@ -67,7 +67,9 @@ LaserIntrinsicEstimates laserEstimates(const AdjustmentProblem& adjustment, cons
   const Eigen::MatrixXd& joint = adjustment.reportedCovariance(block);
   const int n = layout.size;
   if (joint.rows() != 6 + n) return out;
-  const Eigen::MatrixXd C_ll = joint.bottomRightCorner(n, n), C_lm = joint.bottomLeftCorner(n, 6), C_mm = joint.topLeftCorner(6, 6);
+  Eigen::MatrixXd C_ll = joint.bottomRightCorner(n, n);
+  if (block_change.rows() == n && block_change.cols() == n) C_ll += block_change;
+  const Eigen::MatrixXd C_lm = joint.bottomLeftCorner(n, 6), C_mm = joint.topLeftCorner(6, 6);
   constexpr double kUnseparated = 0.95;
   auto corr = [](double cab, double va, double vb) { return va > 0 && vb > 0 ? cab / std::sqrt(va * vb) : 0.0; };
   for (int i = 0; i < L; ++i) {
@@ -248,8 +250,9 @@ double* LaserIntrinsicsBlock::add(AdjustmentProblem* problem, const std::vector<
   return block_;
 }
 
-LaserIntrinsicEstimates LaserIntrinsicsBlock::finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const {
-  return laserEstimates(adjustment, block_, layout_, prior_, points);
+LaserIntrinsicEstimates LaserIntrinsicsBlock::finish(const AdjustmentProblem& adjustment, const std::vector<int>& points,
+                                                     const Eigen::MatrixXd& block_change) const {
+  return laserEstimates(adjustment, block_, layout_, prior_, points, block_change);
 }
 
 OneLaserOfBlock::OneLaserOfBlock(ceres::CostFunction* inner, const LaserLayout& layout, int laser) : inner_(inner), size_(layout.size) {

@@ -69,8 +69,11 @@ void addLaserPriors(AdjustmentProblem* problem, double* block, const LaserLayout
 /// The estimates of a block laid out by `layout`, their σ and correlation screening from the joint
 /// covariance of the mounting and the block in the mounting's stochastic model
 /// (AdjustmentProblem::reportCovariance), with `points` per laser and the priors they had.
+/// `block_change` (optional, the block's size square): added to the block's own covariance (a
+/// method whose formal part it replaces, AdjustmentProblem::leaveOneOutCovariance).
 LaserIntrinsicEstimates laserEstimates(const AdjustmentProblem& adjustment, const double* block, const LaserLayout& layout,
-                                       const LaserCorrection& prior, const std::vector<int>& points);
+                                       const LaserCorrection& prior, const std::vector<int>& points,
+                                       const Eigen::MatrixXd& block_change = Eigen::MatrixXd());
 
 /// A section's text table of the estimated groups (value and σ each), each laser's largest
 /// |correlation| with the boresight and its `points_label` count, under `title`, and the
@@ -111,7 +114,8 @@ class LaserIntrinsicsBlock {
     if (block_) std::copy(block_, block_ + layout_.size, values_.begin());
   }
   /// The estimates, their σ and screening, with `points` per laser.
-  LaserIntrinsicEstimates finish(const AdjustmentProblem& adjustment, const std::vector<int>& points) const;
+  LaserIntrinsicEstimates finish(const AdjustmentProblem& adjustment, const std::vector<int>& points,
+                                 const Eigen::MatrixXd& block_change = Eigen::MatrixXd()) const;
 
  private:
   LaserLayout layout_;

@@ -914,7 +914,18 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     for (const auto& vps : points_)
       for (const ViewPoints& vp : vps)
         for (int l : vp.laser) ++points[static_cast<std::size_t>(l)];
-    section_.laser_intrinsics = laser_->finish(problem, points);
+    // The offsets' own covariance with the views' share from their leave-one-out residuals
+    // (AdjustmentProblem::leaveOneOutCovariance, in place of its formal part; the trajectory
+    // errors' term stays): an offset is fitted to the few views whose outline its rows bound,
+    // and the fit hides their sampling error in small residuals — over 60 seeds the formal σ
+    // were 1.5–1.6 times small (RMS of error/σ), these 1.11–1.18 (seeds 61–120). The boresight
+    // keeps the formal part: many views determine it, and its σ are honest (its sandwich would
+    // state them 1.2–1.7 times large, RMS 0.49–0.98).
+    std::vector<int> views;
+    for (const auto& target_blocks : blocks_) views.insert(views.end(), target_blocks.begin(), target_blocks.end());
+    Eigen::MatrixXd formal;
+    const Eigen::MatrixXd loo = problem.leaveOneOutCovariance(laser_->block(), views, &formal);
+    section_.laser_intrinsics = laser_->finish(problem, points, loo - formal);
   }
 }
 

@@ -274,10 +274,6 @@ std::vector<std::string> FeatureSection::doubts() const { return detail::laserIn
 std::vector<std::string> FeatureSection::warnings() const {
   std::vector<std::string> w = doubts();
   if (!rejected.empty()) w.push_back(std::to_string(rejected.size()) + " targets or strip views rejected");
-  if (!laser_intrinsics.empty())
-    w.push_back(
-        "per-laser elevation offsets from targets: their sigma leave out the outline's sampling error, systematic per laser (on a "
-        "simulated VLP-16 survey up to 5 sigma off); the dense correspondences determine them from the whole overlap");
   return w;
 }
 
