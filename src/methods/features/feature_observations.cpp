@@ -828,6 +828,12 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
   }
 }
 
+std::vector<int> FeatureObservations::viewRecords() const {
+  std::vector<int> out;
+  for (const auto& target_blocks : blocks_) out.insert(out.end(), target_blocks.begin(), target_blocks.end());
+  return out;
+}
+
 void FeatureObservations::solved(const AdjustmentProblem& problem) {
   if (laser_) laser_->solved();
   settled_ = true;
@@ -842,9 +848,7 @@ void FeatureObservations::solved(const AdjustmentProblem& problem) {
   // rows and along scan lines at different spacings, so one isotropic σ would state the finer
   // axis too large and the coarser too small (the UAV preset's VLP-16: roll and lever y σ about
   // 1.2× large, pitch and lever x small, over 100 seeds with one in-plane σ).
-  std::vector<int> records;
-  for (const auto& target_blocks : blocks_) records.insert(records.end(), target_blocks.begin(), target_blocks.end());
-  const std::vector<Eigen::MatrixXd> H = problem.leverage(records);
+  const std::vector<Eigen::MatrixXd> H = problem.leverage(viewRecords());
   double ss_n = 0, ss_a = 0, ss_c = 0, red_n = 0, red_a = 0, red_c = 0;
   std::size_t at = 0;
   for (std::size_t k = 0; k < targets_.size(); ++k) {
@@ -921,11 +925,9 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     // were 1.5–1.6 times small (RMS of error/σ), these 1.11–1.18 (seeds 61–120). The boresight
     // keeps the formal part: many views determine it, and its σ are honest (its sandwich would
     // state them 1.2–1.7 times large, RMS 0.49–0.98).
-    std::vector<int> views;
-    for (const auto& target_blocks : blocks_) views.insert(views.end(), target_blocks.begin(), target_blocks.end());
-    Eigen::MatrixXd formal;
-    const Eigen::MatrixXd loo = problem.leaveOneOutCovariance(laser_->block(), views, &formal);
-    section_.laser_intrinsics = laser_->finish(problem, points, loo - formal);
+    Eigen::MatrixXd formal, loo;
+    if (laser_->block()) loo = problem.leaveOneOutCovariance(laser_->block(), viewRecords(), &formal);
+    section_.laser_intrinsics = laser_->finish(problem, points, loo.size() > 0 ? Eigen::MatrixXd(loo - formal) : Eigen::MatrixXd());
   }
 }
 

@@ -270,6 +270,7 @@ class FeatureObservations final : public ObservationSource {
   MountingParameters used_;
   std::vector<Target> targets_;
   std::vector<std::vector<int>> blocks_;
+  std::vector<int> viewRecords() const;  // every target's view records, in blocks_' order
   FeatureSection section_;
   std::unique_ptr<detail::LaserIntrinsicsBlock> laser_;  // per-laser elevation offsets (null: not estimated)
 };
