@@ -689,6 +689,12 @@ struct Linearised {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   bool ok = false;
   Eigen::MatrixXd rows(std::size_t record, int nr) const { return Eigen::MatrixXd(J.middleRows(first_row[record], nr)); }
+  /// The record's diagonal block of the hat matrix, J_r N⁻¹ J_rᵀ (symmetrised).
+  Eigen::MatrixXd hat(std::size_t record, int nr) const {
+    const Eigen::MatrixXd Jr = rows(record, nr);
+    const Eigen::MatrixXd H = Jr * ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
+    return 0.5 * (H + H.transpose());
+  }
 };
 
 void linearise(const AdjustmentProblem& problem, const double* mounting, const std::array<bool, 6>& estimated, Linearised* L) {
@@ -746,9 +752,7 @@ std::vector<Eigen::MatrixXd> AdjustmentProblem::leverage(const std::vector<int>&
       out.push_back(Eigen::MatrixXd::Constant(nr, nr, std::nan("")));
       continue;
     }
-    const Eigen::MatrixXd Jr = L.rows(i, nr);
-    const Eigen::MatrixXd H = Jr * L.ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
-    out.push_back(0.5 * (H + H.transpose()));
+    out.push_back(L.hat(i, nr));
   }
   return out;
 }
@@ -781,8 +785,7 @@ Eigen::MatrixXd AdjustmentProblem::leaveOneOutCovariance(const double* block, co
     }
     // (I − H_rr)⁻¹ e: the residual the record would have had without itself in the solve (its
     // eigenvalues floored at 1e-9: a record that alone determines a direction stays finite).
-    const Eigen::MatrixXd H = Jr * L.ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd::Identity(nr, nr) - 0.5 * (H + H.transpose()));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd::Identity(nr, nr) - L.hat(i, nr));
     const Eigen::VectorXd loo =
         eig.eigenvectors() * eig.eigenvalues().cwiseMax(1e-9).cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() * L.residual[i];
     const Eigen::VectorXd g = G.transpose() * loo;
@@ -948,12 +951,11 @@ struct TrajectoryTerm {
   Mat M, self;  ///< every epoch's error, own variances included; Σ share · h C hᵀ of the in_sigma epochs
 };
 
-/// `N_red_out`, `X_out`, `cols_out` (optional): the reduced system of the kept columns it worked
-/// with (reducedSystem()'s N_red, X and columns).
+/// `N_red_out`, `X_out` (optional): the reduced system of the kept columns it worked with
+/// (reducedSystem()'s N_red and X).
 template <int Rows>
 TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const TrajectoryAccuracy& acc, bool attitude, int kept = 6,
-                                         Eigen::MatrixXd* N_red_out = nullptr, Eigen::MatrixXd* X_out = nullptr,
-                                         Columns* cols_out = nullptr) {
+                                         Eigen::MatrixXd* N_red_out = nullptr, Eigen::MatrixXd* X_out = nullptr) {
   using Mat = typename TrajectoryTerm<Rows>::Mat;
   Eigen::MatrixXd N_red, X;
   Eigen::VectorXd diag;
@@ -966,7 +968,6 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   reducedSystem(problem, kept, &N_red, &diag, &X, &cols, any_in_sigma ? &offset_var : nullptr);
   if (N_red_out) *N_red_out = N_red;
   if (X_out) *X_out = X;
-  if (cols_out) *cols_out = cols;
   using Mat63 = Eigen::Matrix<double, Rows, 3>;
   const Mat zero = Mat::Zero(kept, kept);
   const Mat63 zero3 = Mat63::Zero(kept, 3);
