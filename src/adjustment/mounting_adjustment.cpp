@@ -631,8 +631,8 @@ Columns columnsOf(const AdjustmentProblem& problem) {
 }
 
 /// The Jacobians of one residual block at the current values, each block's (constant ones
-/// too) — a nuisance block on a manifold in its tangent space.
-std::vector<RowMat> blockJacobians(const AdjustmentProblem::Record& rec, const Columns& cols) {
+/// too) — a nuisance block on a manifold in its tangent space; `residual` (optional) its value.
+std::vector<RowMat> blockJacobians(const AdjustmentProblem::Record& rec, const Columns& cols, Eigen::VectorXd* residual = nullptr) {
   const int nr = rec.cost->num_residuals();
   const auto& sizes = rec.cost->parameter_block_sizes();
   std::vector<RowMat> J(rec.blocks.size());
@@ -644,6 +644,7 @@ std::vector<RowMat> blockJacobians(const AdjustmentProblem::Record& rec, const C
   std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
   Eigen::VectorXd r(nr);
   rec.cost->Evaluate(params.data(), r.data(), jac.data());
+  if (residual) *residual = r;
   for (std::size_t b = 0; b < rec.blocks.size(); ++b) {
     auto man = cols.manifold.find(rec.blocks[b]);
     if (man == cols.manifold.end()) continue;
@@ -673,13 +674,57 @@ void addTriplets(const AdjustmentProblem::Record& rec, const std::vector<RowMat>
   }
 }
 
-}  // namespace
+/// Every record's Jacobian at the current values stacked in record order over `cols` (the
+/// mounting `m`'s 6 columns first, constant blocks left out), and each record's first row.
+/// `weighted` (optional, with the mounting's `estimated` columns): each record's rows and its
+/// residual weighted by the loss's √ρ′ there (as Ceres' last step weighs them) and the held
+/// columns zero, the weighted residuals returned — linearise(); without it the plain Jacobian
+/// (reducedSystem()).
+struct StackedJacobian {
+  Eigen::SparseMatrix<double> J;
+  std::vector<int> first_row;
+  std::vector<Eigen::VectorXd> residual;  ///< weighted only
+};
 
-namespace {
+StackedJacobian stackJacobians(const AdjustmentProblem& problem, const double* m, const Columns& cols,
+                               const std::array<bool, 6>* weighted = nullptr) {
+  const auto& records = problem.records();
+  StackedJacobian out;
+  out.first_row.assign(records.size(), 0);
+  if (weighted) out.residual.assign(records.size(), Eigen::VectorXd());
+  std::vector<Eigen::Triplet<double>> trip;
+  int row = 0;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const AdjustmentProblem::Record& rec = records[i];
+    const int nr = rec.cost->num_residuals();
+    Eigen::VectorXd r;
+    std::vector<RowMat> J = blockJacobians(rec, cols, weighted ? &r : nullptr);
+    if (weighted) {
+      if (rec.loss) {  // the loss's weight ρ′ at this residual
+        double rho[3] = {r.squaredNorm(), 1.0, 0.0};
+        rec.loss->Evaluate(rho[0], rho);
+        const double w = std::sqrt(std::max(rho[1], 0.0));
+        for (RowMat& Jb : J) Jb *= w;
+        r *= w;
+      }
+      out.residual[i] = r;
+      for (std::size_t b = 0; b < rec.blocks.size(); ++b)
+        if (rec.blocks[b] == m)
+          for (int j = 0; j < 6; ++j)
+            if (!(*weighted)[static_cast<std::size_t>(j)]) J[b].col(j).setZero();  // held
+    }
+    out.first_row[i] = row;
+    addTriplets(rec, J, cols, m, row, 0, &trip);
+    row += nr;
+  }
+  out.J.resize(row, cols.n);
+  out.J.setFromTriplets(trip.begin(), trip.end());
+  return out;
+}
 
-/// The whole adjustment linearised at the current values: every record's Jacobian (tangent
-/// spaces, the mounting's held columns zero, each residual and its rows weighted by the loss's
-/// √ρ′ as the solve's last step weighs them), N = JᵀJ factorised (held and unseen columns
+/// The whole adjustment linearised at the current values: every record's Jacobian (stackJacobians:
+/// tangent spaces, the mounting's held columns zero, each residual and its rows weighted by the
+/// loss's √ρ′ as the solve's last step weighs them), N = JᵀJ factorised (held and unseen columns
 /// decoupled, a free direction regularised as reducedSystem() does), and each record's rows.
 struct Linearised {
   Columns cols;
@@ -699,43 +744,16 @@ struct Linearised {
 
 void linearise(const AdjustmentProblem& problem, const double* mounting, const std::array<bool, 6>& estimated, Linearised* L) {
   L->cols = columnsOf(problem);
-  const auto& records = problem.records();
-  std::vector<Eigen::Triplet<double>> trip;
-  L->first_row.assign(records.size(), 0);
-  L->residual.assign(records.size(), Eigen::VectorXd());
-  int row = 0;
-  for (std::size_t i = 0; i < records.size(); ++i) {
-    const AdjustmentProblem::Record& rec = records[i];
-    const int nr = rec.cost->num_residuals();
-    std::vector<RowMat> J = blockJacobians(rec, L->cols);
-    std::vector<const double*> params(rec.blocks.begin(), rec.blocks.end());
-    Eigen::VectorXd r(nr);
-    rec.cost->Evaluate(params.data(), r.data(), nullptr);
-    if (rec.loss) {  // the loss's weight ρ′ at this residual, as Ceres' last step weighs it
-      double rho[3] = {r.squaredNorm(), 1.0, 0.0};
-      rec.loss->Evaluate(rho[0], rho);
-      const double w = std::sqrt(std::max(rho[1], 0.0));
-      for (RowMat& Jb : J) Jb *= w;
-      r *= w;
-    }
-    L->residual[i] = r;
-    for (std::size_t b = 0; b < rec.blocks.size(); ++b)
-      if (rec.blocks[b] == mounting)
-        for (int j = 0; j < 6; ++j)
-          if (!estimated[static_cast<std::size_t>(j)]) J[b].col(j).setZero();  // held
-    L->first_row[i] = row;
-    addTriplets(rec, J, L->cols, mounting, row, 0, &trip);
-    row += nr;
-  }
+  StackedJacobian stacked = stackJacobians(problem, mounting, L->cols, &estimated);
   const int n = L->cols.n;
-  Eigen::SparseMatrix<double> Js(row, n);
-  Js.setFromTriplets(trip.begin(), trip.end());
-  Eigen::SparseMatrix<double> N = Eigen::SparseMatrix<double>(Js.transpose()) * Js;
+  Eigen::SparseMatrix<double> N = Eigen::SparseMatrix<double>(stacked.J.transpose()) * stacked.J;
   const double eps = 1e-12 * std::max(1.0, Eigen::VectorXd(N.diagonal()).cwiseAbs().maxCoeff());
   for (int c = 0; c < n; ++c) N.coeffRef(c, c) += N.coeff(c, c) == 0.0 ? 1.0 : eps;
   L->ldlt.compute(N);
   L->ok = L->ldlt.info() == Eigen::Success;
-  L->J = Js;
+  L->J = stacked.J;
+  L->first_row = std::move(stacked.first_row);
+  L->residual = std::move(stacked.residual);
 }
 
 }  // namespace
@@ -831,17 +849,7 @@ void reducedSystem(AdjustmentProblem& problem, int kept, Eigen::MatrixXd* N_red,
                    Columns* cols_out = nullptr, std::map<const double*, Vec3>* offset_variance = nullptr) {
   const Columns cols = columnsOf(problem);
   const int n = cols.n, k = kept;
-  std::vector<Eigen::Triplet<double>> trip;
-  int row = 0;
-  const double* m = problem.mounting();
-  for (const auto& rec : problem.records()) {
-    const int nr = rec.cost->num_residuals();
-    const std::vector<RowMat> J = blockJacobians(rec, cols);
-    addTriplets(rec, J, cols, m, row, 0, &trip);
-    row += nr;
-  }
-  Eigen::SparseMatrix<double> Js(row, n);
-  Js.setFromTriplets(trip.begin(), trip.end());
+  const Eigen::SparseMatrix<double> Js = std::move(stackJacobians(problem, problem.mounting(), cols).J);
   const Eigen::SparseMatrix<double> Jt_s = Js.transpose();
   const Eigen::SparseMatrix<double> N = Jt_s * Js;
   const Eigen::MatrixXd Nkk = Eigen::MatrixXd(N.topLeftCorner(k, k));
@@ -951,6 +959,79 @@ struct TrajectoryTerm {
   Mat M, self;  ///< every epoch's error, own variances included; Σ share · h C hᵀ of the in_sigma epochs
 };
 
+/// One process of the trajectory errors (position drift, attitude, the GNSS error) in
+/// trajectoryErrorTerm(): its correlation time, bin width and variance per axis, and per strip
+/// offset and time bin the summed H and the in_sigma epochs' own terms.
+template <int Rows>
+struct TrajectoryGroup {
+  using Mat = Eigen::Matrix<double, Rows, Rows>;
+  using Mat63 = Eigen::Matrix<double, Rows, 3>;
+  struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ per axis of C and its count
+    std::array<Mat, 3> hch;
+    double count = 0;
+  };
+  double tau, bin;
+  Vec3 var;
+  std::map<const double*, std::map<long long, Mat63>> H;  // strip offset → bin → H
+  std::map<const double*, std::map<long long, Own>> own;  // strip offset → bin → in_sigma epochs
+  std::vector<int> absorbed;                              // polynomial degrees the strip's terms absorb
+};
+
+/// The part of the in_sigma epochs' own errors that their kind's estimated σ hold (what the
+/// strip's estimated terms leave: detail::residualShare), added to `self`. `attitude`: the
+/// attitude process (the offsets absorb none of it).
+template <int Rows>
+void addOwnShare(const TrajectoryGroup<Rows>& g, bool attitude, const Columns& cols, const std::map<const double*, Vec3>& offset_var,
+                 double prior, typename TrajectoryGroup<Rows>::Mat* self) {
+  for (const auto& [strip, bins] : g.own) {
+    // A strip offset held constant absorbs nothing (nor do corrections without it).
+    const bool estimated = cols.col.count(strip) > 0;
+    std::vector<double> times, weights;
+    for (const auto& [b, o] : bins) {
+      times.push_back(static_cast<double>(b) * g.bin);
+      weights.push_back(o.count);
+    }
+    // The offset is a random effect: of a strip-constant error it takes only what the data
+    // resolve, κ = 1 − σ²_posterior / σ²_prior per axis (a strip whose few observations hardly
+    // determine its offset keeps nearly all of its own error in their residuals).
+    const auto v = offset_var.find(strip);
+    Eigen::VectorXd share;
+    double share_kappa = std::nan("");  // axes of one κ (every attitude axis: 1) share one computation
+    for (int a = 0; a < 3; ++a) {
+      const double kappa = !attitude && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
+      if (!(kappa == share_kappa)) {
+        share = detail::residualShare(times, weights, g.tau, estimated ? g.absorbed : std::vector<int>{}, kappa);
+        share_kappa = kappa;
+      }
+      Eigen::Index i = 0;
+      for (const auto& [b, o] : bins) *self += share(i++) * o.hch[static_cast<std::size_t>(a)];
+    }
+  }
+}
+
+/// Σ_u Σ_v exp(−|t_u − t_v| / τ) H_u C H_vᵀ over each strip's bins, added to `M`, by the
+/// exponential kernel's recursion over the sorted bins:
+/// T_u = Σ_{v<u} exp(−(t_u − t_v) / τ) H_v = exp(−(t_u − t_{u−1}) / τ) (T_{u−1} + H_{u−1}).
+template <int Rows>
+void addKernelSum(const TrajectoryGroup<Rows>& g, typename TrajectoryGroup<Rows>::Mat* M) {
+  using Mat = typename TrajectoryGroup<Rows>::Mat;
+  using Mat63 = typename TrajectoryGroup<Rows>::Mat63;
+  const Eigen::DiagonalMatrix<double, 3> C(g.var);
+  for (const auto& [strip, bins] : g.H) {
+    (void)strip;
+    Mat63 T = Mat63::Zero(M->rows(), 3);
+    const Mat63* previous = nullptr;
+    long long previous_bin = 0;
+    for (const auto& [bin, H] : bins) {
+      if (previous) T = std::exp(-static_cast<double>(bin - previous_bin) * g.bin / g.tau) * (T + *previous);
+      const Mat cross = H * C * T.transpose();
+      *M += H * C * H.transpose() + cross + cross.transpose();
+      previous = &H;
+      previous_bin = bin;
+    }
+  }
+}
+
 /// `N_red_out`, `X_out` (optional): the reduced system of the kept columns it worked with
 /// (reducedSystem()'s N_red and X).
 template <int Rows>
@@ -971,17 +1052,8 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
   using Mat63 = Eigen::Matrix<double, Rows, 3>;
   const Mat zero = Mat::Zero(kept, kept);
   const Mat63 zero3 = Mat63::Zero(kept, 3);
-  struct Own {  // one bin of in_sigma epochs: Σ h C hᵀ per axis of C and its count
-    std::array<Mat, 3> hch;
-    double count = 0;
-  };
-  struct Group {
-    double tau, bin;
-    Vec3 var;
-    std::map<const double*, std::map<long long, Mat63>> H;  // strip offset → bin → H
-    std::map<const double*, std::map<long long, Own>> own;  // strip offset → bin → in_sigma epochs
-    std::vector<int> absorbed;                              // polynomial degrees the strip's terms absorb
-  };
+  using Group = TrajectoryGroup<Rows>;
+  using Own = typename Group::Own;
   const double t = deg2rad(acc.roll_pitch_sigma_deg), k = deg2rad(acc.heading_sigma_deg), p = acc.position_sigma_m;
   // With a series, σ(t) scale each epoch's columns (H diag σ(t)) and the processes have unit variance.
   const TrajectoryAccuracySeries* series = acc.series && !acc.series->empty() ? acc.series.get() : nullptr;
@@ -1034,48 +1106,9 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
       }
     }
   }
-  for (Group* g : {&pos, &att, &gnss}) {
-    const Eigen::DiagonalMatrix<double, 3> C(g->var);
-    for (const auto& [strip, bins] : g->own) {
-      // A strip offset held constant absorbs nothing (nor do corrections without it).
-      const bool estimated = cols.col.count(strip) > 0;
-      std::vector<double> times, weights;
-      for (const auto& [b, o] : bins) {
-        times.push_back(static_cast<double>(b) * g->bin);
-        weights.push_back(o.count);
-      }
-      // The offset is a random effect: of a strip-constant error it takes only what the data
-      // resolve, κ = 1 − σ²_posterior / σ²_prior per axis (a strip whose few observations hardly
-      // determine its offset keeps nearly all of its own error in their residuals).
-      const auto v = offset_var.find(strip);
-      const double prior = problem.stripOffsetSigma() * problem.stripOffsetSigma();
-      Eigen::VectorXd share;
-      double share_kappa = std::nan("");  // axes of one κ (every attitude axis: 1) share one computation
-      for (int a = 0; a < 3; ++a) {
-        const double kappa = g != &att && v != offset_var.end() && prior > 0 ? 1.0 - v->second(a) / prior : 1.0;
-        if (!(kappa == share_kappa)) {
-          share = detail::residualShare(times, weights, g->tau, estimated ? g->absorbed : std::vector<int>{}, kappa);
-          share_kappa = kappa;
-        }
-        Eigen::Index i = 0;
-        for (const auto& [b, o] : bins) out.self += share(i++) * o.hch[static_cast<std::size_t>(a)];
-      }
-    }
-    for (const auto& [strip, bins] : g->H) {
-      (void)strip;
-      // Σ_u Σ_v exp(−|t_u − t_v| / τ) H_u C H_vᵀ by the exponential kernel's recursion over the
-      // sorted bins: T_u = Σ_{v<u} exp(−(t_u − t_v) / τ) H_v = exp(−(t_u − t_{u−1}) / τ) (T_{u−1} + H_{u−1}).
-      Mat63 T = zero3;
-      const Mat63* previous = nullptr;
-      long long previous_bin = 0;
-      for (const auto& [bin, H] : bins) {
-        if (previous) T = std::exp(-static_cast<double>(bin - previous_bin) * g->bin / g->tau) * (T + *previous);
-        const Mat cross = H * C * T.transpose();
-        out.M += H * C * H.transpose() + cross + cross.transpose();
-        previous = &H;
-        previous_bin = bin;
-      }
-    }
+  for (const Group* g : {&pos, &att, &gnss}) {
+    addOwnShare(*g, g == &att, cols, offset_var, problem.stripOffsetSigma() * problem.stripOffsetSigma(), &out.self);
+    addKernelSum(*g, &out.M);
   }
   // Σ_strips H̄ σ_o² H̄ᵀ = Xᵀ P X: the strip-constant error the formal covariance holds as the
   // offsets' random effect, which the drift above holds too.

@@ -265,6 +265,63 @@ std::vector<std::array<int, 3>> delaunay(const std::vector<Eigen::Vector2d>& pts
 
 using TinMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
+/// The Delaunay triangle of the coplanar points `inliers` (plane coordinates `uv`, centred at `c`)
+/// that holds the pick `puv`, held in an OpenMesh TriMesh: its three indices into `inliers`, or
+/// {-1, -1, -1} when the pick lies outside the hull.
+std::array<int, 3> enclosingTriangle(const std::vector<Vec3>& X, const std::vector<std::size_t>& inliers, const Vec3& c,
+                                     const std::vector<Eigen::Vector2d>& uv, const Eigen::Vector2d& puv) {
+  TinMesh tin;
+  std::vector<TinMesh::VertexHandle> vh;
+  for (std::size_t i : inliers)
+    vh.push_back(tin.add_vertex(
+        TinMesh::Point(static_cast<float>(X[i].x() - c.x()), static_cast<float>(X[i].y() - c.y()), static_cast<float>(X[i].z() - c.z()))));
+  for (const auto& t : delaunay(uv)) {
+    // Orient counter-clockwise in (u, v) so that OpenMesh sees a consistent manifold.
+    const Eigen::Vector2d e1 = uv[t[1]] - uv[t[0]], e2 = uv[t[2]] - uv[t[0]];
+    if (e1.x() * e2.y() - e1.y() * e2.x() > 0)
+      tin.add_face(vh[t[0]], vh[t[1]], vh[t[2]]);
+    else
+      tin.add_face(vh[t[0]], vh[t[2]], vh[t[1]]);
+  }
+  for (auto fh : tin.faces()) {
+    int k = 0;
+    std::array<int, 3> tri{};
+    for (auto fv : tin.fv_range(fh)) tri[static_cast<std::size_t>(k++)] = fv.idx();
+    const Eigen::Vector2d a = uv[static_cast<std::size_t>(tri[0])], b = uv[static_cast<std::size_t>(tri[1])],
+                          cc = uv[static_cast<std::size_t>(tri[2])];
+    const double d = (b - a).x() * (cc - a).y() - (b - a).y() * (cc - a).x();
+    if (std::abs(d) < 1e-14) continue;
+    const double l1 = ((b - puv).x() * (cc - puv).y() - (b - puv).y() * (cc - puv).x()) / d;
+    const double l2 = ((cc - puv).x() * (a - puv).y() - (cc - puv).y() * (a - puv).x()) / d;
+    const double l3 = 1.0 - l1 - l2;
+    if (l1 >= -1e-12 && l2 >= -1e-12 && l3 >= -1e-12) return tri;
+  }
+  return {-1, -1, -1};
+}
+
+/// Why the triangle (a, b, cc) cannot carry a pick, or "" when it can: a sliver (its smallest
+/// angle), or a triangle standing upright in plan.
+std::string triangleShapeProblem(const Vec3& a, const Vec3& b, const Vec3& cc, const VtpOptions& options) {
+  const std::array<Vec3, 3> v{a, b, cc};
+  double min_angle = kPi;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Vec3 e1 = v[(k + 1) % 3] - v[k], e2 = v[(k + 2) % 3] - v[k];
+    min_angle = std::min(min_angle, std::acos(std::clamp(e1.normalized().dot(e2.normalized()), -1.0, 1.0)));
+  }
+  if (min_angle < deg2rad(options.min_triangle_angle_deg))
+    return "degenerate triangle: smallest angle " + std::to_string(rad2deg(min_angle)).substr(0, 4) + "°";
+  // Rule 1 interpolates the height in plan (seed eq. 5), but the triangle was found in the local
+  // plane's own coordinates: three noisy pulses on a sloped plane can stand nearly upright — a
+  // sliver in plan — and the height at the pick is then extrapolated from it (a uav-vlp16 survey,
+  // a roof at 48°: three pulses within 4 cm of one line in plan, the pick's height 24.5 m above
+  // the roof, read from the LAS file's millimetres; 0.4 m above from the simulator's doubles).
+  const Vec3 nt = (b - a).cross(cc - a).normalized();
+  if (!(std::abs(nt.z()) >= std::cos(deg2rad(options.max_plane_tilt_deg))))
+    return "degenerate triangle: its plane is " + std::to_string(rad2deg(std::acos(std::min(1.0, std::abs(nt.z()))))).substr(0, 4) +
+           "° steep (a sliver in plan), the pick's height would be extrapolated";
+  return "";
+}
+
 }  // namespace
 
 bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, VirtualTiePoint* vtp, std::string* reason) const {
@@ -326,65 +383,14 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
   const Vec3 P(pick.x_m, pick.y_m, zp);
   const Eigen::Vector2d puv((P - c).dot(u), (P - c).dot(v));
 
-  // Delaunay triangulation held in an OpenMesh TriMesh; find the enclosing face.
-  TinMesh tin;
-  std::vector<TinMesh::VertexHandle> vh;
-  for (std::size_t i : inliers)
-    vh.push_back(tin.add_vertex(
-        TinMesh::Point(static_cast<float>(X[i].x() - c.x()), static_cast<float>(X[i].y() - c.y()), static_cast<float>(X[i].z() - c.z()))));
-  for (const auto& t : delaunay(uv)) {
-    // Orient counter-clockwise in (u, v) so that OpenMesh sees a consistent manifold.
-    const Eigen::Vector2d e1 = uv[t[1]] - uv[t[0]], e2 = uv[t[2]] - uv[t[0]];
-    if (e1.x() * e2.y() - e1.y() * e2.x() > 0)
-      tin.add_face(vh[t[0]], vh[t[1]], vh[t[2]]);
-    else
-      tin.add_face(vh[t[0]], vh[t[2]], vh[t[1]]);
-  }
-  int found[3] = {-1, -1, -1};
-  for (auto fh : tin.faces()) {
-    int k = 0, tri[3];
-    for (auto fv : tin.fv_range(fh)) tri[k++] = fv.idx();
-    const Eigen::Vector2d a = uv[tri[0]], b = uv[tri[1]], cc = uv[tri[2]];
-    const double d = (b - a).x() * (cc - a).y() - (b - a).y() * (cc - a).x();
-    if (std::abs(d) < 1e-14) continue;
-    const double l1 = ((b - puv).x() * (cc - puv).y() - (b - puv).y() * (cc - puv).x()) / d;
-    const double l2 = ((cc - puv).x() * (a - puv).y() - (cc - puv).y() * (a - puv).x()) / d;
-    const double l3 = 1.0 - l1 - l2;
-    if (l1 >= -1e-12 && l2 >= -1e-12 && l3 >= -1e-12) {
-      std::copy(tri, tri + 3, found);
-      break;
-    }
-  }
+  const std::array<int, 3> found = enclosingTriangle(X, inliers, c, uv, puv);
   if (found[0] < 0) {
     *reason = "outside the hull: the pick is not inside the triangulation of the " + std::to_string(inliers.size()) +
               " coplanar points around it";
     return false;
   }
-  // Degenerate (sliver) triangle check: smallest angle.
-  double min_angle = kPi;
-  for (int k = 0; k < 3; ++k) {
-    const Vec3 a = X[inliers[found[(k + 1) % 3]]] - X[inliers[found[k]]];
-    const Vec3 b = X[inliers[found[(k + 2) % 3]]] - X[inliers[found[k]]];
-    min_angle = std::min(min_angle, std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)));
-  }
-  if (min_angle < deg2rad(options.min_triangle_angle_deg)) {
-    *reason = "degenerate triangle: smallest angle " + std::to_string(rad2deg(min_angle)).substr(0, 4) + "°";
-    return false;
-  }
-  // Rule 1 interpolates the height in plan (seed eq. 5), but the triangle was found in the local
-  // plane's own coordinates: three noisy pulses on a sloped plane can stand nearly upright — a
-  // sliver in plan — and the height at the pick is then extrapolated from it (a uav-vlp16 survey,
-  // a roof at 48°: three pulses within 4 cm of one line in plan, the pick's height 24.5 m above
-  // the roof, read from the LAS file's millimetres; 0.4 m above from the simulator's doubles).
-  {
-    const Vec3 a = X[inliers[found[0]]], b = X[inliers[found[1]]], cc = X[inliers[found[2]]];
-    const Vec3 nt = (b - a).cross(cc - a).normalized();
-    if (!(std::abs(nt.z()) >= std::cos(deg2rad(options.max_plane_tilt_deg)))) {
-      *reason = "degenerate triangle: its plane is " + std::to_string(rad2deg(std::acos(std::min(1.0, std::abs(nt.z()))))).substr(0, 4) +
-                "° steep (a sliver in plan), the pick's height would be extrapolated";
-      return false;
-    }
-  }
+  *reason = triangleShapeProblem(X[inliers[found[0]]], X[inliers[found[1]]], X[inliers[found[2]]], options);
+  if (!reason->empty()) return false;
   // Point i of the strip with what Rule 2 needs to georeference it again.
   auto footprint = [&](std::size_t i) {
     LaserFootprint f;

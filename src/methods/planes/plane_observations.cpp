@@ -45,6 +45,15 @@ namespace {
 /// The least σ of a point-to-plane distance pooled from the plane fits [m].
 constexpr double kPooledSigmaFloorM = 0.002;
 
+/// The σ of a point-to-plane distance pooled from the strips' own plane fits: their median,
+/// floored at kPooledSigmaFloorM; 2 cm when no strip fitted a plane. Reorders `fit_sigmas`.
+double pooledFitSigma(std::vector<double>* fit_sigmas) {
+  if (fit_sigmas->empty()) return 0.02;
+  const auto mid = fit_sigmas->begin() + static_cast<long>(fit_sigmas->size() / 2);
+  std::nth_element(fit_sigmas->begin(), mid, fit_sigmas->end());
+  return std::max(kPooledSigmaFloorM, *mid);
+}
+
 struct StripCloud {
   const StripData* strip = nullptr;
   std::vector<Vec3> x0;                    ///< at M_used [m]
@@ -481,16 +490,7 @@ void PlaneObservations::select(const std::array<double, 6>& m) {
   }
   // σ of a point-to-plane distance: stated, or pooled from the strips' own plane fits (fixed
   // at the first selection, so that every round weighs alike).
-  if (!(section_.sigma_m > 0)) {
-    if (options_.sigma_m > 0) {
-      section_.sigma_m = options_.sigma_m;
-    } else if (!fit_sigmas.empty()) {
-      std::nth_element(fit_sigmas.begin(), fit_sigmas.begin() + static_cast<long>(fit_sigmas.size() / 2), fit_sigmas.end());
-      section_.sigma_m = std::max(kPooledSigmaFloorM, fit_sigmas[fit_sigmas.size() / 2]);
-    } else {
-      section_.sigma_m = 0.02;
-    }
-  }
+  if (!(section_.sigma_m > 0)) section_.sigma_m = options_.sigma_m > 0 ? options_.sigma_m : pooledFitSigma(&fit_sigmas);
   section_.patches_used = static_cast<int>(patches_.size());
   section_.points_off_surface = 0;
   for (const Region& region : regions_)
