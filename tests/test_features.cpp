@@ -22,6 +22,7 @@
 #include "mountcal/mountcal.hpp"
 #include "mountcal/core/georeference_model.hpp"
 #include "mountcal/mounting_calibrator.hpp"
+#include "methods/features/feature_laser_terms.hpp"
 #include "mountcal/simulation/survey.hpp"
 #include "sanitizer_build.hpp"
 #include "scatter.hpp"
@@ -548,6 +549,185 @@ TEST(FeatureMethod, PerLaserElevationSigmasAreHonestOverSeeds) {
   EXPECT_LE(rms, 1.4) << "σ too small";
   EXPECT_GE(share, 0.85);
   for (int a = 0; a < 3; ++a) {
+    EXPECT_GE(std::sqrt(bz2[a] / usable), 0.6) << "angle " << a;
+    EXPECT_LE(std::sqrt(bz2[a] / usable), 1.4) << "angle " << a;
+  }
+}
+
+// Issue 28's full per-laser model in the features method: a view's centre with every group of a
+// laser's correction, as the linear terms of detail::addFeatureLaserTerms give it, against the
+// points corrected one by one by LaserCorrector (the one home of the model, SPEC §2 extended) —
+// random weights, attitudes, beams and corrections well beyond a working sensor's (1°, 5 cm), so
+// that no second-order term hides: Σ_j W_j R_mb,j R_bs (r'_j − r_j) to 1e-12 of its size.
+TEST(FeatureMethod, LaserTermsOfEveryGroupEqualThePointsCorrectedOneByOne) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n01;
+  auto rot = [&] {
+    return Mat3(Eigen::AngleAxisd(n01(rng), Vec3::UnitZ()) * Eigen::AngleAxisd(0.3 * n01(rng), Vec3::UnitY()) *
+                Eigen::AngleAxisd(0.3 * n01(rng), Vec3::UnitX()));
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    const LaserCorrection c{deg2rad(n01(rng)), deg2rad(n01(rng)), 0.05 * n01(rng), 0.05 * n01(rng), 0.05 * n01(rng)};
+    const Mat3 R_bs = rot();
+    detail::FeatureLaserTerms K;
+    Vec3 by_points = Vec3::Zero();
+    for (int j = 0; j < 12; ++j) {
+      const double omega = deg2rad(-15 + 2 * (j % 16)), alpha = 2 * kPi * j / 12.0, rho = 20 + 40 * std::abs(n01(rng));
+      const Vec3 r = rho * Vec3(std::cos(omega) * std::sin(alpha), std::cos(omega) * std::cos(alpha), std::sin(omega));
+      Mat3 W = Mat3::Identity() / 12.0;
+      W(0, 1) = W(1, 0) = 0.01 * n01(rng);
+      const Mat3 WR = W * rot();
+      detail::addFeatureLaserTerms(WR, LaserRay(r), &K);
+      by_points += WR * R_bs * (LaserCorrector(c)(r) - r);
+    }
+    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vecR(R_bs.data());
+    const Vec3 by_terms = detail::featureLaserTermMatrix(K, c) * vecR;
+    EXPECT_LT((by_terms - by_points).norm(), 1e-12 * std::max(1.0, by_points.norm())) << "trial " << trial;
+    // No correction: no share.
+    EXPECT_LT((detail::featureLaserTermMatrix(K, LaserCorrection{}) * vecR).norm(), 1e-12) << "trial " << trial;
+  }
+}
+
+namespace {
+
+/// A uav-vlp16 survey flown with per-laser errors of every group (the "VLP-16" preset's σ, each
+/// group's mean over the lasers removed where a calibration holds it), calibrated by the features
+/// with all five groups under priors of those σ; per group Σ (error/σ)², the count and the share
+/// within 2σ over the lasers the targets' views hold (the truth of elevation, azimuth and vertical
+/// about its mean over those lasers, as they are estimated).
+struct FeatureIntrinsicsRun {
+  std::array<double, 5> sum_z2{};
+  std::array<int, 5> count{}, within2{};
+  double worst_z = 0;
+  std::array<double, 3> boresight_z{};
+  double worst_boresight_deg = 0;
+  bool usable = false;
+  std::string report;
+};
+
+FeatureIntrinsicsRun featureIntrinsicsRun(std::uint64_t seed, bool noise) {
+  auto s = std::make_unique<Uav>();
+  makePreset("uav-vlp16", seed, &s->config, &s->scene);
+  if (!noise) s->config.noise = NoiseModel::none();
+  const LaserErrorSigmas sig = laserErrorPreset("VLP-16");
+  s->config.multibeam.laser_errors =
+      drawLaserErrors(16, 100 + seed, sig.elevation_rad, sig.azimuth_rad, sig.vertical_m, sig.range_m, sig.horizontal_m);
+  s->survey = simulate(s->config, s->scene);
+  MountingCalibrator::Options o = featureOptions(true);
+  FeatureOptions& f = o.method<FeatureOptions>();
+  f.laser_elevation_sigma_deg = sig.elevation_rad / kDeg;
+  f.laser_azimuth_sigma_deg = sig.azimuth_rad / kDeg;
+  f.laser_range_sigma_m = sig.range_m;
+  f.laser_vertical_sigma_m = sig.vertical_m;
+  f.laser_horizontal_sigma_m = sig.horizontal_m;
+  const auto S = calibrate(toCalibrationData(s->survey), o);
+  FeatureIntrinsicsRun r;
+  r.report = S.FullReport();
+  r.usable = S.IsSolutionUsable();
+  if (!r.usable) return r;
+  const LaserIntrinsicEstimates& L = S.section<FeatureSection>().laser_intrinsics;
+  const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
+  double LaserCorrection::*const est[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
+                                           &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
+  double LaserSpec::*const tru[5] = {&LaserSpec::elevation_rad, &LaserSpec::azimuth_offset_rad, &LaserSpec::range_offset_m,
+                                     &LaserSpec::vertical_offset_m, &LaserSpec::horizontal_offset_m};
+  for (std::size_t g = 0; g < 5; ++g) {
+    double mean = 0;
+    int seen = 0;
+    for (std::size_t i = 0; i < 16; ++i)
+      if (L.points[i] > 0) mean += truth[i].*tru[g], ++seen;
+    mean = (g == 2 || g == 4) ? 0.0 : mean / std::max(seen, 1);  // range and horizontal keep their common part
+    for (std::size_t i = 0; i < 16; ++i) {
+      if (L.points[i] == 0) continue;
+      const double z = (L.lasers[i].*est[g] - (truth[i].*tru[g] - mean)) / (L.sigma[i].*est[g]);
+      r.sum_z2[g] += z * z, ++r.count[g], r.within2[g] += std::abs(z) < 2;
+      r.worst_z = std::max(r.worst_z, std::isfinite(z) ? std::abs(z) : 1e9);
+    }
+  }
+  // The azimuth offsets' mean over the seen lasers is held at 0: the truth's is a turn about the
+  // spin axis, which the boresight carries — R_bore,true R_nom R_z(δᾱ) R_nomᵀ (R_z as
+  // LaserCorrector turns a beam) is the boresight to compare with.
+  double azimuth_mean = 0;
+  int seen = 0;
+  for (std::size_t i = 0; i < 16; ++i)
+    if (L.points[i] > 0) azimuth_mean += truth[i].azimuth_offset_rad, ++seen;
+  azimuth_mean /= std::max(seen, 1);
+  const LaserCorrector turn(LaserCorrection{0, azimuth_mean, 0, 0, 0});
+  Mat3 Rz;
+  for (int c = 0; c < 3; ++c) Rz.col(c) = turn(Vec3::Unit(c));
+  MountingParameters truth_mounting = s->config.true_mounting;
+  const Mat3& R_nom = truth_mounting.R_nom;
+  truth_mounting.boresight = rollPitchHeading(truth_mounting.R_bore() * R_nom * Rz * R_nom.transpose());
+  for (int a = 0; a < 3; ++a) {
+    r.boresight_z[static_cast<std::size_t>(a)] = angleError(S.mounting, truth_mounting, a) * kDeg / S.sigma[3 + a];
+    r.worst_boresight_deg = std::max(r.worst_boresight_deg, angleError(S.mounting, truth_mounting, a));
+  }
+  return r;
+}
+
+}  // namespace
+
+// Issue 28, the features with every group (not only the elevation): a noise-free survey with
+// the VLP-16 preset's errors in all five groups (0.05°, 10 mm range, 5 mm origins), estimated under
+// priors of those σ. Nine targets barely determine 80 parameters, so the priors decide most of
+// them, and noise-free the targets' sampling (a 1.5 m board in rows 0.5 m apart) still places
+// each view's centre to 1–5 cm: what is asked is that the σ cover the errors — their RMS of
+// error/σ within [0.5, 1.5], none beyond 4σ (55 parameters; over 30 such surveys 95–97 % lie
+// within 2σ per group, RMS 0.89–1.00) —, the boresight within 3σ and within the method's
+// noise-free limit (0.03°), and the summary's table titled for the groups. Measured
+// (2026-12-06): worst 3.58σ, boresight worst 0.017°.
+TEST(FeatureMethod, PerLaserIntrinsicsOfEveryGroupAreEstimatedNoiseFree) {
+  const FeatureIntrinsicsRun r = featureIntrinsicsRun(1, false);
+  ASSERT_TRUE(r.usable) << r.report;
+  int n = 0;
+  double z2 = 0;
+  for (std::size_t g = 0; g < 5; ++g) n += r.count[g], z2 += r.sum_z2[g];
+  std::printf(
+      "features, every laser group noise-free: %d parameters, RMS of error/sigma %.2f, worst %.2f; boresight worst %.4f deg "
+      "(%.2f %.2f %.2f sigma)\n",
+      n, std::sqrt(z2 / std::max(n, 1)), r.worst_z, r.worst_boresight_deg, r.boresight_z[0], r.boresight_z[1], r.boresight_z[2]);
+  for (std::size_t g = 0; g < 5; ++g) EXPECT_GE(r.count[g], 10) << "group " << g;
+  EXPECT_GE(std::sqrt(z2 / n), 0.5);
+  EXPECT_LE(std::sqrt(z2 / n), 1.5);
+  EXPECT_LE(r.worst_z, 4.0);
+  for (double z : r.boresight_z) EXPECT_LE(z, 3.0);
+  EXPECT_LT(r.worst_boresight_deg, 0.03);
+  EXPECT_NE(r.report.find("Per-laser intrinsics"), std::string::npos);
+}
+
+// The σ of every group over many surveys with the preset's noise (issue 28 with issue 26's
+// honest-σ rule: per group RMS of error/σ within [0.7, 1.4], at least 85 % within 2σ), the
+// boresight's within [0.6, 1.4] against the truth in the calibration's convention (the seen
+// lasers' mean azimuth in the boresight; compared with the raw truth roll's RMS was 1.53).
+// Measured (2026-12-06, seeds 1–30): elevation 1.04, azimuth 1.11, range 1.06, vertical 0.93,
+// horizontal 0.99 (92.6–96.4 % within 2σ); the boresight 1.14 / 0.75 / 0.84. About 32 s in
+// Release; 2 seeds under the sanitizers.
+TEST(FeatureMethod, PerLaserIntrinsicsOfEveryGroupSigmasAreHonestOverSeeds) {
+  const int seeds = mountcal_tests::seedsFor(30, 2);
+  std::array<double, 5> z2{};
+  std::array<int, 5> n{}, within{};
+  std::array<double, 3> bz2{};
+  int usable = 0;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const FeatureIntrinsicsRun r = featureIntrinsicsRun(static_cast<std::uint64_t>(seed), true);
+    ASSERT_TRUE(r.usable) << "seed " << seed << r.report;
+    ++usable;
+    for (std::size_t g = 0; g < 5; ++g) z2[g] += r.sum_z2[g], n[g] += r.count[g], within[g] += r.within2[g];
+    for (std::size_t a = 0; a < 3; ++a) bz2[a] += r.boresight_z[a] * r.boresight_z[a];
+  }
+  MOUNTCAL_STATISTICS_IN_RELEASE_ONLY("σ honesty over 30 seeds");
+  const char* const names[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
+  for (std::size_t g = 0; g < 5; ++g) {
+    const double rms = std::sqrt(z2[g] / n[g]), share = static_cast<double>(within[g]) / n[g];
+    std::printf("features, every laser group over %d seeds: %s %d parameters, RMS of error/sigma %.2f, %.1f %% within 2 sigma\n", usable,
+                names[g], n[g], rms, 100 * share);
+    EXPECT_GE(rms, 0.7) << names[g] << ": σ too large";
+    EXPECT_LE(rms, 1.4) << names[g] << ": σ too small";
+    EXPECT_GE(share, 0.85) << names[g];
+  }
+  std::printf("features, every laser group: boresight RMS of error/sigma %.2f %.2f %.2f\n", std::sqrt(bz2[0] / usable),
+              std::sqrt(bz2[1] / usable), std::sqrt(bz2[2] / usable));
+  for (std::size_t a = 0; a < 3; ++a) {
     EXPECT_GE(std::sqrt(bz2[a] / usable), 0.6) << "angle " << a;
     EXPECT_LE(std::sqrt(bz2[a] / usable), 1.4) << "angle " << a;
   }

@@ -14,6 +14,7 @@
 #include "geometry/kd_tree.hpp"
 #include "geometry/plane_ransac.hpp"
 #include "methods/common/laser_intrinsics.hpp"
+#include "methods/features/feature_laser_terms.hpp"
 #include "methods/common/strip_geometry.hpp"
 #include "mountcal/core/error.hpp"
 
@@ -41,8 +42,7 @@ bool FeatureOptions::IsValid(std::string* error) const {
   if (!(icp_tolerance_m > 0) || icp_tolerance_m > 1) return fail("icp_tolerance_m must be in (0, 1]");
   if (!(direction_tolerance_deg > 0 && direction_tolerance_deg < 90)) return fail("direction_tolerance_deg must be in (0, 90)");
   if (!(min_height_spread > 0) || min_height_spread > 10) return fail("min_height_spread must be in (0, 10]");
-  if (!(laser_elevation_sigma_deg >= 0 && laser_elevation_sigma_deg <= 10)) return fail("laser_elevation_sigma_deg must be in [0, 10]");
-  return true;
+  return laserPriorsValid(error);
 }
 
 namespace {
@@ -595,11 +595,13 @@ FeatureClosedForm closedFormBoresight(const std::vector<FeaturePairOffset>& pair
 namespace {
 
 /// One strip's view of a target: r = W^½ (c0 + K vec(ΔR_bs) + R̄ Δa + o − X), with per-laser
-/// elevation offsets δ (a fourth block) + Σ_l [(cos δ_l − 1) K_r,l + sin δ_l K_u,l] vec(R_bs(M)).
+/// elevation offsets δ (a fourth block) + Σ_l [(cos δ_l − 1) K_r,l + sin δ_l K_u,l] vec(R_bs(M)),
+/// or with more groups Σ_l featureLaserTermMatrix(K_all,l, δ_l) vec(R_bs(M)).
 struct FeatureViewResidual {
   const FeatureObservations::View* v;
   const MountingParameters* used;
   Mat3 R_bs_used;
+  const detail::LaserLayout* layout = nullptr;  // the laser block's (null: no block)
   bool operator()(double const* const* p, double* r) const {
     const double *m = p[0], *X = p[1], *o = p[2];
     const Mat3 dR = detail::cachedMountingMotion(used->R_nom, R_bs_used, used->a_b, m).dR_bs;
@@ -609,6 +611,10 @@ struct FeatureViewResidual {
       const Mat3 R_bs = R_bs_used + dR;
       const Eigen::Map<const Eigen::Matrix<double, 9, 1>> vecRbs(R_bs.data());
       for (const auto& t : v->lasers) {
+        if (!t.K_all.empty()) {
+          c += detail::featureLaserTermMatrix(t.K_all, layout->correction(p[3], t.laser)) * vecRbs;
+          continue;
+        }
         const double d = p[3][t.laser];
         c += ((std::cos(d) - 1.0) * t.K_r + std::sin(d) * t.K_u) * vecRbs;
       }
@@ -633,9 +639,9 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
     : options_(options), used_(data.mounting_used) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidInput("features options: " + why);
-  if (options.laser_elevation_sigma_deg > 0) {
+  if (options.estimatesLaserIntrinsics()) {
     laser_ = std::make_unique<detail::LaserIntrinsicsBlock>();
-    laser_->setUp(data, "features", LaserCorrection{deg2rad(options.laser_elevation_sigma_deg), 0, 0, 0, 0});
+    laser_->setUp(data, "features", options.laserPrior());
   }
   auto clock = [] { return std::chrono::steady_clock::now(); };
   const auto t0 = clock();
@@ -664,7 +670,7 @@ FeatureObservations::FeatureObservations(const CalibrationData& data, const Feat
       for (std::uint32_t i : idx[k]) {
         vp.R_mb.push_back(data.pose(strip, i, strip.poses.empty() ? &cursor : nullptr).R_mb);
         vp.r_s.push_back(strip.r_s[i]);
-        if (options_.laser_elevation_sigma_deg > 0) vp.laser.push_back(strip.laser[i]);
+        if (options_.estimatesLaserIntrinsics()) vp.laser.push_back(strip.laser[i]);
         vp.x0.push_back(clouds.x0[s][i]);
         vp.time_s += strip.time_s[i] / static_cast<double>(idx[k].size());
       }
@@ -785,6 +791,7 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
             t->K_r.col(3 * b + a) += WR.col(a) * vp.r_s[j](b);
             t->K_u.col(3 * b + a) += WR.col(a) * u(b);
           }
+        if (!laser_->layout().elevationOnly()) detail::addFeatureLaserTerms(WR, LaserRay(vp.r_s[j]), &t->K_all);
       }
       V.c0_rel = c0;
       V.sqrt_info = sqrtInformation(viewCovariance(oc.n, vp.forward, sigma_n_, sigma_a_, sigma_c_));
@@ -817,10 +824,10 @@ void FeatureObservations::addBlocks(const std::array<double, 6>& mounting, Adjus
     T.block = problem->addNuisanceBlock(3, zero);
     for (const View& v : T.views) {
       auto* cost = new ceres::DynamicNumericDiffCostFunction<FeatureViewResidual, ceres::CENTRAL>(
-          new FeatureViewResidual{&v, &used_, R_bs_used}, ceres::TAKE_OWNERSHIP, nd);
+          new FeatureViewResidual{&v, &used_, R_bs_used, laser_ ? &laser_->layout() : nullptr}, ceres::TAKE_OWNERSHIP, nd);
       for (int size : {6, 3, 3}) cost->AddParameterBlock(size);
       std::vector<double*> blocks = {problem->mounting(), T.block, problem->stripOffset(v.strip_id)};
-      if (lasers) cost->AddParameterBlock(laser_->lasers()), blocks.push_back(lasers);
+      if (lasers) cost->AddParameterBlock(laser_->layout().size), blocks.push_back(lasers);
       cost->SetNumResiduals(3);
       blocks_[k].push_back(problem->addResidualBlock(cost, sigmaInPlane(), blocks));
       problem->setEpoch(blocks_[k].back(), v.strip_id, v.time_s, v.u_m, options_.sigma_in_plane_m <= 0);
@@ -930,5 +937,33 @@ void FeatureObservations::finish(const std::array<double, 6>& /*m0*/, const std:
     section_.laser_intrinsics = laser_->finish(problem, points, loo.size() > 0 ? Eigen::MatrixXd(loo - formal) : Eigen::MatrixXd());
   }
 }
+
+namespace detail {
+
+void addFeatureLaserTerms(const Mat3& WR, const LaserRay& ray, FeatureLaserTerms* K) {
+  if (K->empty()) K->assign(16, Eigen::Matrix<double, 3, 9>::Zero());
+  const double inv_rho = ray.rho > 0 ? 1.0 / ray.rho : 0.0;
+  const std::array<Vec3, 5> f{ray.r, ray.u, inv_rho * ray.r, inv_rho * ray.u, ray.p};
+  for (std::size_t i = 0; i < 5; ++i) {
+    // R_z(δα) v = v + (cos δα − 1) (v_x, v_y, 0) + sin δα (v_y, −v_x, 0) (LaserCorrector's R_z).
+    const std::array<Vec3, 3> variants{f[i], Vec3(f[i].x(), f[i].y(), 0.0), Vec3(f[i].y(), -f[i].x(), 0.0)};
+    for (std::size_t w = 0; w < 3; ++w)
+      for (int b = 0; b < 3; ++b)
+        for (int a = 0; a < 3; ++a) (*K)[3 * i + w].col(3 * b + a) += WR.col(a) * variants[w](b);
+  }
+  for (int a = 0; a < 3; ++a) (*K)[15].col(3 * 2 + a) += WR.col(a);  // e_z: its only entry b = 2
+}
+
+Eigen::Matrix<double, 3, 9> featureLaserTermMatrix(const FeatureLaserTerms& K, const LaserCorrection& c) {
+  const double cw = std::cos(c.elevation_rad), sw = std::sin(c.elevation_rad);
+  const double ca1 = std::cos(c.azimuth_rad) - 1.0, sa = std::sin(c.azimuth_rad);
+  // r' = R_z Σ s_f f + δV e_z with f ∈ {r, u, r/ρ, u/ρ, p}; less the table's own r.
+  const std::array<double, 5> s{cw, sw, c.range_m * cw, c.range_m * sw, c.horizontal_m};
+  Eigen::Matrix<double, 3, 9> M = c.vertical_m * K[15] - K[0];
+  for (std::size_t i = 0; i < 5; ++i) M += s[i] * (K[3 * i] + ca1 * K[3 * i + 1] + sa * K[3 * i + 2]);
+  return M;
+}
+
+}  // namespace detail
 
 }  // namespace mountcal

@@ -30,51 +30,57 @@ class FeaturesRun final : public MethodRun {
   std::optional<std::array<double, 6>> start_;
 };
 
+/// "Per-laser elevation offsets" when those alone are estimated, else "Per-laser intrinsics".
+std::string laserTitle(const LaserIntrinsicEstimates& e) {
+  const LaserCorrection& p = e.prior_sigma;
+  const bool elevation_only = p.azimuth_rad == 0 && p.range_m == 0 && p.vertical_m == 0 && p.horizontal_m == 0;
+  return elevation_only ? "Per-laser elevation offsets" : "Per-laser intrinsics";
+}
+
 const std::vector<OptionSpec>& featureOptionSpecs() {
   using T = FeatureOptions;
   static const std::vector<OptionSpec> specs =
-      OptionTable<T>()
-          .number(
-              "intensity_threshold", [](T& o) -> double& { return o.intensity_threshold; }, "intensity", 0, 1e6,
-              "target points at or above; 0: Otsu's threshold per region")
-          .number(
-              "min_contrast", [](T& o) -> double& { return o.min_contrast; }, "-", 1, 1000, "target to background intensity ratio")
-          .number(
-              "growing_distance_m", [](T& o) -> double& { return o.growing_distance_m; }, "m", 0, 100,
-              "region growing distance; 0: from the point spacing")
-          .number(
-              "second_group_fraction", [](T& o) -> double& { return o.second_group_fraction; }, "-", 1e-6, 1,
-              "a second bright group this large makes the target ambiguous")
-          .number(
-              "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-4, 10,
-              "RANSAC inlier distance of the target's plane")
-          .integer(
-              "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
-          .integer(
-              "min_points", [](T& o) -> int& { return o.min_points; }, 3, 1000000, "a strip's target with fewer inliers is not seen")
-          .number(
-              "min_inlier_fraction", [](T& o) -> double& { return o.min_inlier_fraction; }, "-", 1e-6, 1,
-              "fewer of the group's points on its plane: not planar")
-          .number(
-              "sigma_in_plane_m", [](T& o) -> double& { return o.sigma_in_plane_m; }, "m", 0, 10,
-              "sigma of a centre in the target's plane; 0: estimated")
-          .integer(
-              "edge_points", [](T& o) -> int& { return o.edge_points; }, 0, 1000,
-              "outline points averaged per side for the centre; 0: the mean")
-          .integer(
-              "icp_max_iterations", [](T& o) -> int& { return o.icp_max_iterations; }, 1, 10000, "ICP iterations")
-          .number(
-              "icp_tolerance_m", [](T& o) -> double& { return o.icp_tolerance_m; }, "m", 1e-12, 1,
-              "ICP stops when the translation changes less")
-          .number(
-              "direction_tolerance_deg", [](T& o) -> double& { return o.direction_tolerance_deg; }, "deg", 1e-3, 89.999,
-              "strips within this of each other are one direction")
-          .number(
-              "min_height_spread", [](T& o) -> double& { return o.min_height_spread; }, "-", 1e-6, 10,
-              "relative height spread needed for the lever arm from two heights")
-          .number(
-              "laser_elevation_sigma_deg", [](T& o) -> double& { return o.laser_elevation_sigma_deg; }, "deg", 0, 10,
-              "multi-beam strips with laser ids: prior sigma of per-laser elevation offsets; 0: not estimated")
+      detail::laserPriorOptions(
+          OptionTable<T>()
+              .number(
+                  "intensity_threshold", [](T& o) -> double& { return o.intensity_threshold; }, "intensity", 0, 1e6,
+                  "target points at or above; 0: Otsu's threshold per region")
+              .number(
+                  "min_contrast", [](T& o) -> double& { return o.min_contrast; }, "-", 1, 1000, "target to background intensity ratio")
+              .number(
+                  "growing_distance_m", [](T& o) -> double& { return o.growing_distance_m; }, "m", 0, 100,
+                  "region growing distance; 0: from the point spacing")
+              .number(
+                  "second_group_fraction", [](T& o) -> double& { return o.second_group_fraction; }, "-", 1e-6, 1,
+                  "a second bright group this large makes the target ambiguous")
+              .number(
+                  "ransac_threshold_m", [](T& o) -> double& { return o.ransac_threshold_m; }, "m", 1e-4, 10,
+                  "RANSAC inlier distance of the target's plane")
+              .integer(
+                  "ransac_iterations", [](T& o) -> int& { return o.ransac_iterations; }, 1, 100000, "RANSAC iterations")
+              .integer(
+                  "min_points", [](T& o) -> int& { return o.min_points; }, 3, 1000000, "a strip's target with fewer inliers is not seen")
+              .number(
+                  "min_inlier_fraction", [](T& o) -> double& { return o.min_inlier_fraction; }, "-", 1e-6, 1,
+                  "fewer of the group's points on its plane: not planar")
+              .number(
+                  "sigma_in_plane_m", [](T& o) -> double& { return o.sigma_in_plane_m; }, "m", 0, 10,
+                  "sigma of a centre in the target's plane; 0: estimated")
+              .integer(
+                  "edge_points", [](T& o) -> int& { return o.edge_points; }, 0, 1000,
+                  "outline points averaged per side for the centre; 0: the mean")
+              .integer(
+                  "icp_max_iterations", [](T& o) -> int& { return o.icp_max_iterations; }, 1, 10000, "ICP iterations")
+              .number(
+                  "icp_tolerance_m", [](T& o) -> double& { return o.icp_tolerance_m; }, "m", 1e-12, 1,
+                  "ICP stops when the translation changes less")
+              .number(
+                  "direction_tolerance_deg", [](T& o) -> double& { return o.direction_tolerance_deg; }, "deg", 1e-3, 89.999,
+                  "strips within this of each other are one direction")
+              .number(
+                  "min_height_spread", [](T& o) -> double& { return o.min_height_spread; }, "-", 1e-6, 10,
+                  "relative height spread needed for the lever arm from two heights"),
+          "multi-beam strips with laser ids: ")
           .specs();
   return specs;
 }
@@ -135,9 +141,11 @@ std::string FeatureSection::text(const AdjustmentSummary& summary) const {
   }
   if (!C.message.empty()) r << "  closed form: " << C.message << "\n";
   if (!laser_intrinsics.empty())
-    r << detail::laserIntrinsicsText(
-        laser_intrinsics,
-        "Per-laser elevation offsets (by laser id; mean held at 0 over the lasers the targets' outlines use):", "target points");
+    r << detail::laserIntrinsicsText(laser_intrinsics,
+                                     laserTitle(laser_intrinsics) +
+                                         " (by laser id; added to the laser table; means of elevation, azimuth and vertical held at 0 "
+                                         "over the lasers the targets' outlines use):",
+                                     "target points");
   for (const RejectedFeature& t : rejected)
     r << "rejected target " << t.target_id << (t.strip_id.empty() ? "" : " on strip " + t.strip_id) << ": " << t.reason << "\n";
   return r.str();
@@ -265,7 +273,7 @@ std::string FeatureSection::html(const AdjustmentSummary& summary) const {
         << htmlEscape(r.reason) << "</td></tr>";
     h << "</table></details>";
   }
-  if (!laser_intrinsics.empty()) h << detail::laserIntrinsicsHtml(laser_intrinsics, "Per-laser elevation offsets", "target points");
+  if (!laser_intrinsics.empty()) h << detail::laserIntrinsicsHtml(laser_intrinsics, laserTitle(laser_intrinsics), "target points");
   return h.str();
 }
 

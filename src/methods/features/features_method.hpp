@@ -14,8 +14,7 @@ class FeaturesMethod final : public Method {
   const std::vector<OptionSpec>& options() const override;
   bool validate(const std::any& options, std::string* error) const override;
   bool estimatesLaserIntrinsics(const std::any& options) const override {
-    const auto& o = std::any_cast<const FeatureOptions&>(options);
-    return o.laser_elevation_sigma_deg > 0;
+    return std::any_cast<const FeatureOptions&>(options).estimatesLaserIntrinsics();
   }
   void adoptNoise(const NoiseHint& noise, std::any* options) const override;
   std::unique_ptr<MethodRun> run(const MethodContext& context) const override;

@@ -31,6 +31,7 @@
 
 #include "mountcal/adjustment/mounting_adjustment.hpp"
 #include "mountcal/data.hpp"
+#include "mountcal/methods/common/laser_priors.hpp"
 #include "mountcal/methods/method.hpp"
 
 namespace mountcal {
@@ -40,7 +41,10 @@ class LaserIntrinsicsBlock;
 }
 
 /// Settings of the feature method (job: the `"features"` object). Lengths [m], angles [deg].
-struct FeatureOptions {
+/// Multi-beam strips with laser ids (StripData::laser): the per-laser intrinsics of
+/// LaserIntrinsicsPriors (elevation, azimuth, range, vertical and horizontal origin offsets) in
+/// the rigorous adjustment, each group with its prior σ (0: not estimated).
+struct FeatureOptions : LaserIntrinsicsPriors {
   static constexpr const char* kMethod = "features";
   /// Points at or above this intensity are target points; 0: Otsu's threshold of each region's
   /// intensity histogram (all strips' points in the region) [intensity units].
@@ -76,10 +80,6 @@ struct FeatureOptions {
   /// The closed form separates pitch from the along-track lever arm only when the opposite
   /// pairs' heights above the targets differ by at least this fraction of their mean [-].
   double min_height_spread = 0.2;
-  /// Multi-beam strips with laser ids (StripData::laser): estimate one elevation offset per laser
-  /// in the rigorous adjustment (as the dense correspondences do: a prior of this σ each, their
-  /// mean over the lasers the targets' outlines use held at zero); 0: not estimated [deg].
-  double laser_elevation_sigma_deg = 0.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -233,10 +233,15 @@ class FeatureObservations final : public ObservationSource {
     double time_s = 0.0;                ///< mean time of the view's points [s]
     Vec3 u_m = Vec3::Zero();            ///< mean IMU → point vector, mapping frame [m]
     /// Per laser l of the outline's points: c gains [(cos δ_l − 1) K_r + sin δ_l K_u] vec(R_bs(M))
-    /// (r(ω + δ) = cos δ r + sin δ u, exactly), K_r, K_u as K with r and u = ∂r/∂ω.
+    /// (r(ω + δ) = cos δ r + sin δ u, exactly), K_r, K_u as K with r and u = ∂r/∂ω. With groups
+    /// beyond the elevation (LaserCorrector: r' = R_z(δα) [(1 + δρ/ρ)(cos δω r + sin δω u) +
+    /// δH p] + δV e_z, exactly), `K_all`: K of each vector f ∈ {r, u, r/ρ, u/ρ, p} turned by each
+    /// part of R_z(δα) = I + (cos δα − 1) P + sin δα Z (P = diag(1, 1, 0), Z the rotation's
+    /// generator) at 3 f + {0, 1, 2}, and K of e_z at 15.
     struct LaserTerm {
       int laser = 0;
       Eigen::Matrix<double, 3, 9> K_r = Eigen::Matrix<double, 3, 9>::Zero(), K_u = Eigen::Matrix<double, 3, 9>::Zero();
+      std::vector<Eigen::Matrix<double, 3, 9>> K_all;  ///< empty: elevation offsets alone (detail::addFeatureLaserTerms)
     };
     std::vector<LaserTerm> lasers;
   };
@@ -253,7 +258,7 @@ class FeatureObservations final : public ObservationSource {
     std::string strip_id;
     std::vector<Vec3> x0, r_s;
     std::vector<Mat3> R_mb;
-    std::vector<int> laser;  ///< each point's laser id (per-laser elevation offsets only)
+    std::vector<int> laser;  ///< each point's laser id (per-laser intrinsics only)
     Vec3 normal = Vec3::UnitZ();
     Vec3 forward = Vec3::UnitY();  ///< the strip's horizontal forward direction (FeatureView::forward) [-]
     double time_s = 0.0;           ///< mean time of the points [s]
@@ -272,7 +277,7 @@ class FeatureObservations final : public ObservationSource {
   std::vector<std::vector<int>> blocks_;
   std::vector<int> viewRecords() const;  // every target's view records, in blocks_' order
   FeatureSection section_;
-  std::unique_ptr<detail::LaserIntrinsicsBlock> laser_;  // per-laser elevation offsets (null: not estimated)
+  std::unique_ptr<detail::LaserIntrinsicsBlock> laser_;  // per-laser intrinsics (null: not estimated)
 };
 
 /// Step 3 alone, from matched pairs: the closed form (SPEC §2) at `mounting_used`.
