@@ -24,6 +24,12 @@ namespace mountcal_tests {
 
 inline constexpr double kDeg = mountcal::kPi / 180.0;
 
+/// The simulator's per-laser error (LaserSpec) of each group in mountcal::kLaserGroups' order:
+/// elevation, azimuth, range, vertical, horizontal — the truth of LaserCorrection's fields.
+inline constexpr double mountcal::LaserSpec::*kLaserErrorFields[5] = {
+    &mountcal::LaserSpec::elevation_rad, &mountcal::LaserSpec::azimuth_offset_rad, &mountcal::LaserSpec::range_offset_m,
+    &mountcal::LaserSpec::vertical_offset_m, &mountcal::LaserSpec::horizontal_offset_m};
+
 /// The whole file (empty when it cannot be read).
 inline std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

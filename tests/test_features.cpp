@@ -627,19 +627,17 @@ FeatureIntrinsicsRun featureIntrinsicsRun(std::uint64_t seed, bool noise) {
   if (!r.usable) return r;
   const LaserIntrinsicEstimates& L = S.section<FeatureSection>().laser_intrinsics;
   const std::vector<LaserSpec>& truth = s->config.multibeam.laser_errors;
-  double LaserCorrection::*const est[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
-                                           &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
-  double LaserSpec::*const tru[5] = {&LaserSpec::elevation_rad, &LaserSpec::azimuth_offset_rad, &LaserSpec::range_offset_m,
-                                     &LaserSpec::vertical_offset_m, &LaserSpec::horizontal_offset_m};
   for (std::size_t g = 0; g < 5; ++g) {
+    double LaserCorrection::*const est = kLaserGroups[g].field;
+    double LaserSpec::*const tru = kLaserErrorFields[g];
     double mean = 0;
     int seen = 0;
     for (std::size_t i = 0; i < 16; ++i)
-      if (L.points[i] > 0) mean += truth[i].*tru[g], ++seen;
+      if (L.points[i] > 0) mean += truth[i].*tru, ++seen;
     mean = (g == 2 || g == 4) ? 0.0 : mean / std::max(seen, 1);  // range and horizontal keep their common part
     for (std::size_t i = 0; i < 16; ++i) {
       if (L.points[i] == 0) continue;
-      const double z = (L.lasers[i].*est[g] - (truth[i].*tru[g] - mean)) / (L.sigma[i].*est[g]);
+      const double z = (L.lasers[i].*est - (truth[i].*tru - mean)) / (L.sigma[i].*est);
       r.sum_z2[g] += z * z, ++r.count[g], r.within2[g] += std::abs(z) < 2;
       r.worst_z = std::max(r.worst_z, std::isfinite(z) ? std::abs(z) : 1e9);
     }

@@ -194,25 +194,22 @@ struct Recovery {
 Recovery recovery(const IntrinsicsSurvey& s, const MountingCalibrator::Summary& S, const LaserIntrinsicEstimates& c,
                   int determining_points = kDeterminingPoints) {
   const std::vector<LaserSpec>& truth = s.config.multibeam.laser_errors;
-  double LaserCorrection::*const est[5] = {&LaserCorrection::elevation_rad, &LaserCorrection::azimuth_rad, &LaserCorrection::range_m,
-                                           &LaserCorrection::vertical_m, &LaserCorrection::horizontal_m};
-  double LaserSpec::*const tru[5] = {&LaserSpec::elevation_rad, &LaserSpec::azimuth_offset_rad, &LaserSpec::range_offset_m,
-                                     &LaserSpec::vertical_offset_m, &LaserSpec::horizontal_offset_m};
-  const char* const keys[5] = {"elevation", "azimuth", "range", "vertical", "horizontal"};
   Recovery r;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     if (c.points[i] == 0) continue;
     for (std::size_t g = 0; g < 5; ++g) {
-      if (!(c.prior_sigma.*est[g] > 0)) continue;  // not estimated
-      const double err = std::abs(c.lasers[i].*est[g] - truth[i].*tru[g]), sigma = c.sigma[i].*est[g];
-      EXPECT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i << " " << keys[g];
+      double LaserCorrection::*const est = kLaserGroups[g].field;
+      const char* const key = kLaserGroups[g].name;
+      if (!(c.prior_sigma.*est > 0)) continue;  // not estimated
+      const double err = std::abs(c.lasers[i].*est - truth[i].*kLaserErrorFields[g]), sigma = c.sigma[i].*est;
+      EXPECT_TRUE(std::isfinite(sigma) && sigma > 0) << "laser " << i << " " << key;
       const double ratio = err / sigma;
       r.worst_ratio = std::max(r.worst_ratio, ratio);
       r.within_2sigma += ratio <= 2;
       r.within_3sigma += ratio <= 3;
       r.group_sum_ratio2[g] += ratio * ratio;
       ++r.group_parameters[g];
-      const std::string tag = "laser " + std::to_string(i) + " " + keys[g];
+      const std::string tag = "laser " + std::to_string(i) + " " + key;
       bool separated = true;
       for (const std::string& u : c.unseparated)
         if (u.compare(0, tag.size(), tag) == 0 || u.find("~ " + tag + " ") != std::string::npos) separated = false;

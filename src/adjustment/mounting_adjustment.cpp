@@ -734,9 +734,8 @@ struct Linearised {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   bool ok = false;
   Eigen::MatrixXd rows(std::size_t record, int nr) const { return Eigen::MatrixXd(J.middleRows(first_row[record], nr)); }
-  /// The record's diagonal block of the hat matrix, J_r N⁻¹ J_rᵀ (symmetrised).
-  Eigen::MatrixXd hat(std::size_t record, int nr) const {
-    const Eigen::MatrixXd Jr = rows(record, nr);
+  /// A record's diagonal block of the hat matrix from its rows `Jr` (rows()), J_r N⁻¹ J_rᵀ (symmetrised).
+  Eigen::MatrixXd hat(const Eigen::MatrixXd& Jr) const {
     const Eigen::MatrixXd H = Jr * ldlt.solve(Eigen::MatrixXd(Jr.transpose()));
     return 0.5 * (H + H.transpose());
   }
@@ -770,7 +769,7 @@ std::vector<Eigen::MatrixXd> AdjustmentProblem::leverage(const std::vector<int>&
       out.push_back(Eigen::MatrixXd::Constant(nr, nr, std::nan("")));
       continue;
     }
-    out.push_back(L.hat(i, nr));
+    out.push_back(L.hat(L.rows(i, nr)));
   }
   return out;
 }
@@ -803,7 +802,7 @@ Eigen::MatrixXd AdjustmentProblem::leaveOneOutCovariance(const double* block, co
     }
     // (I − H_rr)⁻¹ e: the residual the record would have had without itself in the solve (its
     // eigenvalues floored at 1e-9: a record that alone determines a direction stays finite).
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd::Identity(nr, nr) - L.hat(i, nr));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::MatrixXd::Identity(nr, nr) - L.hat(Jr));
     const Eigen::VectorXd loo =
         eig.eigenvectors() * eig.eigenvalues().cwiseMax(1e-9).cwiseInverse().asDiagonal() * eig.eigenvectors().transpose() * L.residual[i];
     const Eigen::VectorXd g = G.transpose() * loo;
@@ -1107,7 +1106,7 @@ TrajectoryTerm<Rows> trajectoryErrorTerm(AdjustmentProblem& problem, const Traje
     }
   }
   for (const Group* g : {&pos, &att, &gnss}) {
-    addOwnShare(*g, g == &att, cols, offset_var, problem.stripOffsetSigma() * problem.stripOffsetSigma(), &out.self);
+    addOwnShare(*g, g == &att, cols, offset_var, offset_prior_var, &out.self);
     addKernelSum(*g, &out.M);
   }
   // Σ_strips H̄ σ_o² H̄ᵀ = Xᵀ P X: the strip-constant error the formal covariance holds as the

@@ -389,8 +389,11 @@ bool VtpStrip::build(const TieObservation& pick, const VtpOptions& options, Virt
               " coplanar points around it";
     return false;
   }
-  *reason = triangleShapeProblem(X[inliers[found[0]]], X[inliers[found[1]]], X[inliers[found[2]]], options);
-  if (!reason->empty()) return false;
+  const std::string shape = triangleShapeProblem(X[inliers[found[0]]], X[inliers[found[1]]], X[inliers[found[2]]], options);
+  if (!shape.empty()) {
+    *reason = shape;
+    return false;
+  }
   // Point i of the strip with what Rule 2 needs to georeference it again.
   auto footprint = [&](std::size_t i) {
     LaserFootprint f;

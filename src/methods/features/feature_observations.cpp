@@ -785,13 +785,16 @@ void FeatureObservations::select(const std::array<double, 6>& m) {
           fresh.laser = id;
           t = V.lasers.insert(V.lasers.end(), fresh);
         }
+        if (!laser_->layout().elevationOnly()) {  // every group: K_all (K_r, K_u unused)
+          detail::addFeatureLaserTerms(WR, LaserRay(vp.r_s[j]), &t->K_all);
+          continue;
+        }
         const Vec3 u = elevationTangent(vp.r_s[j]);
         for (int b = 0; b < 3; ++b)
           for (int a = 0; a < 3; ++a) {
             t->K_r.col(3 * b + a) += WR.col(a) * vp.r_s[j](b);
             t->K_u.col(3 * b + a) += WR.col(a) * u(b);
           }
-        if (!laser_->layout().elevationOnly()) detail::addFeatureLaserTerms(WR, LaserRay(vp.r_s[j]), &t->K_all);
       }
       V.c0_rel = c0;
       V.sqrt_info = sqrtInformation(viewCovariance(oc.n, vp.forward, sigma_n_, sigma_a_, sigma_c_));

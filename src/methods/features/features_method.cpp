@@ -32,9 +32,7 @@ class FeaturesRun final : public MethodRun {
 
 /// "Per-laser elevation offsets" when those alone are estimated, else "Per-laser intrinsics".
 std::string laserTitle(const LaserIntrinsicEstimates& e) {
-  const LaserCorrection& p = e.prior_sigma;
-  const bool elevation_only = p.azimuth_rad == 0 && p.range_m == 0 && p.vertical_m == 0 && p.horizontal_m == 0;
-  return elevation_only ? "Per-laser elevation offsets" : "Per-laser intrinsics";
+  return detail::LaserLayout(1, e.prior_sigma).elevationOnly() ? "Per-laser elevation offsets" : "Per-laser intrinsics";
 }
 
 const std::vector<OptionSpec>& featureOptionSpecs() {
